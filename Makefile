@@ -1,0 +1,48 @@
+# tetmorph -- the two commands of the README:
+#   make run    create .venv, install everything, run the demo
+#   make test   create .venv, install everything, run the test suite
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+SYSDEPS := libsuitesparse-dev libopenblas0-pthread
+
+.PHONY: run test bench sysdeps install lint clean
+
+run: install
+	$(BIN)/tetmorph demo
+
+test: install
+	$(BIN)/python -m pytest -q
+
+bench: install
+	$(BIN)/python benchmarks/bench_solver.py
+
+# System libraries for the CHOLMOD backend. Installed with apt when we are
+# root on a Debian-like machine; elsewhere tetmorph falls back to a pip-only
+# solver backend and says so.
+sysdeps:
+	@missing=""; for p in $(SYSDEPS); do \
+	  dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  echo "installing system packages:$$missing"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null \
+	  || echo "WARNING: apt-get failed; continuing with the pip-only solver backend"; \
+	else echo "WARNING: not root or no apt-get; missing$$missing; the pip-only solver backend will be used"; fi
+
+$(STAMP): pyproject.toml | sysdeps
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e ".[dev,cholmod]" \
+	  || { echo "WARNING: CHOLMOD extra failed to build; installing without it"; \
+	       $(BIN)/python -m pip install -q -e ".[dev]"; }
+	touch $(STAMP)
+
+install: sysdeps $(STAMP)
+
+lint: install
+	$(BIN)/ruff check solver service tests benchmarks
+
+clean:
+	rm -rf $(VENV) .pytest_cache .hypothesis

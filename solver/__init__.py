@@ -1,0 +1,36 @@
+"""tetmorph solver: volumetric deformation of tetrahedral FE meshes.
+
+Pure numerics (numpy, scipy, meshio and a sparse direct backend); no web code.
+
+Examples
+--------
+>>> from solver import mesh_from_arrays, precompute
+>>> from solver.testing import cube_mesh
+>>> mesh = mesh_from_arrays(*cube_mesh(2))
+>>> d = precompute(mesh, {"selections": {"a": {"box": {"min": [0, 0, 0], "max": [1, 1, 0]}},
+...                                      "b": {"box": {"min": [0, 0, 1], "max": [1, 1, 1]}}},
+...                       "fixed": ["a"], "handles": {"b": "b"}})
+>>> d.solve({"handles": {"b": {"translation": [0, 0, 0.1]}}}).report["inverted_elements"]
+0
+"""
+
+from .deformer import Deformer, DeformResult, precompute
+from .errors import (
+    ConstraintError,
+    FactorizationError,
+    InvalidMeshError,
+    InversionError,
+    SolverError,
+    SpecError,
+    UnsupportedElementError,
+)
+from .mesh import Mesh, mesh_from_arrays, mesh_from_meshio, read_mesh, write_mesh
+from .spec import Move, Spec, parse_move, parse_spec
+
+__all__ = [
+    "Deformer", "DeformResult", "precompute", "Mesh", "mesh_from_arrays", "mesh_from_meshio",
+    "read_mesh", "write_mesh", "Move", "Spec", "parse_move", "parse_spec", "SolverError",
+    "InvalidMeshError", "UnsupportedElementError", "SpecError", "ConstraintError",
+    "FactorizationError", "InversionError",
+]
+__version__ = "0.1.0"

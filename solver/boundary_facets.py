@@ -1,0 +1,88 @@
+"""Boundary faces of a tetrahedral mesh."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InvalidMeshError, format_ids
+
+__all__ = ["TET_FACES", "boundary_facets", "face_keys"]
+
+#: Local vertex indices of the four faces of a positively oriented tet
+#: ``(a, b, c, d)``, ordered so that each face's normal points away from the
+#: opposite vertex: face ``k`` is opposite local vertex ``k``.
+TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
+
+
+def face_keys(S: np.ndarray, n: int) -> np.ndarray:
+    """Return one int64 key per sorted triple, equal for equal vertex sets.
+
+    Parameters
+    ----------
+    S : (k, 3) int array
+        Vertex triples, each sorted ascending.
+    n : int
+        Number of vertices (an upper bound of the entries).
+
+    Returns
+    -------
+    keys : (k,) int64 array, or (k,) void array when ``n**3`` overflows int64.
+    """
+    n = max(int(n), 1)
+    if n < 2_000_000:
+        S = S.astype(np.int64, copy=False)
+        return (S[:, 0] * n + S[:, 1]) * n + S[:, 2]
+    S = np.ascontiguousarray(S.astype(np.int64))
+    return S.view(np.dtype((np.void, S.dtype.itemsize * 3))).ravel()
+
+
+def boundary_facets(T: np.ndarray, n: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Faces that belong to exactly one tetrahedron, oriented outward.
+
+    Parameters
+    ----------
+    T : (m, 4) int array
+        Positively oriented tetrahedra.
+    n : int, optional
+        Number of vertices; defaults to ``T.max() + 1``.
+
+    Returns
+    -------
+    F : (k, 3) int64 array
+        Boundary faces; the right-hand normal points out of the volume.
+    FT : (k,) int64 array
+        For each boundary face the tet it belongs to.
+
+    Raises
+    ------
+    InvalidMeshError
+        If a face is shared by more than two tetrahedra (non-manifold volume).
+
+    Examples
+    --------
+    >>> F, FT = boundary_facets(np.array([[0, 1, 2, 3]]))
+    >>> F.tolist()
+    [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]
+    """
+    T = np.asarray(T, dtype=np.int64)
+    m = T.shape[0]
+    if m == 0:
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+    n = int(T.max()) + 1 if n is None else n
+    allF = T[:, TET_FACES].reshape(-1, 3)
+    keys = face_keys(np.sort(allF, axis=1), n)
+    order = np.argsort(keys, kind="stable")
+    ks = keys[order]
+    starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+    counts = np.diff(np.r_[starts, ks.size])
+    if np.any(counts > 2):
+        bad = order[starts[counts > 2]] // 4
+        raise InvalidMeshError(
+            f"{int(np.sum(counts > 2))} faces are shared by more than two tetrahedra "
+            f"(non-manifold volume); first tets: {format_ids(bad)}",
+            code="non_manifold_volume",
+            tets=bad[:100].tolist(),
+        )
+    once = order[starts[counts == 1]]
+    once.sort()
+    return allF[once], once // 4

@@ -1,0 +1,424 @@
+"""Tetrahedral (or triangle-surface) meshes: reading, validation, named sets, writing.
+
+A :class:`Mesh` keeps the :class:`meshio.Mesh` it was read from, so that
+:func:`write_mesh` changes nothing but point coordinates: other cell blocks,
+point and cell data, node and element sets and physical groups survive.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import meshio
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from .boundary_facets import boundary_facets
+from .errors import InvalidMeshError, UnsupportedElementError, format_ids
+from .quality import degenerate_mask, scaled_jacobians, signed_volumes
+
+__all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_from_arrays", "VOLUME_TYPES", "IGNORED_TYPES"]
+
+#: Cell types that carry no volume and are kept untouched (boundary
+#: annotations, beams, point masses).
+IGNORED_TYPES = {"vertex", "line", "line3", "triangle", "quad"}
+#: Volume and higher-order cell types that a later release deforms; refused now.
+VOLUME_TYPES = {"tetra10", "tetra4", "hexahedron", "hexahedron20", "hexahedron27", "wedge",
+                "wedge15", "pyramid", "pyramid13", "triangle6", "quad8", "quad9"}
+
+
+@dataclass(eq=False)
+class Mesh:
+    """A linear tetrahedral mesh, or a triangle surface, with its source file.
+
+    Parameters
+    ----------
+    V : (n, 3) float64 array
+        Vertex positions in file order.
+    T : (m, 4) int64 array
+        Positively oriented tetrahedra (empty for a surface mesh).
+    surface : (k, 3) int64 array, optional
+        Triangles of a surface-only mesh (then ``T`` is empty).
+    sets : dict of str to (j,) int64 array
+        Named vertex selections from the file (node sets, element sets,
+        physical groups), 0-based.
+    source : meshio.Mesh, optional
+        The mesh as read, written back by :func:`write_mesh`.
+    """
+
+    V: np.ndarray
+    T: np.ndarray
+    surface: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int64))
+    sets: dict[str, np.ndarray] = field(default_factory=dict)
+    source: meshio.Mesh | None = None
+    path: str | None = None
+
+    @property
+    def n(self) -> int:
+        """Number of vertices."""
+        return int(self.V.shape[0])
+
+    @property
+    def is_surface(self) -> bool:
+        """True for a triangle-only mesh (deformed by the boundary method alone)."""
+        return self.T.shape[0] == 0
+
+    @cached_property
+    def F(self) -> np.ndarray:
+        """(k, 3) boundary faces, outward oriented."""
+        if self.is_surface:
+            return self.surface
+        return boundary_facets(self.T, self.n)[0]
+
+    @cached_property
+    def referenced(self) -> np.ndarray:
+        """(n,) bool: vertices used by an element."""
+        used = np.zeros(self.n, bool)
+        used[(self.surface if self.is_surface else self.T).ravel()] = True
+        return used
+
+    @cached_property
+    def boundary(self) -> np.ndarray:
+        """(n,) bool: vertices on a boundary face."""
+        b = np.zeros(self.n, bool)
+        b[self.F.ravel()] = True
+        return b
+
+    @cached_property
+    def interior(self) -> np.ndarray:
+        """(n,) bool: referenced vertices that are not on the boundary."""
+        return self.referenced & ~self.boundary
+
+    @cached_property
+    def body_labels(self) -> np.ndarray:
+        """(n,) int: connected component (body) of each vertex, -1 if unreferenced."""
+        E = self.surface if self.is_surface else self.T
+        return _component_labels(E, self.n, self.referenced)
+
+    @cached_property
+    def shell_labels(self) -> np.ndarray:
+        """(n,) int: connected component of the boundary surface, -1 off the boundary."""
+        return _component_labels(self.F, self.n, self.boundary)
+
+    def info(self) -> dict[str, Any]:
+        """Counts, element types, sets and a quality summary (``tetmorph info``)."""
+        out: dict[str, Any] = {
+            "vertices": self.n,
+            "tetrahedra": int(self.T.shape[0]),
+            "boundary_faces": int(self.F.shape[0]),
+            "boundary_vertices": int(self.boundary.sum()),
+            "interior_vertices": int(self.interior.sum()),
+            "unreferenced_vertices": int((~self.referenced).sum()),
+            "bodies": int(self.body_labels.max() + 1) if self.n else 0,
+            "boundary_shells": int(self.shell_labels.max() + 1) if self.boundary.any() else 0,
+            "cell_types": ({c.type: int(len(c.data)) for c in self.source.cells}
+                           if self.source is not None else {}),
+            "sets": {k: int(len(v)) for k, v in sorted(self.sets.items())},
+        }
+        if not self.is_surface:
+            sj = scaled_jacobians(self.V, self.T)
+            vol = signed_volumes(self.V, self.T)
+            out["quality"] = {
+                "min_scaled_jacobian": float(sj.min()),
+                "p01_scaled_jacobian": float(np.percentile(sj, 1)),
+                "median_scaled_jacobian": float(np.median(sj)),
+                "min_volume": float(vol.min()),
+                "total_volume": float(vol.sum()),
+            }
+        lo, hi = (self.V[self.referenced].min(0), self.V[self.referenced].max(0)) if self.n else (0, 0)
+        out["bounding_box"] = {"min": np.asarray(lo).tolist(), "max": np.asarray(hi).tolist()}
+        return out
+
+
+def _component_labels(E: np.ndarray, n: int, mask: np.ndarray) -> np.ndarray:
+    labels = np.full(n, -1, dtype=np.int64)
+    if E.size == 0:
+        return labels
+    k = E.shape[1]
+    r = np.repeat(E[:, 0], k - 1)
+    c = E[:, 1:].ravel()
+    G = sp.csr_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+    _, lab = connected_components(G, directed=False)
+    # renumber the components of masked vertices 0..c-1 in order of first vertex
+    sub = lab[mask]
+    _, first, inv = np.unique(sub, return_index=True, return_inverse=True)
+    rank = np.argsort(np.argsort(first))
+    labels[mask] = rank[inv]
+    return labels
+
+
+def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None) -> None:
+    """Raise :class:`InvalidMeshError` naming the first defect of ``(V, T)``.
+
+    Checks, in order: shapes, non-finite coordinates of used vertices, element
+    indices out of range, repeated indices within an element, no elements,
+    inverted and zero-volume tets, non-manifold faces and boundary edges.
+
+    Parameters
+    ----------
+    V : (n, 3) float array
+    T : (m, 4) int array
+    surface : (k, 3) int array, optional
+        Triangles, for a surface-only mesh (``T`` empty).
+
+    Raises
+    ------
+    InvalidMeshError
+    """
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise InvalidMeshError(f"vertices must have shape (n, 3), got {V.shape}", code="bad_shape")
+    E = T if T.shape[0] else (surface if surface is not None else T)
+    k = 4 if T.shape[0] else 3
+    if E.ndim != 2 or E.shape[1] != k:
+        raise InvalidMeshError(f"elements must have shape (m, {k}), got {E.shape}", code="bad_shape")
+    if E.shape[0] == 0:
+        raise InvalidMeshError("the mesh has no tetrahedra (and no triangles)", code="no_elements")
+    n = V.shape[0]
+    bad = np.flatnonzero((E < 0).any(1) | (E >= n).any(1))
+    if bad.size:
+        raise InvalidMeshError(
+            f"{bad.size} elements reference vertices outside 0..{n - 1}; first elements "
+            f"{format_ids(bad)}, e.g. element {bad[0]} = {E[bad[0]].tolist()}",
+            code="index_out_of_range", elements=bad[:100].tolist(), vertices=n)
+    used = np.zeros(n, bool)
+    used[E.ravel()] = True
+    nonfinite = np.flatnonzero(used & ~np.isfinite(V).all(1))
+    if nonfinite.size:
+        raise InvalidMeshError(
+            f"{nonfinite.size} vertices have non-finite coordinates; first vertices "
+            f"{format_ids(nonfinite)}", code="non_finite_coordinates", vertices=nonfinite[:100].tolist())
+    S = np.sort(E, axis=1)
+    rep = np.flatnonzero((S[:, 1:] == S[:, :-1]).any(1))
+    if rep.size:
+        raise InvalidMeshError(
+            f"{rep.size} elements repeat a vertex index; first elements {format_ids(rep)}, "
+            f"e.g. element {rep[0]} = {E[rep[0]].tolist()}",
+            code="repeated_index", elements=rep[:100].tolist())
+    if T.shape[0]:
+        vol = signed_volumes(V, T)
+        degen = degenerate_mask(V, T, vol)
+        inv = np.flatnonzero((vol < 0) & ~degen)
+        if inv.size:
+            raise InvalidMeshError(
+                f"{inv.size} of {len(T)} input tetrahedra are inverted (negative volume); first "
+                f"tets {format_ids(inv)}. Swap two nodes of each to fix the orientation.",
+                code="inverted_input", tets=inv[:100].tolist(), count=int(inv.size))
+        zero = np.flatnonzero(degen)
+        if zero.size:
+            raise InvalidMeshError(
+                f"{zero.size} input tetrahedra have zero volume; first tets {format_ids(zero)}",
+                code="degenerate_input", tets=zero[:100].tolist(), count=int(zero.size))
+        F, _ = boundary_facets(T, n)
+    else:
+        F = surface
+    _check_manifold_edges(F, n)
+
+
+def _check_manifold_edges(F: np.ndarray, n: int) -> None:
+    """Each boundary edge must be in exactly two faces, with opposite orientations."""
+    He = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    key = np.minimum(He[:, 0], He[:, 1]) * n + np.maximum(He[:, 0], He[:, 1])
+    uniq, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+    bad = np.flatnonzero(counts != 2)
+    if bad.size:
+        e = np.stack([uniq[bad] // n, uniq[bad] % n], 1)
+        kinds = "open (in one face)" if (counts[bad] == 1).all() else "non-manifold"
+        raise InvalidMeshError(
+            f"{bad.size} boundary edges are not shared by exactly two boundary faces "
+            f"({kinds}); first edges {e[:5].tolist()}",
+            code="non_manifold_boundary", edges=e[:100].tolist())
+    directed = He[:, 0] * n + He[:, 1]
+    if np.unique(directed).size != directed.size:
+        raise InvalidMeshError(
+            "the boundary surface is not consistently oriented (an edge is used twice in "
+            "the same direction)", code="inconsistent_orientation")
+
+
+def mesh_from_arrays(V: Any, T: Any = None, surface: Any = None,
+                     sets: dict[str, Any] | None = None) -> Mesh:
+    """Build and validate a :class:`Mesh` from arrays.
+
+    Parameters
+    ----------
+    V : (n, 3) array_like
+    T : (m, 4) array_like of int, optional
+    surface : (k, 3) array_like of int, optional
+        Triangles of a surface-only mesh.
+    sets : dict, optional
+        Named vertex selections.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    InvalidMeshError
+
+    Examples
+    --------
+    >>> m = mesh_from_arrays([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]])
+    >>> m.n, int(m.interior.sum())
+    (4, 0)
+    """
+    try:
+        V = np.asarray(V, dtype=np.float64)
+        T = np.zeros((0, 4), np.int64) if T is None else np.asarray(T)
+        surface = np.zeros((0, 3), np.int64) if surface is None else np.asarray(surface)
+    except (TypeError, ValueError) as e:
+        raise InvalidMeshError(f"mesh arrays are not numeric: {e}", code="bad_shape") from e
+    for name, arr in (("T", T), ("surface", surface)):
+        if arr.size and not np.issubdtype(arr.dtype, np.integer):
+            if not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
+                raise InvalidMeshError(f"{name} must hold integer vertex indices", code="bad_shape")
+    T = T.astype(np.int64).reshape(-1, 4) if T.size else np.zeros((0, 4), np.int64)
+    surface = surface.astype(np.int64).reshape(-1, 3) if surface.size else np.zeros((0, 3), np.int64)
+    validate(V, T, surface)
+    ids = {k: np.unique(np.asarray(v, dtype=np.int64)) for k, v in (sets or {}).items()}
+    return Mesh(V=V, T=T, surface=surface if not T.shape[0] else np.zeros((0, 3), np.int64), sets=ids)
+
+
+def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
+    """Node sets, element sets (their nodes) and physical groups of a meshio mesh."""
+    sets: dict[str, np.ndarray] = {}
+    for name, ids in (m.point_sets or {}).items():
+        sets[name] = np.unique(np.asarray(ids, dtype=np.int64))
+    for name, per_block in (m.cell_sets or {}).items():
+        nodes = [np.asarray(m.cells[b].data)[np.asarray(ix, dtype=np.int64)].ravel()
+                 for b, ix in enumerate(per_block) if ix is not None and len(ix)]
+        if nodes and name not in sets:
+            sets[name] = np.unique(np.concatenate(nodes))
+    # gmsh physical groups: cell data "gmsh:physical" with names in field_data
+    phys = m.cell_data.get("gmsh:physical")
+    if phys is not None:
+        names = {int(v[0]): k for k, v in (m.field_data or {}).items() if len(v) >= 1}
+        groups: dict[str, list[np.ndarray]] = {}
+        for block, tags in zip(m.cells, phys):
+            for tag in np.unique(tags):
+                label = names.get(int(tag), f"physical:{int(tag)}")
+                groups.setdefault(label, []).append(np.asarray(block.data)[tags == tag].ravel())
+        for label, parts in groups.items():
+            sets.setdefault(label, np.unique(np.concatenate(parts)))
+    return sets
+
+
+def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> Mesh:
+    """Read and validate a linear tet mesh (or a triangle surface) with meshio.
+
+    Parameters
+    ----------
+    path : str or path
+        Any format meshio reads: ``.msh``, ``.vtu``, ``.vtk``, ``.mesh``,
+        ``.inp``, ``.node``/``.ele`` (TetGen), ``.bdf``/``.nas`` (Nastran), ...
+    file_format : str, optional
+        meshio format name when the extension does not tell.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    InvalidMeshError
+        The file cannot be read, has no tets or triangles, or fails :func:`validate`.
+    UnsupportedElementError
+        The file holds quadratic or non-tet volume elements.
+    """
+    path = os.fspath(path)
+    try:
+        m = meshio.read(path, file_format=file_format)
+    except FileNotFoundError as e:
+        raise InvalidMeshError(f"no such file: {path}", code="file_not_found") from e
+    except Exception as e:  # meshio raises many types (ReadError, ValueError, KeyError...)
+        raise InvalidMeshError(f"cannot read {os.path.basename(path)!r} "
+                               f"(format {file_format or 'from extension'}): {e}",
+                               code="unreadable_file") from e
+    mesh = mesh_from_meshio(m)
+    mesh.path = path
+    return mesh
+
+
+def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
+    """Convert a :class:`meshio.Mesh` to a validated :class:`Mesh`, keeping it as source.
+
+    Parameters
+    ----------
+    m : meshio.Mesh
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    InvalidMeshError, UnsupportedElementError
+    """
+    types = [c.type for c in m.cells]
+    unsupported = sorted({t for t in types if t != "tetra" and t not in IGNORED_TYPES})
+    if unsupported:
+        counts = {t: int(sum(len(c.data) for c in m.cells if c.type == t)) for t in unsupported}
+        raise UnsupportedElementError(
+            f"element types {counts} are not supported yet: tetmorph deforms linear "
+            "tetrahedra ('tetra') or triangle surfaces; quadratic and mixed elements are refused "
+            "rather than silently mangled",
+            types=counts)
+    tets = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "tetra"]
+    T = np.concatenate(tets) if tets else np.zeros((0, 4), np.int64)
+    tris = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "triangle"]
+    surface = np.concatenate(tris) if (tris and not len(T)) else np.zeros((0, 3), np.int64)
+    V = np.asarray(m.points, dtype=np.float64)
+    if V.ndim == 2 and V.shape[1] == 2:
+        V = np.c_[V, np.zeros(len(V))]
+    validate(V, T, surface)
+    return Mesh(V=V, T=T, surface=surface, sets=_named_sets(m), source=m)
+
+
+def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
+               file_format: str | None = None, point_data: dict[str, np.ndarray] | None = None,
+               cell_data: dict[str, list[np.ndarray]] | None = None) -> None:
+    """Write ``mesh`` with new coordinates ``V``, changing nothing else.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    V : (n, 3) float array
+        New positions, in file order.
+    path : str or path
+    file_format : str, optional
+        meshio format name; defaults to the extension.
+    point_data, cell_data : dict, optional
+        Extra arrays to add (for example per-element quality).
+
+    Raises
+    ------
+    InvalidMeshError
+        If ``V`` has the wrong shape or meshio cannot write the format.
+    """
+    V = np.asarray(V)
+    if V.shape != mesh.V.shape:
+        raise InvalidMeshError(f"positions have shape {V.shape}, mesh has {mesh.V.shape}",
+                               code="bad_shape")
+    if mesh.source is not None:
+        out = copy.copy(mesh.source)
+        src_pts = np.asarray(mesh.source.points)
+        pts = V[:, : src_pts.shape[1]].astype(src_pts.dtype)
+        out.points = pts
+        out.point_data = dict(mesh.source.point_data)
+        out.cell_data = dict(mesh.source.cell_data)
+    else:
+        cells = [("tetra", mesh.T)] if not mesh.is_surface else [("triangle", mesh.surface)]
+        out = meshio.Mesh(V, cells, point_sets={k: v for k, v in mesh.sets.items()})
+    if point_data:
+        out.point_data.update(point_data)
+    if cell_data:
+        out.cell_data.update(cell_data)
+    try:
+        meshio.write(os.fspath(path), out, file_format=file_format)
+    except Exception as e:
+        raise InvalidMeshError(f"cannot write {os.fspath(path)!r} as "
+                               f"{file_format or 'its extension'}: {e}", code="unwritable_format") from e

@@ -1,5 +1,5 @@
 # tetmorph -- the two commands of the README:
-#   make run    create .venv, install everything, run the demo
+#   make run    create .venv, install everything, morph the bundled demo beam
 #   make test   create .venv, install everything, run the test suite
 PYTHON ?= python3
 VENV   := .venv
@@ -9,8 +9,13 @@ SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
 .PHONY: run test bench sysdeps install lint clean
 
+DEMO := examples/beam
+
 run: install
-	$(BIN)/tetmorph demo
+	$(BIN)/tetmorph info $(DEMO)/beam.node
+	$(BIN)/tetmorph morph $(DEMO)/beam.node --spec $(DEMO)/spec.json --moves $(DEMO)/moves.json \
+	  --output out/beam_{i}.vtu --report out/report.json
+	@echo "deformed meshes in out/, reports in out/report.json"
 
 test: install
 	$(BIN)/python -m pytest -q

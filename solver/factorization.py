@@ -104,11 +104,15 @@ def backend() -> str:
     return _BACKEND
 
 
+_LU_BACKEND: str | None = None
+
+
 def lu_backend() -> str:
     """Name of the backend for square non-symmetric systems (``"pardiso"`` or ``"scipy"``)."""
-    if backend() != "scipy" and _importable("pypardiso"):
-        return "pardiso"
-    return "scipy"
+    global _LU_BACKEND
+    if _LU_BACKEND is None:
+        _LU_BACKEND = "pardiso" if backend() != "scipy" and _importable("pypardiso") else "scipy"
+    return _LU_BACKEND
 
 
 def _check_finite(M: sp.spmatrix, what: str) -> None:

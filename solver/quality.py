@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import numexpr as ne
 import numpy as np
 
-__all__ = ["DEGENERATE_TOL", "signed_volumes", "scaled_jacobians", "degenerate_mask", "quality_summary"]
+__all__ = ["DEGENERATE_TOL", "signed_volumes", "scaled_jacobians", "degenerate_mask", "quality_summary",
+           "tet_quality"]
 
 #: A tet is degenerate when ``6 |vol| <= DEGENERATE_TOL * l_max**3`` (scale-free).
 DEGENERATE_TOL = 1.0e-12
@@ -50,6 +52,60 @@ def _edges2(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         np.einsum("ij,ij->i", d := P[:, 3] - P[:, 2], d),
     ], axis=1)
     return jac, e2
+
+
+def _expressions() -> tuple[str, str]:
+    face = "(({a}1-{a}0)*(({b}2-{b}0)*({c}3-{c}0)-({c}2-{c}0)*({b}3-{b}0)))"
+    det = "+".join(face.format(a=a, b=b, c=c) for a, b, c in (("x", "y", "z"), ("y", "z", "x"),
+                                                              ("z", "x", "y")))
+    e = {k: f"((x{i}-x{j})**2+(y{i}-y{j})**2+(z{i}-z{j})**2)"
+         for k, (i, j) in enumerate([(1, 0), (2, 1), (0, 2), (3, 0), (3, 1), (3, 2)])}
+    corner = [f"{e[0]}*{e[2]}*{e[3]}", f"{e[0]}*{e[1]}*{e[4]}", f"{e[1]}*{e[2]}*{e[5]}",
+              f"{e[3]}*{e[4]}*{e[5]}"]
+    m01 = f"where({corner[0]}>{corner[1]},{corner[0]},{corner[1]})"
+    m23 = f"where({corner[2]}>{corner[3]},{corner[2]},{corner[3]})"
+    sj = f"where(v == 0, 0.0, 1.4142135623730951*v/sqrt(where({m01}>{m23},{m01},{m23})))"
+    return det, sj
+
+
+_DET, _SJ = _expressions()
+
+
+def tet_quality(V: np.ndarray, Tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Six times the signed volume and the scaled Jacobian of every tet, fused.
+
+    The fast path of the per-update check: one gather per coordinate and two
+    multi-threaded numexpr kernels.
+
+    Parameters
+    ----------
+    V : (n, 3) float array
+    Tt : (4, m) int array
+        Transposed, C-contiguous tetrahedra (``np.ascontiguousarray(T.T)``).
+
+    Returns
+    -------
+    vol6 : (m,) float array
+        ``6 * signed volume``.
+    sj : (m,) float array
+        Scaled Jacobian as :func:`scaled_jacobians`.
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> vol6, sj = tet_quality(V, np.array([[0], [1], [2], [3]]))
+    >>> float(vol6[0]), round(float(sj[0]), 6)
+    (1.0, 0.707107)
+    """
+    d: dict[str, np.ndarray] = {}
+    for ci, c in enumerate("xyz"):
+        g = np.take(np.ascontiguousarray(V[:, ci]), Tt)
+        for k in range(4):
+            d[f"{c}{k}"] = g[k]
+    vol6 = ne.evaluate(_DET, local_dict=d)
+    d["v"] = vol6
+    sj = ne.evaluate(_SJ, local_dict=d)
+    return vol6, np.clip(sj, -1.0, 1.0)
 
 
 def scaled_jacobians(V: np.ndarray, T: np.ndarray) -> np.ndarray:

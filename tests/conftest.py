@@ -1,0 +1,60 @@
+"""Shared fixtures: real meshes from tests/data and ../shared/data, spec helpers."""
+
+from __future__ import annotations
+
+import functools
+import pathlib
+
+import numpy as np
+import pytest
+
+from solver import read_mesh
+
+DATA = pathlib.Path(__file__).parent / "data"
+SHARED = pathlib.Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+def shared_file(rel: str) -> pathlib.Path:
+    """A file of ../shared/data (CI places shared/ beside the clone); fail loudly if absent."""
+    p = SHARED / rel
+    if not p.exists():
+        pytest.fail(f"test data {p} is missing: ../shared/data must sit beside the repository")
+    return p
+
+
+@functools.lru_cache(maxsize=None)
+def load(name: str):
+    path = DATA / name if (DATA / name).exists() else shared_file(name)
+    return read_mesh(path)
+
+
+def slab(mesh, lo_frac: float, hi_frac: float, axis: int | None = None, boundary_only: bool = False):
+    """A box selection of the slab lo_frac..hi_frac along the longest (or given) axis."""
+    V = mesh.V[mesh.referenced]
+    lo, hi = V.min(0), V.max(0)
+    ax = int(np.argmax(hi - lo)) if axis is None else axis
+    L = hi[ax] - lo[ax]
+    mn, mx = lo.copy() - 1e-9 * L, hi.copy() + 1e-9 * L
+    mn[ax] = lo[ax] + lo_frac * L - 1e-9 * L
+    mx[ax] = lo[ax] + hi_frac * L + 1e-9 * L
+    sel = {"box": {"min": mn.tolist(), "max": mx.tolist()}}
+    if boundary_only:
+        sel["boundary_only"] = True
+    return sel
+
+
+def bend_spec(mesh, boundary_only: bool = False, **extra):
+    return {"selections": {"fix": slab(mesh, 0.0, 0.1, boundary_only=boundary_only),
+                           "hand": slab(mesh, 0.9, 1.0, boundary_only=boundary_only)},
+            "fixed": ["fix"], "handles": {"h": "hand"}, **extra}
+
+
+def longest_axis(mesh):
+    V = mesh.V[mesh.referenced]
+    ext = V.max(0) - V.min(0)
+    return int(np.argmax(ext)), float(np.linalg.norm(ext))
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)

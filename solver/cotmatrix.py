@@ -7,10 +7,14 @@ import scipy.sparse as sp
 
 __all__ = ["COT_MAX", "AREA_FLOOR", "cotangents", "cotmatrix", "voronoi_areas", "uniform_matrix"]
 
-#: Cotangents are clamped to ``[-COT_MAX, COT_MAX]``: angles below about 0.06 deg
-#: or above 179.94 deg (slivers, needles) and zero-area triangles then give
-#: finite weights. Row sums stay exactly zero because the diagonal is built from
-#: the clamped off-diagonals.
+#: Cotangents are bounded by ``COT_MAX`` in magnitude. All three cotangents of a
+#: triangle share one denominator, twice its area (``cot_k = d_k / 2A`` with
+#: ``d_k`` the dot product of the two edges at corner ``k``); that denominator is
+#: floored at ``l_max**2 / COT_MAX`` (``l_max`` the longest edge). Slivers,
+#: needles and zero-area triangles then get finite weights, and -- unlike
+#: clamping each cotangent on its own -- every triangle's stiffness stays a
+#: scaled Gram matrix, so ``K`` stays positive semi-definite. Triangles with all
+#: angles above about 0.06 deg are not affected.
 COT_MAX = 1.0e3
 
 #: Mixed Voronoi areas are floored at ``AREA_FLOOR`` times the mean area, so a
@@ -19,7 +23,7 @@ AREA_FLOOR = 1.0e-4
 
 
 def cotangents(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Cotangent of each corner angle of each triangle, clamped to ``±COT_MAX``.
+    """Cotangent of each corner angle of each triangle, bounded as ``COT_MAX`` says.
 
     Parameters
     ----------
@@ -38,16 +42,17 @@ def cotangents(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     [[0.0, 1.0, 1.0]]
     """
     P = V[F]  # (k, 3 corners, 3)
+    e1 = P[:, 1] - P[:, 0]
+    e2 = P[:, 2] - P[:, 0]
+    twice_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    l2max = np.max([np.einsum("ij,ij->i", d, d) for d in (e1, e2, P[:, 2] - P[:, 1])], axis=0)
+    denom = np.maximum(twice_area, l2max / COT_MAX)
     C = np.empty(F.shape, dtype=np.float64)
     for c in range(3):
         a = P[:, (c + 1) % 3] - P[:, c]
         b = P[:, (c + 2) % 3] - P[:, c]
         dot = np.einsum("ij,ij->i", a, b)
-        cross = np.linalg.norm(np.cross(a, b), axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cot = dot / cross
-        cot = np.where(cross > 0, cot, np.sign(dot) * COT_MAX)
-        C[:, c] = np.clip(np.nan_to_num(cot, nan=0.0), -COT_MAX, COT_MAX)
+        C[:, c] = np.divide(dot, denom, out=np.zeros_like(dot), where=denom > 0)
     return C
 
 

@@ -330,6 +330,8 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> M
         The file holds quadratic or non-tet volume elements.
     """
     path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InvalidMeshError(f"no such file: {path}", code="file_not_found")
     try:
         m = meshio.read(path, file_format=file_format)
     except FileNotFoundError as e:

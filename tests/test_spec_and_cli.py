@@ -1,0 +1,130 @@
+"""SPEC/MOVE errors, the CLI, and the solver's independence from web code."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import meshio
+import numpy as np
+import pytest
+
+from solver import SpecError, mesh_from_arrays, parse_move, parse_spec, precompute
+from solver.cli import main
+from solver.testing import cube_mesh
+
+from .conftest import DATA
+
+GOOD = {"selections": {"a": {"ids": [0]}, "b": {"box": {"min": [0, 0, 1], "max": [1, 1, 1]}}},
+        "fixed": ["a"], "handles": {"h": "b"}}
+
+
+@pytest.mark.parametrize("patch,words", [
+    ({"bogus": 1}, "unknown field"),
+    ({"fixed": ["nope"]}, "unknown selection 'nope'"),
+    ({"handles": {"h": "a"}}, "both fixed and a handle"),
+    ({"handles": {"h": "b", "g": "b"}}, "more than one handle"),
+    ({"laplacian": "fancy"}, "laplacian must be one of"),
+    ({"constraints": {"method": "magic"}}, "method must be one of"),
+    ({"constraints": {"method": "penalty", "penalty_weight": -1}}, "penalty_weight must be > 0"),
+    ({"inversion": "ignore"}, "inversion must be one of"),
+    ({"selections": {"a": {"ids": [0], "box": {}}}, "fixed": ["a"], "handles": {}}, "exactly one of"),
+    ({"selections": {"a": {"box": {"min": [1, 1, 1], "max": [0, 0, 0]}}}, "fixed": ["a"], "handles": {}},
+     "exceeds max"),
+    ({"selections": {"a": {"sphere": {"center": [0, 0], "radius": 1}}}, "fixed": ["a"], "handles": {}},
+     "3 numbers"),
+])
+def test_spec_errors(patch, words):
+    with pytest.raises(SpecError, match=words.replace("(", r"\(")):
+        parse_spec({**GOOD, **patch})
+
+
+def test_selection_errors_against_mesh():
+    m = mesh_from_arrays(*cube_mesh(2))
+    for sel, code in [({"ids": [999]}, "bad_selection"), ({"set": "missing"}, "unknown_set"),
+                      ({"box": {"min": [5, 5, 5], "max": [6, 6, 6]}}, "empty_selection"),
+                      ({"ids": []}, "empty_selection")]:
+        with pytest.raises(SpecError) as e:
+            precompute(m, {"selections": {"a": sel}, "fixed": ["a"]})
+        assert e.value.code == code
+
+
+def test_overlapping_handles_and_fixed_are_refused():
+    m = mesh_from_arrays(*cube_mesh(2))
+    top = {"box": {"min": [0, 0, 1], "max": [1, 1, 1]}}
+    half = {"box": {"min": [0, 0, 0.5], "max": [1, 1, 1]}}
+    with pytest.raises(SpecError, match="overlap"):
+        precompute(m, {"selections": {"a": top, "b": half}, "handles": {"a": "a", "b": "b"}})
+    with pytest.raises(SpecError, match="shares vertices"):
+        precompute(m, {"selections": {"a": top, "b": half}, "fixed": ["a"], "handles": {"b": "b"}})
+
+
+@pytest.mark.parametrize("move,words", [
+    ({"handles": {"x": {}}}, "unknown handle"),
+    ({"handles": {"h": {"translation": [1, 2]}}}, "3 numbers"),
+    ({"handles": {"h": {"scale": 0}}}, "scale must be > 0"),
+    ({"handles": {"h": {"rotation": {"axis": [0, 0, 0], "angle_deg": 10}}}}, "non-zero"),
+    ({"handles": {"h": {"rotation": {"quaternion": [0, 0, 0, 0]}}}}, "non-zero"),
+    ({"handles": {"h": {"translation": [float("nan"), 0, 0]}}}, "finite"),
+    ({"handles": {"h": {"spin": 1}}}, "unknown field"),
+])
+def test_move_errors(move, words):
+    with pytest.raises(SpecError, match=words):
+        parse_move(move, ["h"])
+
+
+def test_quaternion_and_axis_angle_agree():
+    a = parse_move({"handles": {"h": {"rotation": {"axis": [0, 0, 2], "angle_deg": 90}}}}, ["h"])
+    c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
+    b = parse_move({"handles": {"h": {"rotation": {"quaternion": [c, 0, 0, s]}}}}, ["h"])
+    np.testing.assert_allclose(a.handles["h"].matrix, b.handles["h"].matrix, atol=1e-15)
+
+
+def test_cli_info_and_morph(tmp_path, capsys):
+    assert main(["info", str(DATA / "cones_with_cavities.inp")]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["boundary_shells"] == 3 and info["tetrahedra"] == 4722
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({"selections": {
+        "root": {"plane": {"point": [0, 0, 0], "normal": [0, 1, 0], "tolerance": 1e-9}},
+        "tip": {"plane": {"point": [0, 1, 0], "normal": [0, 1, 0], "tolerance": 1e-9}}},
+        "fixed": ["root"], "handles": {"tip": "tip"}}))
+    moves = tmp_path / "moves.json"
+    moves.write_text(json.dumps([{"handles": {"tip": {"translation": [0.1 * k, 0, 0]}}} for k in range(3)]))
+    out = tmp_path / "o_{i}.vtu"
+    rep = tmp_path / "rep.json"
+    assert main(["morph", str(DATA / "beam.node"), "--spec", str(spec), "--moves", str(moves),
+                 "--output", str(out), "--report", str(rep)]) == 0
+    reports = json.loads(rep.read_text())
+    assert len(reports) == 3 and all(r["inverted_elements"] == 0 for r in reports)
+    assert reports[0]["refactorized"] is False
+    for k in range(3):
+        pts = meshio.read(tmp_path / f"o_{k}.vtu").points
+        tip = np.abs(pts[:, 1] - 1) < 1e-9
+        np.testing.assert_allclose(pts[tip, 0] - meshio.read(DATA / "beam.node").points[tip, 0], 0.1 * k,
+                                   atol=1e-12)
+
+
+def test_cli_errors_exit_1_with_typed_message(tmp_path, capsys):
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({"selections": {"a": {"set": "nope"}}, "fixed": ["a"]}))
+    mv = tmp_path / "mv.json"
+    mv.write_text("{}")
+    rep = tmp_path / "r.json"
+    code = main(["morph", str(DATA / "beam.node"), "--spec", str(spec), "--move", str(mv),
+                 "--output", str(tmp_path / "o.vtu"), "--report", str(rep)])
+    assert code == 1
+    assert "[unknown_set]" in capsys.readouterr().err
+    assert json.loads(rep.read_text())["error"]["code"] == "unknown_set"
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    assert main(["morph", str(DATA / "beam.node"), "--spec", str(bad), "--move", str(mv),
+                 "--output", str(tmp_path / "o.vtu")]) == 1
+
+
+def test_solver_imports_no_web_code():
+    code = ("import sys, solver, solver.cli; bad = [m for m in sys.modules if m.split('.')[0] in "
+            "('fastapi', 'pydantic', 'starlette', 'uvicorn')]; print(bad); sys.exit(1 if bad else 0)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr

@@ -336,7 +336,8 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> M
         m = meshio.read(path, file_format=file_format)
     except FileNotFoundError as e:
         raise InvalidMeshError(f"no such file: {path}", code="file_not_found") from e
-    except Exception as e:  # meshio raises many types (ReadError, ValueError, KeyError...)
+    except (Exception, SystemExit) as e:  # meshio raises many types, and sys.exit()s on
+        # files that no reader of the extension accepts: never let that end the process
         raise InvalidMeshError(f"cannot read {os.path.basename(path)!r} "
                                f"(format {file_format or 'from extension'}): {e}",
                                code="unreadable_file") from e

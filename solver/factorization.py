@@ -181,6 +181,11 @@ class _PardisoFactor:
             raise FactorizationError(
                 f"{what}: the {M.shape[0]}x{M.shape[0]} system is singular ({e})",
                 code="singular_system") from e
+        perturbed = int(self._ps.iparm[13])  # pivots PARDISO replaced instead of failing
+        if perturbed > 0:
+            raise FactorizationError(
+                f"{what}: the {M.shape[0]}x{M.shape[0]} system is singular ({perturbed} zero "
+                "pivots)", code="singular_system")
         nnz = int(self._ps.iparm[17])
         self.nbytes = abs(nnz) * 12
         self.shape = M.shape

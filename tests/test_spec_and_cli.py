@@ -128,3 +128,18 @@ def test_solver_imports_no_web_code():
             "('fastapi', 'pydantic', 'starlette', 'uvicorn')]; print(bad); sys.exit(1 if bad else 0)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_singular_system_raises_factorization_error():
+    import scipy.sparse as sp
+
+    from solver import FactorizationError
+    from solver.factorization import cholesky, lu
+
+    with pytest.raises(FactorizationError) as e:
+        cholesky(sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 1.0]])), "test system")
+    assert "test system" in e.value.message and e.value.code == "singular_system"
+    with pytest.raises(FactorizationError):
+        cholesky(sp.csr_matrix(np.array([[np.nan, 0.0], [0.0, 1.0]])))
+    with pytest.raises(FactorizationError):
+        lu(sp.csr_matrix(np.array([[1.0, 2.0], [2.0, 4.0]])), "test lu").solve(np.ones(2))

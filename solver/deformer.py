@@ -311,7 +311,6 @@ class Deformer:
         known[self._known] = True
         bidx = self._bidx
         self._fb = np.flatnonzero(B & ~known)  # free boundary vertices
-        self._kb = np.flatnonzero(B & known)
         Lbb = _csr(Lb[bidx][:, bidx])
         fb_local = np.searchsorted(bidx, self._fb)
         Af = Lbb[:, fb_local].tocsc()

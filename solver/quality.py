@@ -130,13 +130,7 @@ def scaled_jacobians(V: np.ndarray, T: np.ndarray) -> np.ndarray:
     >>> scaled_jacobians(V, np.array([[0, 2, 1, 3]])).round(12).tolist()
     [1.0]
     """
-    jac, e2 = _edges2(V, T)
-    corners = np.stack([e2[:, 0] * e2[:, 2] * e2[:, 3], e2[:, 0] * e2[:, 1] * e2[:, 4],
-                        e2[:, 1] * e2[:, 2] * e2[:, 5], e2[:, 3] * e2[:, 4] * e2[:, 5]], axis=1)
-    denom = np.sqrt(corners.max(axis=1))
-    out = np.zeros_like(jac)
-    np.divide(np.sqrt(2.0) * jac, denom, out=out, where=denom > 0)
-    return np.clip(out, -1.0, 1.0)
+    return tet_quality(V, np.ascontiguousarray(np.asarray(T).T))[1]
 
 
 def degenerate_mask(V: np.ndarray, T: np.ndarray, vol: np.ndarray | None = None) -> np.ndarray:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -86,6 +87,11 @@ class Deformer:
     mesh : Mesh
     spec : Spec or dict
         A parsed :class:`~solver.spec.Spec` or a SPEC document.
+    progress : callable, optional
+        ``progress(stage, fraction)`` is called as set-up advances, with
+        ``stage`` in ``"constraints"`` (selections resolved and checked: every
+        SPEC error has been raised by then), ``"assembly"``, ``"rotation"``,
+        ``"positions"``, ``"done"`` and ``fraction`` in [0, 1].
 
     Raises
     ------
@@ -111,8 +117,10 @@ class Deformer:
     (0, 1.1)
     """
 
-    def __init__(self, mesh: Mesh, spec: Spec | dict[str, Any]) -> None:
+    def __init__(self, mesh: Mesh, spec: Spec | dict[str, Any],
+                 progress: Callable[[str, float], None] | None = None) -> None:
         t0 = time.perf_counter()
+        report = progress or (lambda stage, fraction: None)
         self.mesh = mesh
         self.spec = spec if isinstance(spec, Spec) else parse_spec(spec)
         n = mesh.n
@@ -147,6 +155,7 @@ class Deformer:
         constrained = owner != -1
         self._owner = owner
         self._check_determined(constrained)
+        report("constraints", 0.05)
 
         # --- operators -----------------------------------------------------------
         B = mesh.boundary
@@ -173,12 +182,14 @@ class Deformer:
             wi = np.zeros(n)
             Mi = sp.csr_matrix((n, n))
         t_assembly = time.perf_counter() - t0
+        report("assembly", 0.35)
 
         # --- rotation field ------------------------------------------------------
         t1 = time.perf_counter()
         self._bidx = np.flatnonzero(B)
         self._Phi = self._rotation_basis(K, Lb, B, owner)
         t_rot = time.perf_counter() - t1
+        report("rotation", 0.5)
 
         # --- positions -------------------------------------------------------------
         t2 = time.perf_counter()
@@ -199,6 +210,7 @@ class Deformer:
         else:
             self._setup_split(Lb, Mi)
         t_pos = time.perf_counter() - t2
+        report("positions", 0.95)
 
         self._Tt = np.ascontiguousarray(mesh.T.T)
         sj = tet_quality(V0, self._Tt)[1] if not mesh.is_surface else np.zeros(0)
@@ -212,6 +224,21 @@ class Deformer:
             "total_ms": 1e3 * (time.perf_counter() - t0),
         }
         self.factorizations = fz.STATS["factorizations"] - self._n_factor0
+        report("done", 1.0)
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the factors, operators and rotation basis, in bytes."""
+        total = int(self._Phi.nbytes + self._delta.nbytes)
+        for name in ("_fpos", "_fbound", "_finter"):
+            f = getattr(self, name, None)
+            if f is not None:
+                total += int(f.nbytes)
+        for name in ("_A", "_AFt", "_Art", "_Bft", "_Lbb", "_Mfi"):
+            M = getattr(self, name, None)
+            if M is not None:
+                total += int(M.data.nbytes + M.indices.nbytes + M.indptr.nbytes)
+        return total
 
     # ------------------------------------------------------------------ checks
     def _check_determined(self, constrained: np.ndarray) -> None:

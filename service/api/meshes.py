@@ -1,0 +1,142 @@
+"""``/v1/meshes``: upload (file or JSON arrays), describe, download, delete."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+import numpy as np
+from fastapi import APIRouter, File, Form, Query, Response, UploadFile
+from pydantic import BaseModel, Field
+
+from solver.errors import InvalidMeshError
+from solver.mesh import mesh_from_arrays
+
+from ..errors import ServiceError
+from ..formats import MESH_FORMATS, export_mesh, resolve_format
+from ..registry import Registry
+from .deps import Owner, Reg, safe_name
+
+router = APIRouter(tags=["meshes"])
+
+
+class MeshArrays(BaseModel):
+    """A tet mesh (or a triangle surface) as JSON arrays, 0-based indices."""
+
+    vertices: list[list[float]] = Field(..., description="(n, 3) vertex positions")
+    tetrahedra: list[list[int]] | None = Field(None, description="(m, 4) vertex indices")
+    triangles: list[list[int]] | None = Field(
+        None, description="(k, 3) vertex indices of a surface-only mesh")
+    sets: dict[str, list[int]] = Field(default_factory=dict, description="named vertex sets")
+    name: str | None = None
+
+
+def public(meta: dict[str, Any]) -> dict[str, Any]:
+    """The mesh document returned to clients."""
+    return {k: meta[k] for k in ("id", "name", "format", "files", "created", "info",
+                                 "tetrahedralization") if k in meta}
+
+
+async def read_upload(f: UploadFile, limit: int) -> bytes:
+    """Read an uploaded part (the body limit has been enforced already)."""
+    data = await f.read()
+    if len(data) > limit:  # pragma: no cover - BodyLimit answers first
+        raise ServiceError(413, f"{f.filename} exceeds {limit} bytes", code="payload_too_large")
+    return data
+
+
+@router.post("/meshes", status_code=201, summary="Upload a tet mesh file")
+async def upload_mesh(
+    file: Annotated[UploadFile, File(description="The mesh: .inp, .msh, .vtu, .vtk, .mesh, "
+                                                 ".node (with its .ele), .bdf, ...")],
+    companions: Annotated[list[UploadFile] | None, File(
+        description="Files read together with the main one (TetGen's .ele)")] = None,
+    format: Annotated[str | None, Form(description="meshio format name or extension, when the "
+                                                   "file name does not tell")] = None,
+    name: Annotated[str | None, Form()] = None,
+    owner: str = Owner, reg: Registry = Reg,
+) -> dict[str, Any]:
+    """Store and validate a mesh file; answer its counts, element types, sets and quality."""
+    main = safe_name(file.filename, "mesh")
+    fmt, ext = resolve_format(format, main)
+    if not main.lower().endswith(ext):
+        main = f"{main}{ext}"
+    limit = reg.settings.max_upload_bytes
+    files = {main: await read_upload(file, limit)}
+    for c in companions or []:
+        if c.filename:
+            files[safe_name(c.filename, "companion")] = await read_upload(c, limit)
+    if fmt == "tetgen" and main.endswith(".node"):
+        ele = main[:-5] + ".ele"
+        if ele not in files:
+            raise InvalidMeshError(f"a TetGen mesh needs {ele!r} next to {main!r}: upload it as "
+                                   "a companion file", code="missing_companion", missing=ele)
+    meta = await reg.add_mesh(owner, name or main, fmt, files, main)
+    return public(meta)
+
+
+@router.post("/meshes/arrays", status_code=201, summary="Upload a mesh as JSON arrays")
+async def upload_arrays(body: MeshArrays, owner: str = Owner, reg: Registry = Reg) -> dict[str, Any]:
+    """Store a mesh given as vertex and tetrahedron arrays."""
+    V = np.asarray(body.vertices, dtype=np.float64) if body.vertices else np.zeros((0, 3))
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise InvalidMeshError(f"vertices must be (n, 3); got {len(body.vertices)} rows of "
+                               f"lengths {sorted({len(r) for r in body.vertices})}", code="bad_shape")
+    for field, rows, k in (("tetrahedra", body.tetrahedra, 4), ("triangles", body.triangles, 3)):
+        if rows and any(len(r) != k for r in rows):
+            raise InvalidMeshError(f"{field} must have {k} indices per row", code="bad_shape")
+    if body.tetrahedra is not None and len(body.tetrahedra) > reg.settings.max_elements:
+        raise ServiceError(422, f"the mesh has {len(body.tetrahedra)} tetrahedra; the limit is "
+                           f"{reg.settings.max_elements}", code="too_many_elements")
+    for k, ids in body.sets.items():
+        bad = [i for i in ids if not 0 <= i < len(V)]
+        if bad:
+            raise InvalidMeshError(f"set {k!r} has vertex ids outside [0, {len(V)}): {bad[:10]}",
+                                   code="index_out_of_range", set=k)
+    mesh = mesh_from_arrays(V, body.tetrahedra or None, body.triangles or None, sets=body.sets)
+    meta = await reg.add_mesh_arrays(owner, body.name or "arrays", mesh)
+    return public(meta)
+
+
+@router.get("/meshes", summary="List your meshes")
+def list_meshes(owner: str = Owner, reg: Registry = Reg) -> list[dict[str, Any]]:
+    """Every mesh of the caller's key."""
+    return [public(m) for m in reg.list_meshes(owner)]
+
+
+@router.get("/meshes/{mesh_id}", summary="Describe a mesh")
+def get_mesh(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -> dict[str, Any]:
+    """Counts, element types, sets, quality summary."""
+    return public(reg.mesh_meta(owner, mesh_id))
+
+
+@router.get("/meshes/{mesh_id}/file", summary="Download a mesh",
+            responses={200: {"content": {"application/octet-stream": {}}}})
+async def download_mesh(
+    mesh_id: str,
+    format: Annotated[str | None, Query(description="format name or extension; omit for the "
+                                        f"uploaded file byte for byte. One of {sorted(MESH_FORMATS)}")
+                      ] = None,
+    owner: str = Owner, reg: Registry = Reg,
+) -> Response:
+    """The uploaded file unchanged, or the mesh converted to another format."""
+    meta = reg.mesh_meta(owner, mesh_id)
+    if format is None and meta["format"] != "arrays" and len(meta["files"]) == 1:
+        data = reg.mesh_file(meta).read_bytes()
+        return _file(data, meta["file"], "application/octet-stream")
+    mesh = await reg.mesh(meta)
+    fmt = format or "vtu"
+    stem = safe_name(meta["name"].rsplit(".", 1)[0], "mesh")
+    body, fname, media = await reg.run(export_mesh, mesh, mesh.V, fmt, stem)
+    return _file(body, fname, media)
+
+
+@router.delete("/meshes/{mesh_id}", status_code=204, summary="Delete a mesh")
+def delete_mesh(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -> Response:
+    """Remove a mesh (409 while a session uses it)."""
+    reg.delete_mesh(owner, mesh_id)
+    return Response(status_code=204)
+
+
+def _file(data: bytes, filename: str, media: str) -> Response:
+    return Response(data, media_type=media,
+                    headers={"Content-Disposition": f'attachment; filename="{filename}"'})

@@ -1,0 +1,73 @@
+"""Service settings, read from ``TETMORPH_*`` environment variables or arguments.
+
+Examples
+--------
+>>> s = Settings(api_keys="alpha, beta", data_dir="/tmp/tm")
+>>> s.api_keys
+['alpha', 'beta']
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+from typing_extensions import Annotated
+
+__all__ = ["Settings"]
+
+
+def _default_data_dir() -> Path:
+    base = os.environ.get("XDG_DATA_HOME") or os.path.join(os.path.expanduser("~"), ".local", "share")
+    return Path(base) / "tetmorph"
+
+
+class Settings(BaseSettings):
+    """Configuration of one tetmorph service instance.
+
+    Every field can be set by an environment variable of the same name in
+    upper case with the prefix ``TETMORPH_`` (``TETMORPH_API_KEYS=a,b``).
+    """
+
+    model_config = SettingsConfigDict(env_prefix="TETMORPH_", extra="ignore")
+
+    data_dir: Path = Field(default_factory=_default_data_dir,
+                           description="Where meshes and sessions persist across restarts.")
+    api_keys: Annotated[list[str], NoDecode] = Field(
+        default_factory=list,
+        description="Accepted API keys (comma separated). Empty: no authentication, one tenant.")
+    max_upload_mb: float = Field(200.0, gt=0, description="Largest request body (413 above).")
+    max_elements: int = Field(5_000_000, gt=0, description="Most tetrahedra per mesh (422 above).")
+    max_sessions: int = Field(64, gt=0, description="Most live sessions per API key (429 above).")
+    rate_limit_per_s: float = Field(200.0, ge=0,
+                                    description="Sustained requests per second per key; 0 disables.")
+    rate_burst: int = Field(400, gt=0, description="Requests a key may send at once.")
+    cache_budget_mb: float = Field(4096.0, gt=0,
+                                   description="Memory for cached factorizations (LRU by size).")
+    session_ttl_s: float = Field(24 * 3600.0, gt=0,
+                                 description="Idle sessions older than this are removed.")
+    build_wait_s: float = Field(1.0, ge=0,
+                                description="How long session creation waits before answering 202.")
+    build_workers: int = Field(1, gt=0, description="Threads that assemble and factor.")
+    solve_workers: int = Field(2, gt=0, description="Threads that back-substitute.")
+    sweep_interval_s: float = Field(60.0, gt=0, description="How often idle sessions are swept.")
+
+    @field_validator("api_keys", mode="before")
+    @classmethod
+    def _split_keys(cls, v: Any) -> Any:
+        if isinstance(v, str):
+            return [k.strip() for k in v.split(",") if k.strip()]
+        return v
+
+    @property
+    def max_upload_bytes(self) -> int:
+        """Upload limit in bytes."""
+        return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def cache_budget_bytes(self) -> int:
+        """Factorization cache budget in bytes."""
+        return int(self.cache_budget_mb * 1024 * 1024)

@@ -1,5 +1,6 @@
 # tetmorph -- the two commands of the README:
-#   make run    create .venv, install everything, morph the bundled demo beam
+#   make run    create .venv, install everything, serve the REST API on 127.0.0.1:8000
+#               with the demo beam and a ready session (s_demo)
 #   make test   create .venv, install everything, run the test suite
 PYTHON ?= python3
 VENV   := .venv
@@ -7,11 +8,16 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run test bench sysdeps install lint clean
+.PHONY: run morph-demo test bench sysdeps install lint clean
 
 DEMO := examples/beam
+HOST ?= 127.0.0.1
+PORT ?= 8000
 
 run: install
+	$(BIN)/tetmorph serve --host $(HOST) --port $(PORT) --data-dir data --demo
+
+morph-demo: install
 	$(BIN)/tetmorph info $(DEMO)/beam.node
 	$(BIN)/tetmorph morph $(DEMO)/beam.node --spec $(DEMO)/spec.json --moves $(DEMO)/moves.json \
 	  --output out/beam_{i}.vtu --report out/report.json
@@ -22,6 +28,7 @@ test: install
 
 bench: install
 	$(BIN)/python benchmarks/bench_solver.py
+	$(BIN)/python benchmarks/bench_service.py
 
 # System libraries for the CHOLMOD backend. Installed with apt when we are
 # root on a Debian-like machine; elsewhere tetmorph falls back to a pip-only

@@ -21,6 +21,7 @@ from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from .api import meshes, sessions, stream, tetrahedralize
+from .demo import load_demo
 from .errors import envelope, install_handlers
 from .registry import Registry
 from .security import Authenticator, RateLimiter
@@ -98,9 +99,10 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     -------
     FastAPI
     """
-    settings = settings or Settings()
-    if overrides:
-        settings = settings.model_copy(update=overrides)
+    if settings is None:
+        settings = Settings(**overrides)
+    elif overrides:
+        settings = Settings(**{**settings.model_dump(), **overrides})
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -112,6 +114,9 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
                 reg.sweep()
 
         task = asyncio.create_task(sweeper())
+        if settings.demo:
+            owner = settings.api_keys[0] if settings.api_keys else None
+            await load_demo(reg, app.state.auth.owner({"x-api-key": owner} if owner else {}, {}))
         try:
             yield
         finally:

@@ -152,7 +152,7 @@ class Registry:
                                elements=m, limit=self.settings.max_elements)
 
     async def add_mesh(self, owner: str, name: str, fmt: str, files: dict[str, bytes],
-                       main: str) -> dict[str, Any]:
+                       main: str, mesh_id: str | None = None) -> dict[str, Any]:
         """Store uploaded file(s) and parse them.
 
         Parameters
@@ -164,13 +164,15 @@ class Registry:
             File name (sanitized) to content; ``main`` is the one to read
             (TetGen's ``.node`` next to its ``.ele``).
         main : str
+        mesh_id : str, optional
+            A fixed id (the demo); random by default.
 
         Returns
         -------
         dict
             The mesh document (id, counts, element types, sets, quality).
         """
-        mid = new_id("m")
+        mid = mesh_id or new_id("m")
         d = self.store.new_mesh_dir(mid)
         try:
             for fname, data in files.items():

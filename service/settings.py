@@ -53,6 +53,7 @@ class Settings(BaseSettings):
                                 description="How long session creation waits before answering 202.")
     build_workers: int = Field(1, gt=0, description="Threads that assemble and factor.")
     solve_workers: int = Field(2, gt=0, description="Threads that back-substitute.")
+    demo: bool = Field(False, description="Load the demo beam and session at start-up.")
     sweep_interval_s: float = Field(60.0, gt=0, description="How often idle sessions are swept.")
 
     @field_validator("api_keys", mode="before")

@@ -10,6 +10,7 @@ import argparse
 import json
 import os
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -88,7 +89,8 @@ def cmd_morph(args: argparse.Namespace) -> int:
     return 1 if rejected else 0
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.ArgumentParser:
+    """The ``tetmorph`` parser; ``extend(subparsers)`` may add commands (``serve``)."""
     p = argparse.ArgumentParser(prog="tetmorph", description="Deform tetrahedral FE meshes with exact "
                                 "hard constraints (mean curvature normals + mean value coordinates).")
     sub = p.add_subparsers(dest="command", required=True)
@@ -106,23 +108,27 @@ def build_parser() -> argparse.ArgumentParser:
     pm.add_argument("--format", help="input meshio format name")
     pm.add_argument("--output-format", help="output meshio format name")
     pm.set_defaults(func=cmd_morph)
+    if extend is not None:
+        extend(sub)
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, extend: Callable[[Any], None] | None = None) -> int:
     """Run the ``tetmorph`` command line.
 
     Parameters
     ----------
     argv : list of str, optional
         Arguments without the program name; defaults to ``sys.argv[1:]``.
+    extend : callable, optional
+        Adds subcommands to the parser's subparsers (the service's ``serve``).
 
     Returns
     -------
     int
         The exit code.
     """
-    args = build_parser().parse_args(argv)
+    args = build_parser(extend).parse_args(argv)
     try:
         return int(args.func(args))
     except SolverError as e:

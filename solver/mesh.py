@@ -421,7 +421,18 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     if cell_data:
         out.cell_data.update(cell_data)
     try:
-        meshio.write(os.fspath(path), out, file_format=file_format)
+        if _needs_gmsh22(out, os.fspath(path), file_format):
+            # meshio's Gmsh 4.1 writer needs gmsh:dim_tags to write several cell
+            # types (a converted .inp deck has tets and faces): write Gmsh 2.2 ASCII
+            meshio.gmsh.write(os.fspath(path), out, fmt_version="2.2", binary=False)
+        else:
+            meshio.write(os.fspath(path), out, file_format=file_format)
     except Exception as e:
         raise InvalidMeshError(f"cannot write {os.fspath(path)!r} as "
                                f"{file_format or 'its extension'}: {e}", code="unwritable_format") from e
+
+
+def _needs_gmsh22(m: meshio.Mesh, path: str, file_format: str | None) -> bool:
+    gmsh41 = file_format in ("gmsh", "gmsh4", "gmsh41") or (
+        file_format is None and path.lower().endswith(".msh"))
+    return gmsh41 and "gmsh:dim_tags" not in m.point_data and len({c.type for c in m.cells}) > 1

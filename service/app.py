@@ -107,6 +107,8 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         reg: Registry = app.state.registry
+        if reg._closed:
+            reg.start()
 
         async def sweeper() -> None:
             while True:

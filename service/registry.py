@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from solver.deformer import DeformResult, Deformer
+from solver.deformer import Deformer, DeformResult
 from solver.errors import InvalidMeshError, SolverError
 from solver.mesh import Mesh
 from solver.spec import parse_move, parse_spec
@@ -98,9 +98,8 @@ class Registry:
         self.sessions: dict[str, Session] = {}
         self._meshes: OrderedDict[str, Mesh] = OrderedDict()
         self._cache: OrderedDict[str, int] = OrderedDict()  # ready session id -> bytes (LRU)
-        self.build_pool = ThreadPoolExecutor(settings.build_workers, thread_name_prefix="tm-build")
-        self.solve_pool = ThreadPoolExecutor(settings.solve_workers, thread_name_prefix="tm-solve")
         self.evictions = 0
+        self.start()
         for rec in self.store.list_sessions():
             s = Session(id=rec["id"], owner=rec["owner"], mesh_id=rec["mesh_id"], spec=rec["spec"],
                         created=rec.get("created", time.time()), last_move=rec.get("last_move"),
@@ -110,8 +109,17 @@ class Registry:
             s.checked.set()
             self.sessions[s.id] = s
 
+    def start(self) -> None:
+        """Start the worker threads (again, after :meth:`close`)."""
+        self.build_pool = ThreadPoolExecutor(self.settings.build_workers,
+                                             thread_name_prefix="tm-build")
+        self.solve_pool = ThreadPoolExecutor(self.settings.solve_workers,
+                                             thread_name_prefix="tm-solve")
+        self._closed = False
+
     def close(self) -> None:
         """Stop the worker threads."""
+        self._closed = True
         self.build_pool.shutdown(wait=False, cancel_futures=True)
         self.solve_pool.shutdown(wait=False, cancel_futures=True)
 

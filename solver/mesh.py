@@ -274,7 +274,7 @@ def mesh_from_arrays(V: Any, T: Any = None, surface: Any = None,
         raise InvalidMeshError(f"mesh arrays are not numeric: {e}", code="bad_shape") from e
     for name, arr in (("T", T), ("surface", surface)):
         if arr.size and not np.issubdtype(arr.dtype, np.integer):
-            if not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
+            if arr.dtype.kind != "f" or not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
                 raise InvalidMeshError(f"{name} must hold integer vertex indices", code="bad_shape")
     T = T.astype(np.int64).reshape(-1, 4) if T.size else np.zeros((0, 4), np.int64)
     surface = surface.astype(np.int64).reshape(-1, 3) if surface.size else np.zeros((0, 3), np.int64)

@@ -22,9 +22,11 @@ router = APIRouter(tags=["meshes"])
 class MeshArrays(BaseModel):
     """A tet mesh (or a triangle surface) as JSON arrays, 0-based indices."""
 
-    vertices: list[list[float]] = Field(..., description="(n, 3) vertex positions")
-    tetrahedra: list[list[int]] | None = Field(None, description="(m, 4) vertex indices")
-    triangles: list[list[int]] | None = Field(
+    vertices: list[Annotated[list[float], Field(min_length=3, max_length=3)]] = Field(
+        ..., description="(n, 3) vertex positions")
+    tetrahedra: list[Annotated[list[int], Field(min_length=4, max_length=4)]] | None = Field(
+        None, description="(m, 4) vertex indices")
+    triangles: list[Annotated[list[int], Field(min_length=3, max_length=3)]] | None = Field(
         None, description="(k, 3) vertex indices of a surface-only mesh")
     sets: dict[str, list[int]] = Field(default_factory=dict, description="named vertex sets")
     name: str | None = None
@@ -77,13 +79,7 @@ async def upload_mesh(
 @router.post("/meshes/arrays", status_code=201, summary="Upload a mesh as JSON arrays")
 async def upload_arrays(body: MeshArrays, owner: str = Owner, reg: Registry = Reg) -> dict[str, Any]:
     """Store a mesh given as vertex and tetrahedron arrays."""
-    V = np.asarray(body.vertices, dtype=np.float64) if body.vertices else np.zeros((0, 3))
-    if V.ndim != 2 or V.shape[1] != 3:
-        raise InvalidMeshError(f"vertices must be (n, 3); got {len(body.vertices)} rows of "
-                               f"lengths {sorted({len(r) for r in body.vertices})}", code="bad_shape")
-    for field, rows, k in (("tetrahedra", body.tetrahedra, 4), ("triangles", body.triangles, 3)):
-        if rows and any(len(r) != k for r in rows):
-            raise InvalidMeshError(f"{field} must have {k} indices per row", code="bad_shape")
+    V = np.asarray(body.vertices, dtype=np.float64).reshape(-1, 3)  # rows checked by the model
     if body.tetrahedra is not None and len(body.tetrahedra) > reg.settings.max_elements:
         raise ServiceError(422, f"the mesh has {len(body.tetrahedra)} tetrahedra; the limit is "
                            f"{reg.settings.max_elements}", code="too_many_elements")

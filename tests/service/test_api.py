@@ -204,8 +204,10 @@ def test_malformed_uploads_are_typed_422(tc, name, data, code):
 
 def test_malformed_json_arrays(tc):
     bad = [
-        ({"vertices": [[0, 0], [1, 0]], "tetrahedra": [[0, 1, 2, 3]]}, "bad_shape"),
-        ({"vertices": TET.tolist(), "tetrahedra": [[0, 1, 2]]}, "bad_shape"),
+        ({"vertices": [[0, 0], [1, 0]], "tetrahedra": [[0, 1, 2, 3]]}, "invalid_request"),
+        ({"vertices": [[0, 0, 0], [1, 0]], "tetrahedra": [[0, 1, 2, 3]]}, "invalid_request"),
+        ({"vertices": TET.tolist(), "tetrahedra": [[0, 1, 2]]}, "invalid_request"),
+        ({"vertices": [], "tetrahedra": []}, None),
         ({"vertices": TET.tolist(), "tetrahedra": [[0, 1, 2, 9]]}, None),
         ({"vertices": TET.tolist(), "tetrahedra": [[0, 1, 2, 3]], "sets": {"a": [12]}},
          "index_out_of_range"),

@@ -1,0 +1,109 @@
+"""Against a real ``tetmorph serve`` (uvicorn) on a loopback port, restarted mid-session."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+
+import httpx
+import numpy as np
+import pytest
+from websockets.sync.client import connect
+
+from service.binary import decode_frame
+from service.client import Client
+from solver import read_mesh
+from solver.deformer import precompute
+
+from .conftest import BRACKET, BRACKET_SPEC
+
+MOVES = [{"handles": {"tip": {"translation": [0.0, 3.0 * k, 1.0]}}} for k in range(4)]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def server(data_dir, port: int, *env_pairs: tuple[str, str]) -> Iterator[str]:
+    env = dict(os.environ, **dict(env_pairs))
+    proc = subprocess.Popen([sys.executable, "-m", "service.cli", "serve", "--port", str(port),
+                             "--data-dir", str(data_dir), "--log-level", "warning"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                if httpx.get(url + "/health", timeout=1).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            if proc.poll() is not None or time.monotonic() > deadline:
+                pytest.fail(f"server did not start: {proc.stdout.read() if proc.stdout else ''}")
+            time.sleep(0.1)
+        yield url
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+@pytest.fixture(scope="module")
+def expected():
+    d = precompute(read_mesh(BRACKET), BRACKET_SPEC)
+    return [d.solve(m).V for m in MOVES]
+
+
+def test_real_server_restart_and_stream(tmp_path, expected):
+    port = _free_port()
+    with server(tmp_path, port) as url, Client(url) as c:
+        mid = c.upload_mesh(BRACKET)["id"]
+        sid = c.create_session(mid, BRACKET_SPEC)["id"]
+        for m, V in zip(MOVES[:2], expected[:2]):
+            X, rep = c.deform(sid, m)
+            np.testing.assert_allclose(X, V, atol=1e-12)
+        c.download_result(sid, tmp_path / "before.inp")
+    with server(tmp_path, port) as url, Client(url) as c:  # same data dir, new process
+        doc = c.session(sid)
+        assert doc["status"] == "stored" and doc["last_move"] == MOVES[1]
+        c.download_result(sid, tmp_path / "after.inp")
+        assert (tmp_path / "after.inp").read_bytes() == (tmp_path / "before.inp").read_bytes()
+        X, _ = c.deform(sid, MOVES[2])
+        np.testing.assert_allclose(X, expected[2], atol=1e-12)
+        # WebSocket over the wire: a burst of MOVEs, the last one always answered
+        ws_url = url.replace("http", "ws") + f"/v1/sessions/{sid}/stream?dtype=float64"
+        with connect(ws_url, max_size=None) as ws:
+            burst = [MOVES[k % 3] for k in range(30)] + [MOVES[3]]
+            for k, m in enumerate(burst, 1):
+                ws.send(json.dumps({"seq": k, "move": m}))
+            seqs, dropped = [], 0
+            while not seqs or seqs[-1] != len(burst):
+                X, head = decode_frame(ws.recv(timeout=30))
+                seqs.append(head["seq"])
+                dropped += head["dropped"]
+        assert seqs == sorted(seqs) and len(seqs) + dropped == len(burst)
+        np.testing.assert_allclose(X, expected[3], atol=1e-12)
+
+
+def test_real_server_api_keys_from_environment(tmp_path):
+    port = _free_port()
+    with server(tmp_path, port, ("TETMORPH_API_KEYS", "k1,k2")) as url:
+        assert httpx.get(url + "/v1/meshes").status_code == 401
+        with Client(url, api_key="k1") as a, Client(url, api_key="k2") as b:
+            mid = a.upload_mesh(BRACKET)["id"]
+            assert httpx.get(f"{url}/v1/meshes/{mid}", headers={"X-API-Key": "k2"}
+                             ).status_code == 404
+            assert [m["id"] for m in a.http.get("/v1/meshes", headers=a.headers).json()] == [mid]
+            assert b.http.get("/v1/meshes", headers=b.headers).json() == []

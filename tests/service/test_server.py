@@ -4,12 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
-import signal
-import socket
-import subprocess
-import sys
-import time
 from collections.abc import Iterator
 
 import httpx
@@ -19,6 +13,7 @@ from websockets.sync.client import connect
 
 from service.binary import decode_frame
 from service.client import Client
+from service.process import free_port, serve_process
 from solver import read_mesh
 from solver.deformer import precompute
 
@@ -27,37 +22,10 @@ from .conftest import BRACKET, BRACKET_SPEC
 MOVES = [{"handles": {"tip": {"translation": [0.0, 3.0 * k, 1.0]}}} for k in range(4)]
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @contextlib.contextmanager
 def server(data_dir, port: int, *env_pairs: tuple[str, str]) -> Iterator[str]:
-    env = dict(os.environ, **dict(env_pairs))
-    proc = subprocess.Popen([sys.executable, "-m", "service.cli", "serve", "--port", str(port),
-                             "--data-dir", str(data_dir), "--log-level", "warning"],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                if httpx.get(url + "/health", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                pass
-            if proc.poll() is not None or time.monotonic() > deadline:
-                pytest.fail(f"server did not start: {proc.stdout.read() if proc.stdout else ''}")
-            time.sleep(0.1)
+    with serve_process(data_dir, port, dict(env_pairs)) as (url, _):
         yield url
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            proc.kill()
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +35,7 @@ def expected():
 
 
 def test_real_server_restart_and_stream(tmp_path, expected):
-    port = _free_port()
+    port = free_port()
     with server(tmp_path, port) as url, Client(url) as c:
         mid = c.upload_mesh(BRACKET)["id"]
         sid = c.create_session(mid, BRACKET_SPEC)["id"]
@@ -98,7 +66,7 @@ def test_real_server_restart_and_stream(tmp_path, expected):
 
 
 def test_real_server_api_keys_from_environment(tmp_path):
-    port = _free_port()
+    port = free_port()
     with server(tmp_path, port, ("TETMORPH_API_KEYS", "k1,k2")) as url:
         assert httpx.get(url + "/v1/meshes").status_code == 401
         with Client(url, api_key="k1") as a, Client(url, api_key="k2") as b:

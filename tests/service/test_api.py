@@ -407,3 +407,35 @@ def test_demo_loads_at_startup(tmp_path):
     with running(tmp_path, demo=True) as tc:  # idempotent across restarts
         assert len(tc.get("/v1/sessions").json()) == 1
     assert BEAM_SPEC["handles"] == {"tip": "tip"}
+
+
+def test_concurrent_updates_serialize_per_session_and_run_across_sessions(tmp_path,
+                                                                          bracket_library):
+    import asyncio
+
+    import httpx
+
+    from service.app import create_app
+
+    _, expected = bracket_library
+    app = create_app(data_dir=tmp_path)
+
+    async def scenario():
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as ac:
+            up = await ac.post("/v1/meshes", files=[("file", ("b.inp", BRACKET.read_bytes()))])
+            mid = up.json()["id"]
+            sids = [(await ac.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC}
+                                   )).json()["id"] for _ in range(2)]
+            calls = [ac.post(f"/v1/sessions/{sids[k % 2]}/deform", json=MOVES[k % 3],
+                             params={"result": "binary"}) for k in range(12)]
+            rs = await asyncio.gather(*calls)
+            docs = [(await ac.get(f"/v1/sessions/{s}")).json() for s in sids]
+            return rs, docs
+
+    rs, docs = asyncio.run(scenario())
+    assert [r.status_code for r in rs] == [200] * 12
+    for k, r in enumerate(rs):  # every answer is its own MOVE's exact result
+        np.testing.assert_allclose(decode_frame(r.content)[0], expected[k % 3], atol=1e-12)
+    assert [d["updates"] for d in docs] == [6, 6]
+    app.state.registry.close()

@@ -6,6 +6,7 @@ positively oriented.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,9 @@ from .mesh import Mesh, mesh_from_arrays
 from .quality import signed_volumes
 
 __all__ = ["tetrahedralize", "open_edges"]
+
+#: File fTetWild writes into the working directory on every run.
+TRACKED_SURFACE = "__tracked_surface.stl"
 
 
 def open_edges(F: np.ndarray) -> np.ndarray:
@@ -103,12 +107,17 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
             code="open_surface", open_edges=int(len(opened)))
     import pytetwild  # heavy; only needed here
 
+    stray = os.path.join(os.getcwd(), TRACKED_SURFACE)
+    had_stray = os.path.exists(stray)
     try:
         Vt, Tt = pytetwild.tetrahedralize(V, F.astype(np.int32), edge_length_fac=edge_length_fac,
                                           edge_length_abs=edge_length, epsilon=epsilon,
                                           optimize=optimize, quiet=True)
     except Exception as e:  # the C++ side reports failures as RuntimeError
         raise InvalidMeshError(f"fTetWild failed: {e}", code="tetrahedralization_failed") from e
+    finally:
+        if not had_stray and os.path.exists(stray):
+            os.unlink(stray)  # fTetWild leaves its tracked surface in the working directory
     Tt = np.asarray(Tt, dtype=np.int64)
     if Tt.size == 0:
         raise InvalidMeshError("fTetWild produced no tetrahedra", code="tetrahedralization_failed")

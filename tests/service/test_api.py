@@ -439,3 +439,12 @@ def test_concurrent_updates_serialize_per_session_and_run_across_sessions(tmp_pa
         np.testing.assert_allclose(decode_frame(r.content)[0], expected[k % 3], atol=1e-12)
     assert [d["updates"] for d in docs] == [6, 6]
     app.state.registry.close()
+
+
+def test_tetrahedralize_leaves_no_file_behind(tmp_path, monkeypatch):
+    from solver.tetrahedralize import TRACKED_SURFACE, tetrahedralize
+
+    monkeypatch.chdir(tmp_path)
+    V, F = sphere_surface(1, 1.0)
+    tetrahedralize(V, F, edge_length_fac=0.3)
+    assert not (tmp_path / TRACKED_SURFACE).exists()

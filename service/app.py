@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import logging
 from collections.abc import AsyncIterator
 from typing import Any
@@ -73,8 +74,6 @@ class BodyLimit:
 
 
 async def _send_413(send: Send, size: int, limit: int) -> None:
-    import json
-
     body = json.dumps(envelope(413, "payload_too_large",
                                f"request body of {size} bytes exceeds the limit of {limit} bytes",
                                {"bytes": size, "limit": limit})).encode()
@@ -139,7 +138,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     def health() -> dict[str, Any]:
         reg: Registry = app.state.registry
         return {"status": "ok", "version": app.version, "sessions": len(reg.sessions),
-                "cached_sessions": len(reg._cache), "cache_bytes": reg.cache_bytes,
+                "cached_sessions": reg.cached_sessions, "cache_bytes": reg.cache_bytes,
                 "cache_budget_bytes": settings.cache_budget_bytes, "evictions": reg.evictions}
 
     return app

@@ -20,7 +20,8 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from solver.errors import SolverError
 
-__all__ = ["ServiceError", "NotFound", "envelope", "error_response", "install_handlers"]
+__all__ = ["ServiceError", "NotFound", "envelope", "error_body", "error_response",
+           "install_handlers"]
 
 log = logging.getLogger("tetmorph.service")
 
@@ -66,18 +67,21 @@ def envelope(status: int, code: str, message: str, details: dict[str, Any] | Non
                       "message": message, "details": details or {}}}
 
 
-def error_response(e: Exception) -> JSONResponse:
-    """Map any exception to a JSONResponse carrying the envelope."""
+def error_body(e: Exception) -> tuple[int, dict[str, Any]]:
+    """HTTP status and envelope of any exception (HTTP responses and WebSocket frames)."""
     if isinstance(e, ServiceError):
-        return JSONResponse(envelope(e.status, e.code, e.message, e.details, type(e).__name__),
-                            status_code=e.status, headers=e.headers)
+        return e.status, envelope(e.status, e.code, e.message, e.details, type(e).__name__)
     if isinstance(e, SolverError):
         # every solver error is a defect of the request's mesh, SPEC or MOVE
-        return JSONResponse(envelope(422, e.code, e.message, e.details, type(e).__name__),
-                            status_code=422)
+        return 422, envelope(422, e.code, e.message, e.details, type(e).__name__)
     log.exception("unhandled error", exc_info=e)
-    return JSONResponse(envelope(500, "internal_error", f"internal error: {type(e).__name__}: {e}"),
-                        status_code=500)
+    return 500, envelope(500, "internal_error", f"internal error: {type(e).__name__}: {e}")
+
+
+def error_response(e: Exception) -> JSONResponse:
+    """Map any exception to a JSONResponse carrying the envelope."""
+    status, body = error_body(e)
+    return JSONResponse(body, status_code=status, headers=getattr(e, "headers", None))
 
 
 def install_handlers(app: FastAPI) -> None:

@@ -15,6 +15,7 @@ import asyncio
 import logging
 import time
 from collections import OrderedDict
+from collections.abc import Awaitable, Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -181,35 +182,42 @@ class Registry:
             The mesh document (id, counts, element types, sets, quality).
         """
         mid = mesh_id or new_id("m")
-        d = self.store.new_mesh_dir(mid)
-        try:
+        meta = {"id": mid, "owner": owner, "name": name, "format": fmt, "file": main,
+                "files": sorted(files), "created": time.time()}
+
+        async def write_and_read(d: Path) -> Mesh:
             for fname, data in files.items():
                 (d / fname).write_bytes(data)
-            meta = {"id": mid, "owner": owner, "name": name, "format": fmt, "file": main,
-                    "files": sorted(files), "created": time.time()}
             loop = asyncio.get_running_loop()
-            mesh = await loop.run_in_executor(self.build_pool, self.store.load_mesh, meta)
-            self._check_size(mesh)
-            meta["info"] = await loop.run_in_executor(self.solve_pool, mesh.info)
-            self.store.save_mesh_meta(meta)
-        except BaseException:
-            self.store.delete_mesh(mid)
-            raise
-        self._meshes[mid] = mesh
-        return meta
+            return await loop.run_in_executor(self.build_pool, self.store.load_mesh, meta)
+
+        return await self._store_mesh(meta, write_and_read)
 
     async def add_mesh_arrays(self, owner: str, name: str, mesh: Mesh,
                               extra: dict[str, Any] | None = None) -> dict[str, Any]:
         """Store a mesh built from arrays (JSON upload, tetrahedralization)."""
-        self._check_size(mesh)
-        mid = new_id("m")
-        self.store.new_mesh_dir(mid)
+        self._check_size(mesh)  # before anything is written
+        meta = {"id": new_id("m"), "owner": owner, "name": name, "format": "arrays",
+                "file": "arrays.npz", "files": ["arrays.npz"], "created": time.time(),
+                **(extra or {})}
+
+        async def write(d: Path) -> Mesh:
+            self.store.save_arrays(meta["id"], mesh)
+            return mesh
+
+        return await self._store_mesh(meta, write)
+
+    async def _store_mesh(self, meta: dict[str, Any],
+                          produce: Callable[[Path], Awaitable[Mesh]]) -> dict[str, Any]:
+        """Create the mesh's directory, let ``produce`` fill it and return the parsed mesh,
+        then check its size and save ``meta`` with its summary; remove everything on failure."""
+        mid = meta["id"]
+        d = self.store.new_mesh_dir(mid)
         try:
-            self.store.save_arrays(mid, mesh)
+            mesh = await produce(d)
+            self._check_size(mesh)
             loop = asyncio.get_running_loop()
-            info = await loop.run_in_executor(self.solve_pool, mesh.info)
-            meta = {"id": mid, "owner": owner, "name": name, "format": "arrays", "file": "arrays.npz",
-                    "files": ["arrays.npz"], "created": time.time(), "info": info, **(extra or {})}
+            meta["info"] = await loop.run_in_executor(self.solve_pool, mesh.info)
             self.store.save_mesh_meta(meta)
         except BaseException:
             self.store.delete_mesh(mid)
@@ -308,11 +316,7 @@ class Registry:
                 loop.call_soon_threadsafe(s.checked.set)
 
         try:
-            meta = self.store.mesh_meta(s.mesh_id)
-            if meta is None:
-                raise InvalidMeshError(f"the session's mesh {s.mesh_id} no longer exists",
-                                       code="mesh_missing")
-            mesh = await self.mesh(meta)
+            mesh = await self.session_mesh(s)
             d = await loop.run_in_executor(self.build_pool, Deformer, mesh, s.spec, progress)
             if s.last_move is not None and s.positions is None:
                 r = await loop.run_in_executor(self.solve_pool, d.solve, s.last_move, "warn")
@@ -336,6 +340,25 @@ class Registry:
         self._enforce_budget(keep=s.id)
         return d
 
+    async def session_mesh(self, s: Session) -> Mesh:
+        """The parsed rest mesh of a session (from its deformer or the cache when there).
+
+        Raises
+        ------
+        InvalidMeshError
+            The mesh was removed from the data directory behind the service's back.
+        """
+        if s.deformer is not None:
+            return s.deformer.mesh
+        if s.mesh_id in self._meshes:
+            self._meshes.move_to_end(s.mesh_id)
+            return self._meshes[s.mesh_id]
+        meta = self.store.mesh_meta(s.mesh_id)
+        if meta is None:
+            raise InvalidMeshError(f"the session's mesh {s.mesh_id} no longer exists",
+                                   code="mesh_missing")
+        return await self.mesh(meta)
+
     def _enforce_budget(self, keep: str) -> None:
         budget = self.settings.cache_budget_bytes
         total = sum(self._cache.values())
@@ -350,6 +373,11 @@ class Registry:
                 s.deformer, s.status = None, "evicted"
                 self.evictions += 1
                 log.info("evicted session %s from the factorization cache", sid)
+
+    @property
+    def cached_sessions(self) -> int:
+        """Sessions whose factorizations are in the cache."""
+        return len(self._cache)
 
     @property
     def cache_bytes(self) -> int:
@@ -380,22 +408,18 @@ class Registry:
             ``reject`` policy and an inverting move; the session is unchanged.
         """
         async with s.lock:
-            return await self._deform_locked(s, move, inversion)
-
-    async def _deform_locked(self, s: Session, move: dict[str, Any],
-                             inversion: str | None) -> DeformResult:
-        d = await self.deformer(s)
-        mv = parse_move(move, d.handle_names)
-        loop = asyncio.get_running_loop()
-        r = await loop.run_in_executor(self.solve_pool, d.solve, mv, inversion)
-        if not r.report["finite"]:
-            raise ServiceError(422, "the solve produced non-finite positions; the session is "
-                               "unchanged", code="non_finite_result", report=r.report)
-        s.positions, s.report, s.last_move = r.V, _small(r.report), move
-        s.updates += 1
-        s.last_used = time.time()
-        self.store.save_session(s.record())
-        return r
+            d = await self.deformer(s)
+            mv = parse_move(move, d.handle_names)
+            loop = asyncio.get_running_loop()
+            r = await loop.run_in_executor(self.solve_pool, d.solve, mv, inversion)
+            if not r.report["finite"]:
+                raise ServiceError(422, "the solve produced non-finite positions; the session is "
+                                   "unchanged", code="non_finite_result", report=r.report)
+            s.positions, s.report, s.last_move = r.V, _small(r.report), move
+            s.updates += 1
+            s.last_used = time.time()
+            self.store.save_session(s.record())
+            return r
 
     async def positions(self, s: Session) -> np.ndarray:
         """Current deformed positions (rest positions before the first MOVE)."""
@@ -404,10 +428,7 @@ class Registry:
                 if s.last_move is not None:
                     await self.deformer(s)  # restores positions from the last MOVE
                 if s.positions is None:
-                    meta = self.store.mesh_meta(s.mesh_id)
-                    if meta is None:
-                        raise NotFound("mesh", s.mesh_id)
-                    return (await self.mesh(meta)).V
+                    return (await self.session_mesh(s)).V
             s.last_used = time.time()
             return s.positions
 

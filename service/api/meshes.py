@@ -38,14 +38,6 @@ def public(meta: dict[str, Any]) -> dict[str, Any]:
                                  "tetrahedralization") if k in meta}
 
 
-async def read_upload(f: UploadFile, limit: int) -> bytes:
-    """Read an uploaded part (the body limit has been enforced already)."""
-    data = await f.read()
-    if len(data) > limit:  # pragma: no cover - BodyLimit answers first
-        raise ServiceError(413, f"{f.filename} exceeds {limit} bytes", code="payload_too_large")
-    return data
-
-
 @router.post("/meshes", status_code=201, summary="Upload a tet mesh file")
 async def upload_mesh(
     file: Annotated[UploadFile, File(description="The mesh: .inp, .msh, .vtu, .vtk, .mesh, "
@@ -62,11 +54,10 @@ async def upload_mesh(
     fmt, ext = resolve_format(format, main)
     if not main.lower().endswith(ext):
         main = f"{main}{ext}"
-    limit = reg.settings.max_upload_bytes
-    files = {main: await read_upload(file, limit)}
+    files = {main: await file.read()}  # body size already bounded by the BodyLimit middleware
     for c in companions or []:
         if c.filename:
-            files[safe_name(c.filename, "companion")] = await read_upload(c, limit)
+            files[safe_name(c.filename, "companion")] = await c.read()
     if fmt == "tetgen" and main.endswith(".node"):
         ele = main[:-5] + ".ele"
         if ele not in files:

@@ -96,17 +96,16 @@ async def deform(
     s = reg.session(owner, session_id)
     r = await reg.deform(s, move, inversion)
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
-    d = s.deformer
-    V0 = d.mesh.V if d is not None else r.V
     if mode == "mesh":
         return await _mesh_response(reg, s, r.V, format, r.report)
-    return result_response(r.V, V0, r.report, mode, kind, dtype)
+    mesh = await reg.session_mesh(s)
+    return result_response(r.V, mesh.V, r.report, mode, kind, dtype)
 
 
 async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
                          report: dict[str, Any] | None) -> Response:
-    meta = reg.store.mesh_meta(s.mesh_id) or {"id": s.mesh_id, "name": "mesh"}
-    mesh = await reg.mesh(meta)
+    mesh = await reg.session_mesh(s)
+    meta = reg.store.mesh_meta(s.mesh_id) or {}
     stem = safe_name(str(meta.get("name", "mesh")).rsplit(".", 1)[0], "mesh") + "_deformed"
     body, fname, media = await reg.run(export_mesh, mesh, V, fmt, stem)
     headers = {"Content-Disposition": f'attachment; filename="{fname}"'}
@@ -143,9 +142,8 @@ async def current_positions(
     """The current state, encoded like a deform result."""
     s = reg.session(owner, session_id)
     V = await reg.positions(s)
-    meta = reg.mesh_meta(owner, s.mesh_id)
-    V0 = (await reg.mesh(meta)).V
-    return result_response(V, V0, s.report or {}, result, kind, dtype)
+    mesh = await reg.session_mesh(s)
+    return result_response(V, mesh.V, s.report or {}, result, kind, dtype)
 
 
 @router.post("/sessions/{session_id}/reset", summary="Back to the rest shape")

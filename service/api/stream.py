@@ -20,7 +20,7 @@ from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from solver.errors import SolverError
 
 from ..binary import encode_frame
-from ..errors import ServiceError
+from ..errors import ServiceError, envelope, error_body
 from ..registry import Registry
 
 router = APIRouter(tags=["sessions"])
@@ -28,15 +28,6 @@ router = APIRouter(tags=["sessions"])
 #: REPORT fields sent with each streamed frame.
 STREAM_REPORT = ("inverted_elements", "degenerate_elements", "min_scaled_jacobian",
                  "constraint_residual_max", "max_displacement")
-
-
-def _error(e: Exception) -> dict[str, Any]:
-    if isinstance(e, ServiceError):
-        return {"status": e.status, "code": e.code, "message": e.message, "details": e.details}
-    if isinstance(e, SolverError):
-        return {"status": 422, "code": e.code, "type": type(e).__name__, "message": e.message,
-                "details": e.details}
-    return {"status": 500, "code": "internal_error", "message": str(e)}
 
 
 @router.websocket("/sessions/{session_id}/stream")
@@ -69,9 +60,8 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
             except ValueError:
                 doc = None
             if not isinstance(doc, dict):
-                await ws.send_json({"seq": None, "error": {
-                    "status": 422, "code": "invalid_message",
-                    "message": "send text frames holding a JSON object {seq, move}"}})
+                await ws.send_json({"seq": None, **envelope(
+                    422, "invalid_message", "send text frames holding a JSON object {seq, move}")})
                 continue
             if pending is not None:
                 dropped += 1
@@ -97,10 +87,10 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
             try:
                 r = await reg.deform(s, move, doc.get("inversion"))
             except (SolverError, ServiceError) as e:
-                await ws.send_json({"seq": seq, "dropped": skipped, "error": _error(e)})
+                await ws.send_json({"seq": seq, "dropped": skipped, **error_body(e)[1]})
                 continue
             if V0 is None:
-                V0 = s.deformer.mesh.V if s.deformer is not None else r.V * 0
+                V0 = (await reg.session_mesh(s)).V
             X = r.V if kind == "positions" else r.V - V0
             small = {k: r.report.get(k) for k in STREAM_REPORT}
             small["solve_ms"] = r.report["timings"]["update"]["total_ms"]

@@ -16,7 +16,7 @@ from solver.tetrahedralize import tetrahedralize as tetwild
 from ..formats import SURFACE_FORMATS, resolve_format
 from ..registry import Registry
 from .deps import Owner, Reg, safe_name
-from .meshes import public, read_upload
+from .meshes import public
 
 router = APIRouter(tags=["meshes"])
 
@@ -61,7 +61,7 @@ async def tetrahedralize(
     """Fill the surface with tetrahedra, orient them positively, store the mesh."""
     fname = safe_name(file.filename, "surface")
     fmt, ext = resolve_format(format, fname, allowed=SURFACE_FORMATS)
-    data = await read_upload(file, reg.settings.max_upload_bytes)
+    data = await file.read()  # bounded by the BodyLimit middleware
     V, F = await reg.run(_read_surface, data, fmt, ext)
     mesh, info = await reg.run(lambda: tetwild(V, F, edge_length=edge_length,
                                                edge_length_fac=edge_length_fac, epsilon=epsilon,

@@ -409,7 +409,7 @@ class Registry:
         """
         async with s.lock:
             d = await self.deformer(s)
-            mv = parse_move(move, d.handle_names)
+            mv = d.parse_move(move)
             loop = asyncio.get_running_loop()
             r = await loop.run_in_executor(self.solve_pool, d.solve, mv, inversion)
             if not r.report["finite"]:

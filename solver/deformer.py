@@ -33,8 +33,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import factorization as fz
+from .constrained_solver import ConstrainedSolver
+from .constraint_rows import Assembly, Block, assemble, block_targets, describe, position_blocks, \
+    rotation_blocks
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
-from .errors import ConstraintError, InversionError, SpecError, format_ids
+from .errors import ConstraintError, InversionError, SolverError, SpecError, format_ids
 from .mesh import Mesh
 from .mvc_matrix import mvc_matrix
 from .quality import DEGENERATE_TOL, tet_quality
@@ -51,6 +54,9 @@ REPORT_IDS = 100
 #: once more. Normal equations square the condition number, which slivers make
 #: large (screw.msh: rigid-motion error 6e-8 of the diagonal without, <1e-10 with).
 REFINE_STEPS = 1
+#: A dropped constraint row whose residual exceeds this fraction of the mesh
+#: diagonal (positions) or this many radians/2 (rotation logarithms) conflicts.
+CONFLICT_TOL = 1e-9
 
 
 @dataclass
@@ -155,6 +161,24 @@ class Deformer:
         constrained = owner != -1
         self._owner = owner
         self._check_determined(constrained)
+        self._blocks = position_blocks(mesh, self.spec, sel_ids, fixed, self.handle_ids,
+                                       self.handle_centroids)
+        self._rblocks, self._rbasis = rotation_blocks(mesh, self.spec, sel_ids, fixed, self.handle_ids)
+        self._vector = any(b.vector for b in self._blocks)
+        general = [b for b in self._blocks if b.kind not in ("fixed", "handle")]
+        touches_interior = any(mesh.interior[b.vert].any() for b in general)
+        mode = self.spec.solve
+        if mode == "split" and touches_interior:
+            b = next(b for b in general if mesh.interior[b.vert].any())
+            raise SpecError(f"SPEC.solve 'split' needs every constraint other than fixed and handle "
+                            f"vertices on the boundary; {b.kind} {b.name!r} uses interior vertices "
+                            f"{format_ids(b.vert[mesh.interior[b.vert]])}. Use 'joint' or 'auto'.",
+                            field="solve", kind=b.kind, name=b.name)
+        if self.spec.method == "penalty" or (mode == "auto" and touches_interior):
+            mode = "joint"
+        elif mode == "auto":
+            mode = "split"
+        self.solve_mode = mode
         report("constraints", 0.05)
 
         # --- operators -----------------------------------------------------------
@@ -193,22 +217,11 @@ class Deformer:
 
         # --- positions -------------------------------------------------------------
         t2 = time.perf_counter()
-        known = constrained | ~mesh.referenced
-        self._known = np.flatnonzero(known)
-        self._free = np.flatnonzero(~known)
         self._constrained = np.flatnonzero(constrained)
-        mode = self.spec.solve
-        if self.spec.method == "penalty":
-            mode = "joint"
-        elif mode == "auto":
-            mode = "split"
-        self.solve_mode = mode
-        if self.spec.method == "penalty":
-            self._setup_penalty(Lb, Mi, wi)
-        elif mode == "joint":
+        if mode == "joint":
             self._setup_joint(Lb, Mi, wi)
         else:
-            self._setup_split(Lb, Mi)
+            self._setup_split(Lb, Mi, constrained)
         t_pos = time.perf_counter() - t2
         report("positions", 0.95)
 
@@ -224,21 +237,48 @@ class Deformer:
             "total_ms": 1e3 * (time.perf_counter() - t0),
         }
         self.factorizations = fz.STATS["factorizations"] - self._n_factor0
+        self._conflict_tol = CONFLICT_TOL * max(self._diag, 1e-300)
+        self.redundant_at_rest: list[dict[str, Any]] = []
+        if self.spec.conflicts == "reject" or self._has_dropped():
+            rest = self.constraint_report(self.solve_positions(Move({})), Move({}))
+            if rest["conflicting_constraints"] and self.spec.conflicts == "reject":
+                raise ConstraintError(
+                    f"{len(rest['conflicting_constraints'])} hard constraints conflict with the ones "
+                    f"before them (first: {_entry_text(rest['conflicting_constraints'][0])}); "
+                    "SPEC.conflicts is 'reject'", code="conflicting_constraints",
+                    conflicting_constraints=rest["conflicting_constraints"],
+                    redundant_constraints=rest["redundant_constraints"])
         report("done", 1.0)
 
     @property
     def nbytes(self) -> int:
         """Memory held by the factors, operators and rotation basis, in bytes."""
         total = int(self._Phi.nbytes + self._delta.nbytes)
-        for name in ("_fpos", "_fbound", "_finter"):
+        for name in ("_psys", "_finter"):
             f = getattr(self, name, None)
             if f is not None:
                 total += int(f.nbytes)
-        for name in ("_A", "_AFt", "_Art", "_Bft", "_Lbb", "_Mfi"):
+        for name in ("_Mfi",):
             M = getattr(self, name, None)
             if M is not None:
                 total += int(M.data.nbytes + M.indices.nbytes + M.indptr.nbytes)
+        if self._psys is not None and self._psys.A is not None:
+            for M in (self._psys.A, self._psys.At):
+                total += int(M.data.nbytes + M.indices.nbytes + M.indptr.nbytes)
         return total
+
+    def parse_move(self, move: Move | dict[str, Any]) -> Move:
+        """Parse a MOVE document against this SPEC's handle and constraint names."""
+        if isinstance(move, Move):
+            return move
+        sp_ = self.spec
+        names = {"points": [e["name"] for e in sp_.points], "relative": [e["name"] for e in sp_.relative],
+                 "features": [e["name"] for e in sp_.features], "motion": [e["name"] for e in sp_.motion]}
+        return parse_move(move, self.handle_names, names)
+
+    def _has_dropped(self) -> bool:
+        return bool((~self._psys.kept).any() if self._psys is not None else False) or \
+            bool((~self._rsys.kept).any() if self._rsys is not None else False)
 
     # ------------------------------------------------------------------ checks
     def _check_determined(self, constrained: np.ndarray) -> None:
@@ -274,12 +314,15 @@ class Deformer:
         """Harmonic basis ``Phi`` (n_B, H): rotation field = ``Phi @ log_rotations``.
 
         With rotations prescribed per handle (``c_h`` on handle ``h``, 0 on
-        fixed vertices; eq. 3.6, 26-27), the solution of (3.5)/(25) is linear
-        in the ``c_h``: ``r = sum_h phi_h c_h``, with ``phi_h`` the solution for
-        ``c_h = 1``. One factorization, one back-substitution per handle.
+        fixed vertices; eq. 3.6, ECLS eq. 26-27), tied together on rigid
+        features and held at 0 on ``keep_direction`` features (ECLS eq. 29,
+        Form features §3.1), the solution of (3.5)/(25) is linear in the
+        ``c_h``: ``r = sum_h phi_h c_h``. One factorization (by the SPEC's
+        constraint method), one back-substitution per handle.
         """
         bidx = self._bidx
         H = len(self.handle_names)
+        self._rsys = None
         if H == 0 or bidx.size == 0:
             return np.zeros((bidx.size, H))
         Kb = K[bidx][:, bidx]
@@ -288,65 +331,55 @@ class Deformer:
         else:
             Lbb = Lb[bidx][:, bidx]
             Q = (Lbb.T @ Lbb).tocsr()
-        ob = owner[bidx]
-        E = np.zeros((bidx.size, H))
-        for h in range(H):
-            E[ob == h, h] = 1.0
-        cons = ob != -1
-        if self.spec.method == "penalty":
-            beta2 = self.spec.penalty_weight ** 2
-            P = sp.diags(cons.astype(float) * beta2)
-            f = fz.cholesky(Q + P, "rotation system (penalty)")
-            return f.solve(beta2 * E)
-        free = np.flatnonzero(~cons)
-        Phi = E.copy()
-        if free.size:
-            c = np.flatnonzero(cons)
-            f = fz.cholesky(Q[free][:, free], "rotation system")
-            Phi[free] = f.solve(-(Q[free][:, c] @ E[c]))
+        umap = np.full(self.mesh.n, -1, np.int64)
+        umap[bidx] = np.arange(bidx.size)
+        self._rasm = assemble(self._rblocks, umap, bidx.size, vector=False)
+        D = np.zeros((self._rasm.C.shape[0], H))
+        for b_i, t in enumerate(self._rbasis):
+            rows = self._rasm.block == b_i
+            D[rows] = t[self._rasm.local[rows]]
+        self._rD = D
+        self._rsys = ConstrainedSolver(self._rasm.C, H=Q, method=self.spec.method,
+                                       beta=self.spec.penalty_weight, what="rotation system")
+        Phi = self._rsys.solve(np.zeros((bidx.size, H)), D, None, refine=REFINE_STEPS)
+        # residual of every row per unit handle rotation: dropped rows reveal conflicts
+        self._rres = self._rasm.C @ Phi - D
         return Phi
 
     # --------------------------------------------------------------- positions
+    def _layout(self, X: np.ndarray) -> np.ndarray:
+        """(k, 3) per-vertex array -> the position system's layout."""
+        return X.reshape(-1, 1) if self._vector else X
+
+    def _unlayout(self, x: np.ndarray) -> np.ndarray:
+        return x.reshape(-1, 3) if self._vector else x
+
+    def _position_system(self, A: sp.csr_matrix, unknowns: np.ndarray, what: str) -> None:
+        umap = np.full(self.mesh.n, -1, np.int64)
+        umap[unknowns] = np.arange(unknowns.size)
+        self._unknowns = unknowns
+        self._pasm = assemble(self._blocks, umap, unknowns.size, self._vector)
+        if self._vector:
+            A = sp.kron(A, sp.identity(3), format="csr")
+        self._psys = ConstrainedSolver(self._pasm.C, A=A, method=self.spec.method,
+                                       beta=self.spec.penalty_weight, what=what)
+
     def _setup_joint(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix, wi: np.ndarray) -> None:
-        A = _csr(Lb + sp.diags(wi) @ Mi)  # every row of eq. (4.2), weighted
-        A = A[self.mesh.referenced]
-        self._rows_b = np.flatnonzero(self.mesh.referenced)  # row r of A is vertex rows_b[r]
-        AF = A[:, self._free].tocsc()
-        self._AFt = _csr(AF.T)
-        self._A = A
-        self._fpos = fz.cholesky((AF.T @ AF).tocsc(), "position system (joint)") if self._free.size else None
-
-    def _setup_penalty(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix, wi: np.ndarray) -> None:
-        A = _csr(Lb + sp.diags(wi) @ Mi)[self.mesh.referenced]
-        self._rows_b = np.flatnonzero(self.mesh.referenced)
         ref = np.flatnonzero(self.mesh.referenced)
-        self._pen_idx = ref
-        Ar = A[:, ref].tocsc()
-        self._A = A
-        beta2 = self.spec.penalty_weight ** 2
-        c = np.zeros(self.mesh.n)
-        c[self._constrained] = beta2
-        self._pen_diag = c[ref]
-        self._Art = _csr(Ar.T)
-        self._fpos = fz.cholesky((Ar.T @ Ar + sp.diags(self._pen_diag)).tocsc(),
-                                 "position system (penalty)")
+        A = _csr(Lb + sp.diags(wi) @ Mi)  # every row of eq. (4.2), weighted
+        self._rows = ref  # row r of the system is vertex ref[r]
+        self._fi = np.zeros(0, np.int64)
+        self._position_system(_csr(A[ref][:, ref]), ref, "position system (joint)")
 
-    def _setup_split(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix) -> None:
+    def _setup_split(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix, constrained: np.ndarray) -> None:
         mesh = self.mesh
-        B = mesh.boundary
-        known = np.zeros(mesh.n, bool)
-        known[self._known] = True
         bidx = self._bidx
-        self._fb = np.flatnonzero(B & ~known)  # free boundary vertices
-        Lbb = _csr(Lb[bidx][:, bidx])
-        fb_local = np.searchsorted(bidx, self._fb)
-        Af = Lbb[:, fb_local].tocsc()
-        self._Bft = _csr(Af.T)
-        self._Lbb = Lbb
-        self._fbound = fz.cholesky((Af.T @ Af).tocsc(), "boundary position system") \
-            if self._fb.size else None
+        self._rows = bidx
+        self._psys = None
+        if bidx.size:
+            self._position_system(_csr(Lb[bidx][:, bidx]), bidx, "boundary position system")
         # interior: square MVC system of the free interior vertices
-        self._fi = np.flatnonzero(mesh.interior & ~known)
+        self._fi = np.flatnonzero(mesh.interior & ~constrained & mesh.referenced)
         if self._fi.size:
             Mfi = Mi[self._fi]
             self._Mfi = _csr(Mfi)
@@ -354,7 +387,7 @@ class Deformer:
 
     # ------------------------------------------------------------------ update
     def targets(self, move: Move) -> np.ndarray:
-        """Target positions (k, 3) of the constrained vertices, in ``self._constrained`` order."""
+        """Target positions (k, 3) of the fixed and handle vertices, in ``self._constrained`` order."""
         V0 = self.mesh.V
         U = V0[self._constrained].copy()
         own = self._owner[self._constrained]
@@ -368,6 +401,10 @@ class Deformer:
 
     def rotation_field(self, move: Move) -> tuple[np.ndarray, np.ndarray]:
         """Quaternion logarithms (n_B, 3) and log-scales (n_B,) of the boundary vertices."""
+        C, s = self._handle_logs(move)
+        return self._Phi @ C, self._Phi @ s
+
+    def _handle_logs(self, move: Move) -> tuple[np.ndarray, np.ndarray]:
         H = len(self.handle_names)
         C = np.zeros((H, 3))
         s = np.zeros(H)
@@ -376,7 +413,72 @@ class Deformer:
             if hm is not None:
                 C[h] = hm.log_rotation
                 s[h] = np.log(hm.scale)
-        return self._Phi @ C, self._Phi @ s
+        return C, s
+
+    def solve_positions(self, mv: Move) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Positions for a parsed MOVE: ``(P, U, d)`` -- positions (n, 3), fixed/handle
+        targets (k, 3) and the position system's row targets (or None)."""
+        U = self.targets(mv)
+        r, sigma = self.rotation_field(mv)
+        bpos = np.full(self.mesh.n, -1, np.int64)
+        bpos[self._bidx] = np.arange(self._bidx.size)
+
+        def rot_at(ids: np.ndarray) -> np.ndarray:
+            return r[bpos[ids]]
+
+        b = np.zeros((self.mesh.n, 3))
+        if self._bidx.size:
+            b[self._bidx] = np.exp(sigma)[:, None] * rotate_by_log(self._delta[self._bidx], r)
+        # Residual form: every system is solved for the displacement of the free
+        # vertices from their rest positions, so round-off scales with the change,
+        # not with the coordinates (a zero move gives exactly the rest shape).
+        V0 = self.mesh.V
+        P = V0.copy()
+        P[self._constrained] = U
+        d = None
+        if self._psys is not None:
+            d = block_targets(self._blocks, self._pasm, mv, rot_at)
+            u = self._unknowns
+            x = self._psys.solve(self._layout(V0[u]), d, self._layout(b[self._rows]), refine=REFINE_STEPS)
+            P[u] = self._unlayout(x)
+        if self._fi.size:
+            P[self._fi] -= self._finter.solve(self._Mfi @ P)
+        return P, U, d
+
+    def constraint_report(self, solved: tuple[np.ndarray, np.ndarray, np.ndarray | None],
+                          mv: Move) -> dict[str, Any]:
+        """Residuals, redundant and conflicting constraints of a solve (ECLS §5)."""
+        P, U, d = solved
+        res_max = float(np.abs(P[self._constrained] - U).max()) if U.size else 0.0
+        redundant: list[dict[str, Any]] = []
+        conflicting: list[dict[str, Any]] = []
+        rows = {"rows": 0, "dropped": 0}
+        tol = self._conflict_tol
+        if self._psys is not None and d is not None:
+            x = self._layout(P[self._unknowns])
+            res = self._psys.residuals(x, d)
+            kept = self._psys.kept
+            rows["rows"] += int(kept.size)
+            if kept.any():
+                res_max = max(res_max, float(res[kept].max()))
+            drop = np.flatnonzero(~kept)
+            rows["dropped"] += int(drop.size)
+            bad = res[drop] > tol
+            redundant += describe(self._blocks, self._pasm, drop[~bad], "positions")
+            conflicting += describe(self._blocks, self._pasm, drop[bad], "positions", res[drop[bad]])
+        if self._rsys is not None:
+            C, s = self._handle_logs(mv)
+            rres = np.abs(self._rres @ np.column_stack([C, s])).max(axis=1) \
+                if self._rres.shape[0] else np.zeros(0)
+            kept = self._rsys.kept
+            rows["rows"] += int(kept.size)
+            drop = np.flatnonzero(~kept)
+            rows["dropped"] += int(drop.size)
+            bad = rres[drop] > CONFLICT_TOL
+            redundant += describe(self._rblocks, self._rasm, drop[~bad], "rotations")
+            conflicting += describe(self._rblocks, self._rasm, drop[bad], "rotations", rres[drop[bad]])
+        return {"constraint_residual_max": res_max, "constraint_rows": rows,
+                "redundant_constraints": redundant, "conflicting_constraints": conflicting}
 
     def solve(self, move: Move | dict[str, Any], inversion: str | None = None) -> DeformResult:
         """Deform for one MOVE by back-substitution only.
@@ -395,49 +497,25 @@ class Deformer:
         Raises
         ------
         SpecError
-            Malformed MOVE or unknown handle names.
+            Malformed MOVE or unknown handle or constraint names.
+        ConstraintError
+            The MOVE makes hard constraints conflict and ``SPEC.conflicts`` is
+            ``"reject"`` (``code="conflicting_constraints"``, the entries in
+            ``details``).
         InversionError
             Elements were inverted and the policy is ``"reject"``.
         """
         t0 = time.perf_counter()
-        mv = move if isinstance(move, Move) else parse_move(move, self.handle_names)
+        mv = self.parse_move(move)
         policy = inversion or self.spec.inversion
         if policy not in ("warn", "reject"):
             raise SpecError(f"inversion policy must be 'warn' or 'reject', got {policy!r}")
         n0 = fz.STATS["factorizations"]
-        U = self.targets(mv)
-        r, sigma = self.rotation_field(mv)
-        b = np.zeros((self.mesh.n, 3))
-        if self._bidx.size:
-            b[self._bidx] = np.exp(sigma)[:, None] * rotate_by_log(self._delta[self._bidx], r)
         t1 = time.perf_counter()
-        # Residual form: every system is solved for the displacement of the free
-        # vertices from their rest positions, so round-off scales with the change,
-        # not with the coordinates (a zero move gives exactly the rest shape).
-        V0 = self.mesh.V
-        P = V0.copy()
-        if self.spec.method == "penalty":
-            ref = self._pen_idx
-            du = np.zeros((self.mesh.n, 3))
-            du[self._constrained] = U - V0[self._constrained]
-            rhs = self._Art @ (b[self._rows_b] - self._A @ V0) + self._pen_diag[:, None] * du[ref]
-            P[ref] += self._fpos.solve(rhs)
-        elif self.solve_mode == "joint":
-            P[self._constrained] = U
-            if self._free.size:
-                for _ in range(1 + REFINE_STEPS):
-                    rhs = self._AFt @ (b[self._rows_b] - self._A @ P)
-                    P[self._free] += self._fpos.solve(rhs)
-        else:
-            P[self._constrained] = U
-            if self._fb.size:
-                for _ in range(1 + REFINE_STEPS):
-                    rhs = self._Bft @ (b[self._bidx] - self._Lbb @ P[self._bidx])
-                    P[self._fb] += self._fbound.solve(rhs)
-            if self._fi.size:
-                P[self._fi] -= self._finter.solve(self._Mfi @ P)
+        solved = self.solve_positions(mv)
+        P = solved[0]
         t2 = time.perf_counter()
-        report = self._report(P, U, mv)
+        report = self._report(P, solved, mv)
         t3 = time.perf_counter()
         report["timings"] = {
             "setup": self.setup_timings,
@@ -445,6 +523,12 @@ class Deformer:
                        "total_ms": 1e3 * (t3 - t0)},
         }
         report["refactorized"] = fz.STATS["factorizations"] != n0
+        if self.spec.conflicts == "reject" and report["conflicting_constraints"]:
+            first = report["conflicting_constraints"][0]
+            raise ConstraintError(
+                f"the move makes {len(report['conflicting_constraints'])} hard constraints conflict "
+                f"(first: {_entry_text(first)}); SPEC.conflicts is 'reject'",
+                code="conflicting_constraints", report=report)
         if policy == "reject" and report["inverted_elements"] > 0:
             raise InversionError(
                 f"the move inverts {report['inverted_elements']} elements (first "
@@ -452,9 +536,10 @@ class Deformer:
                 report)
         return DeformResult(P, report)
 
-    def _report(self, P: np.ndarray, U: np.ndarray, mv: Move) -> dict[str, Any]:
+    def _report(self, P: np.ndarray, solved: tuple, mv: Move) -> dict[str, Any]:
         mesh = self.mesh
-        res = float(np.abs(P[self._constrained] - U).max()) if U.size else 0.0
+        cons = self.constraint_report(solved, mv)
+        res = cons["constraint_residual_max"]
         rep: dict[str, Any] = {
             "inverted_elements": 0, "inverted_ids": [], "degenerate_elements": 0,
             "min_scaled_jacobian": None, "p01_scaled_jacobian": None,
@@ -462,6 +547,9 @@ class Deformer:
             "p01_scaled_jacobian_before": self._sj_before[1],
             "constraint_residual_max": res,
             "constraint_residual_relative": res / self._diag if self._diag else 0.0,
+            "constraint_rows": cons["constraint_rows"],
+            "redundant_constraints": cons["redundant_constraints"],
+            "conflicting_constraints": cons["conflicting_constraints"],
             "max_displacement": float(np.linalg.norm(P - mesh.V, axis=1).max()),
             "solve_method": self.spec.method, "solve_mode": self.solve_mode,
             "backend": fz.backend(), "lu_backend": fz.lu_backend(),
@@ -481,6 +569,13 @@ class Deformer:
                 "p01_scaled_jacobian": float(np.partition(sj, k)[k]),
             })
         return rep
+
+
+def _entry_text(e: dict[str, Any]) -> str:
+    txt = f"{e['kind']} {e['name']!r} (#{e['index']}) on vertices {e['vertices']}"
+    if "residual" in e:
+        txt += f", residual {e['residual']:.3g}"
+    return txt
 
 
 def precompute(mesh: Mesh, spec: Spec | dict[str, Any]) -> Deformer:

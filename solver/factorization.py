@@ -35,7 +35,7 @@ import scipy.sparse.linalg as spla
 
 from .errors import FactorizationError
 
-__all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu"]
+__all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
 #: Counters of factorizations (``"factorizations"``) and solves (``"solves"``).
 STATS: Counter[str] = Counter()
@@ -167,13 +167,20 @@ class _SuperLUFactor:
 class _PardisoFactor:
     """MKL PARDISO LU (``mtype=11``) or Cholesky (``mtype=2``) with METIS ordering."""
 
-    def __init__(self, M: sp.spmatrix, what: str, symmetric: bool) -> None:
+    def __init__(self, M: sp.spmatrix, what: str, symmetric: bool, indefinite: bool = False) -> None:
         import pypardiso
 
+        if indefinite:  # PARDISO needs every diagonal entry stored, zero or not
+            M = sp.coo_matrix(M)
+            i = np.arange(M.shape[0])
+            M = sp.csr_matrix((np.r_[M.data, np.zeros(i.size)], (np.r_[M.row, i], np.r_[M.col, i])),
+                              shape=M.shape)
         self._A = sp.triu(M, format="csr") if symmetric else sp.csr_matrix(M)
         self._A.sort_indices()
-        self._ps = pypardiso.PyPardisoSolver(mtype=2 if symmetric else 11)
-        self._ps.set_iparm(8, 0)  # no iterative refinement: the factors are exact enough
+        mtype = (-2 if indefinite else 2) if symmetric else 11
+        self._ps = pypardiso.PyPardisoSolver(mtype=mtype)
+        # no iterative refinement inside PARDISO: callers refine with their own residuals
+        self._ps.set_iparm(8, 0)
         self._ps.set_statistical_info_off()
         try:
             self._ps.factorize(self._A)
@@ -182,7 +189,7 @@ class _PardisoFactor:
                 f"{what}: the {M.shape[0]}x{M.shape[0]} system is singular ({e})",
                 code="singular_system") from e
         perturbed = int(self._ps.iparm[13])  # pivots PARDISO replaced instead of failing
-        if perturbed > 0:
+        if perturbed > 0 and not indefinite:
             raise FactorizationError(
                 f"{what}: the {M.shape[0]}x{M.shape[0]} system is singular ({perturbed} zero "
                 "pivots)", code="singular_system")
@@ -271,3 +278,41 @@ def lu(A: sp.spmatrix, what: str = "system") -> Factor:
     if lu_backend() == "pardiso":
         return _PardisoFactor(A, what, symmetric=False)
     return _SuperLUFactor(A, what, symmetric=False)
+
+
+def ldl(K: sp.spmatrix, what: str = "system") -> Factor:
+    """Factor a symmetric indefinite sparse matrix (e.g. a KKT matrix).
+
+    MKL PARDISO's symmetric indefinite factorization (``mtype=-2``,
+    Bunch-Kaufman pivoting within supernodes) where available, else SuperLU.
+    Perturbed pivots are tolerated; callers refine with their own residuals.
+
+    Parameters
+    ----------
+    K : (n, n) sparse matrix
+        Symmetric and non-singular.
+    what : str
+        Name of the system, used in error messages.
+
+    Returns
+    -------
+    Factor
+
+    Raises
+    ------
+    FactorizationError
+        If ``K`` is singular or has non-finite entries.
+
+    Examples
+    --------
+    >>> import scipy.sparse as sp
+    >>> f = ldl(sp.csr_matrix([[1.0, 1.0], [1.0, 0.0]]))
+    >>> np.round(f.solve(np.array([3.0, 1.0])), 12).tolist()
+    [1.0, 2.0]
+    """
+    K = sp.csc_matrix(K)
+    _check_finite(K, what)
+    STATS["factorizations"] += 1
+    if lu_backend() == "pardiso":
+        return _PardisoFactor(K, what, symmetric=True, indefinite=True)
+    return _SuperLUFactor(K, what, symmetric=True)

@@ -17,10 +17,14 @@ import numpy as np
 from .errors import SpecError
 
 __all__ = ["Spec", "HandleMove", "Move", "parse_spec", "parse_move", "axis_angle_matrix",
-           "SOLVE_MODES", "METHODS", "LAPLACIANS", "ROTATIONS", "INVERSION_POLICIES"]
+           "SOLVE_MODES", "METHODS", "LAPLACIANS", "ROTATIONS", "INVERSION_POLICIES",
+           "CONFLICT_POLICIES", "FEATURE_MODES", "RELATIVE_MODES"]
 
 LAPLACIANS = ("cotangent", "uniform")
-METHODS = ("null_space", "penalty")
+METHODS = ("null_space", "kkt", "penalty")
+CONFLICT_POLICIES = ("report", "reject")
+FEATURE_MODES = ("rigid", "keep_direction")
+RELATIVE_MODES = ("rotate", "translate")
 SOLVE_MODES = ("auto", "split", "joint")
 ROTATIONS = ("harmonic", "least_squares")
 INVERSION_POLICIES = ("warn", "reject")
@@ -41,8 +45,10 @@ class Spec:
         Handle name to selection name.
     laplacian : {"cotangent", "uniform"}
         Weights of the boundary rows (eq. 3.1, or eq. 9 of the ECLS paper).
-    method : {"null_space", "penalty"}
-        Hard constraints by elimination (exact), or the paper's penalty weight.
+    method : {"null_space", "kkt", "penalty"}
+        Hard constraints by the per-component QR null space (exact), by
+        Lagrange multipliers (KKT, exact to round-off), or by the paper's
+        penalty weight (approximate; its residual is reported).
     penalty_weight : float
         ``beta`` of eq. (3.8) and (4.2) when ``method == "penalty"``.
     solve : {"auto", "split", "joint"}
@@ -51,6 +57,11 @@ class Spec:
         Rotation propagation: harmonic interpolation of quaternion logarithms
         (ECLS eq. 25-27) or the least-squares form of eq. (3.8)/(3.9).
     inversion : {"warn", "reject"}
+    points, relative, features, motion, sliding : tuple of dict
+        The further hard constraints, normalised (see :func:`parse_spec`).
+    conflicts : {"report", "reject"}
+        What a conflicting constraint does: reported in the REPORT, or the
+        SPEC (and any MOVE) that makes constraints conflict is refused.
     """
 
     selections: dict[str, dict[str, Any]]
@@ -62,15 +73,26 @@ class Spec:
     solve: str = "auto"
     rotation: str = "harmonic"
     inversion: str = "warn"
+    points: tuple[dict[str, Any], ...] = ()
+    relative: tuple[dict[str, Any], ...] = ()
+    features: tuple[dict[str, Any], ...] = ()
+    motion: tuple[dict[str, Any], ...] = ()
+    sliding: tuple[dict[str, Any], ...] = ()
+    conflicts: str = "report"
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""
-        return {
+        out = {
             "selections": self.selections, "fixed": list(self.fixed), "handles": dict(self.handles),
             "laplacian": self.laplacian,
             "constraints": {"method": self.method, "penalty_weight": self.penalty_weight},
             "solve": self.solve, "rotation": self.rotation, "inversion": self.inversion,
+            "conflicts": self.conflicts,
         }
+        for key in ("points", "relative", "features", "motion", "sliding"):
+            if getattr(self, key):
+                out[key] = [dict(e) for e in getattr(self, key)]
+        return out
 
 
 def _expect(cond: bool, msg: str, **details: Any) -> None:
@@ -166,7 +188,8 @@ def parse_spec(doc: Any) -> Spec:
     ({'h': 'b'}, 'null_space')
     """
     _check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
-                      "rotation", "inversion"), "SPEC")
+                      "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
+                      "conflicts"), "SPEC")
     sels = doc.get("selections", {})
     _expect(isinstance(sels, dict) and len(sels) > 0, "SPEC.selections must name at least one selection",
             field="selections")
@@ -187,6 +210,7 @@ def parse_spec(doc: Any) -> Spec:
     _expect(not dup, f"selection(s) {dup} drive more than one handle", field="handles", names=dup)
     _expect(len(fixed) + len(handles) > 0, "SPEC needs at least one fixed selection or handle",
             field="fixed")
+    extra = _parse_constraint_lists(doc, selections)
     cons = doc.get("constraints", {})
     _check_keys(cons, ("method", "penalty_weight"), "SPEC.constraints")
     method = cons.get("method", "null_space")
@@ -197,14 +221,140 @@ def parse_spec(doc: Any) -> Spec:
     out = {}
     for key, allowed, default in (("laplacian", LAPLACIANS, "cotangent"), ("solve", SOLVE_MODES, "auto"),
                                   ("rotation", ROTATIONS, "harmonic"),
-                                  ("inversion", INVERSION_POLICIES, "warn")):
+                                  ("inversion", INVERSION_POLICIES, "warn"),
+                                  ("conflicts", CONFLICT_POLICIES, "report")):
         val = doc.get(key, default)
         _expect(val in allowed, f"SPEC.{key} must be one of {list(allowed)}, got {val!r}", field=key)
         out[key] = val
     _expect(not (method == "penalty" and out["solve"] == "split"),
-            "SPEC.solve 'split' needs hard constraints (constraints.method 'null_space')", field="solve")
+            "SPEC.solve 'split' needs exact constraints (constraints.method 'null_space' or 'kkt')",
+            field="solve")
     return Spec(selections=selections, fixed=tuple(fixed), handles={str(k): v for k, v in handles.items()},
-                method=method, penalty_weight=beta, **out)
+                method=method, penalty_weight=beta, **out, **extra)
+
+
+def _int_list(x: Any, where: str, length: int | None = None) -> list[int]:
+    ok = isinstance(x, list) and all(isinstance(i, int) and not isinstance(i, bool) for i in x) \
+        and len(x) > 0
+    _expect(ok, f"{where} must be a non-empty list of vertex indices, got {x!r}", field=where)
+    if length is not None:
+        _expect(len(x) == length, f"{where} must have {length} vertex indices, got {len(x)}", field=where)
+    _expect(len(set(x)) == len(x), f"{where} repeats a vertex: {x!r}", field=where)
+    return list(x)
+
+
+def _point_def(e: dict[str, Any], where: str, selections: dict[str, Any]) -> dict[str, Any]:
+    """A point as a linear combination of vertices: ``{"vertices", "weights"}`` or a selection."""
+    forms = [k for k in ("vertices", "edge", "face", "selection") if k in e]
+    _expect(len(forms) == 1, f"{where} must give exactly one of vertices+weights, edge+t, "
+            "face+barycentric or selection", field=where)
+    form = forms[0]
+    if form == "selection":
+        _expect(e["selection"] in selections, f"{where}.selection: unknown selection {e['selection']!r}; "
+                f"defined: {sorted(selections)}", field=where)
+        _expect("weights" not in e, f"{where}: a selection point is its centroid; no weights", field=where)
+        return {"selection": e["selection"]}
+    if form == "edge":
+        ids = _int_list(e["edge"], f"{where}.edge", 2)
+        t = _number(e.get("t"), f"{where}.t")
+        _expect(0.0 <= t <= 1.0, f"{where}.t must be in [0, 1], got {t}", field=where)
+        return {"vertices": ids, "weights": [t, 1.0 - t]}
+    if form == "face":
+        ids = _int_list(e["face"], f"{where}.face", 3)
+        w = e.get("barycentric")
+        _expect(isinstance(w, list) and len(w) == 3, f"{where}.barycentric must be 3 numbers", field=where)
+        w = [_number(x, f"{where}.barycentric") for x in w]
+        _expect(abs(sum(w) - 1.0) <= 1e-9 and min(w) >= 0, f"{where}.barycentric must be >= 0 and sum "
+                f"to 1, got {w}", field=where)
+        return {"vertices": ids, "weights": w}
+    ids = _int_list(e["vertices"], f"{where}.vertices")
+    w = e.get("weights", [1.0 / len(ids)] * len(ids))
+    _expect(isinstance(w, list) and len(w) == len(ids), f"{where}.weights must be {len(ids)} numbers "
+            "(one per vertex)", field=where)
+    w = [_number(x, f"{where}.weights") for x in w]
+    _expect(abs(sum(w)) > 1e-12, f"{where}.weights must not sum to zero", field=where)
+    return {"vertices": ids, "weights": w}
+
+
+def _names(entries: list[dict[str, Any]], key: str) -> None:
+    names = [e["name"] for e in entries]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    _expect(not dup, f"SPEC.{key}: name(s) {dup} used twice", field=key, names=dup)
+
+
+def _parse_constraint_lists(doc: dict[str, Any], selections: dict[str, Any]) -> dict[str, Any]:
+    """Parse SPEC ``points``, ``relative``, ``features``, ``motion`` and ``sliding``."""
+    out: dict[str, Any] = {}
+    lists = {}
+    for key in ("points", "relative", "features", "motion", "sliding"):
+        val = doc.get(key, [])
+        _expect(isinstance(val, list), f"SPEC.{key} must be a list", field=key)
+        lists[key] = val
+    pts = []
+    for k, e in enumerate(lists["points"]):
+        where = f"SPEC.points[{k}]"
+        _check_keys(e, ("name", "vertices", "weights", "edge", "t", "face", "barycentric", "selection",
+                        "target"), where)
+        _expect(isinstance(e.get("name"), str), f"{where}.name must be a string", field=where)
+        p = {"name": e["name"], **_point_def(e, where, selections)}
+        if "target" in e:
+            p["target"] = _vec3(e["target"], f"{where}.target").tolist()
+        pts.append(p)
+    _names(pts, "points")
+    rel = []
+    for k, e in enumerate(lists["relative"]):
+        where = f"SPEC.relative[{k}]"
+        _check_keys(e, ("name", "vertices", "mode"), where)
+        _expect(isinstance(e.get("name"), str), f"{where}.name must be a string", field=where)
+        mode = e.get("mode", "rotate")
+        _expect(mode in RELATIVE_MODES, f"{where}.mode must be one of {list(RELATIVE_MODES)}", field=where)
+        rel.append({"name": e["name"], "vertices": _int_list(e.get("vertices"), f"{where}.vertices", 2),
+                    "mode": mode})
+    _names(rel, "relative")
+    feats = []
+    for k, e in enumerate(lists["features"]):
+        where = f"SPEC.features[{k}]"
+        _check_keys(e, ("name", "selection", "mode"), where)
+        _expect(e.get("selection") in selections, f"{where}.selection: unknown selection "
+                f"{e.get('selection')!r}; defined: {sorted(selections)}", field=where)
+        mode = e.get("mode", "rigid")
+        _expect(mode in FEATURE_MODES, f"{where}.mode must be one of {list(FEATURE_MODES)}", field=where)
+        name = e.get("name", e["selection"])
+        _expect(isinstance(name, str), f"{where}.name must be a string", field=where)
+        feats.append({"name": name, "selection": e["selection"], "mode": mode})
+    _names(feats, "features")
+    mot = []
+    for k, e in enumerate(lists["motion"]):
+        where = f"SPEC.motion[{k}]"
+        _check_keys(e, ("name", "vertices", "weights", "edge", "t", "face", "barycentric", "selection",
+                        "plane", "line"), where)
+        _expect(isinstance(e.get("name"), str), f"{where}.name must be a string", field=where)
+        m = {"name": e["name"], **_point_def(e, where, selections)}
+        _expect(("plane" in e) != ("line" in e), f"{where} needs exactly one of plane or line", field=where)
+        if "plane" in e:
+            _check_keys(e["plane"], ("normal",), f"{where}.plane")
+            nrm = _vec3(e["plane"].get("normal"), f"{where}.plane.normal")
+            _expect(float(np.linalg.norm(nrm)) > 0, f"{where}.plane.normal must be non-zero", field=where)
+            m["plane"] = {"normal": nrm.tolist()}
+        else:
+            _check_keys(e["line"], ("direction",), f"{where}.line")
+            t = _vec3(e["line"].get("direction"), f"{where}.line.direction")
+            _expect(float(np.linalg.norm(t)) > 0, f"{where}.line.direction must be non-zero", field=where)
+            m["line"] = {"direction": t.tolist()}
+        mot.append(m)
+    _names(mot, "motion")
+    sl = []
+    for k, e in enumerate(lists["sliding"]):
+        where = f"SPEC.sliding[{k}]"
+        _check_keys(e, ("selection", "normal"), where)
+        _expect(e.get("selection") in selections, f"{where}.selection: unknown selection "
+                f"{e.get('selection')!r}; defined: {sorted(selections)}", field=where)
+        nrm = _vec3(e.get("normal"), f"{where}.normal")
+        _expect(float(np.linalg.norm(nrm)) > 0, f"{where}.normal must be non-zero", field=where)
+        sl.append({"selection": e["selection"], "normal": nrm.tolist()})
+    out.update(points=tuple(pts), relative=tuple(rel), features=tuple(feats), motion=tuple(mot),
+               sliding=tuple(sl))
+    return out
 
 
 def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -270,9 +420,26 @@ class HandleMove:
 
 @dataclass(frozen=True)
 class Move:
-    """A parsed MOVE: one :class:`HandleMove` per named handle (missing ones stay at rest)."""
+    """A parsed MOVE: one :class:`HandleMove` per named handle (missing ones stay at rest).
+
+    Attributes
+    ----------
+    handles : dict of str to HandleMove
+    points : dict of str to (3,) array
+        Targets of SPEC ``points`` (missing: the SPEC's target, else rest).
+    relative : dict of str to dict
+        ``{"offset": (3,) array}`` or ``{"scale": s}`` per SPEC ``relative``.
+    features : dict of str to float
+        Scale factor ``s_f`` per SPEC ``features`` (missing: 1).
+    motion : dict of str to (3,) array
+        The point the plane or line of a SPEC ``motion`` passes through.
+    """
 
     handles: dict[str, HandleMove]
+    points: dict[str, np.ndarray] = field(default_factory=dict)
+    relative: dict[str, dict[str, Any]] = field(default_factory=dict)
+    features: dict[str, float] = field(default_factory=dict)
+    motion: dict[str, np.ndarray] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the MOVE as a JSON-compatible dict (rotations as quaternions)."""
@@ -286,7 +453,17 @@ class Move:
             if h.pivot is not None:
                 d["pivot"] = h.pivot.tolist()
             out[k] = d
-        return {"handles": out}
+        doc: dict[str, Any] = {"handles": out}
+        if self.points:
+            doc["points"] = {k: v.tolist() for k, v in self.points.items()}
+        if self.relative:
+            doc["relative"] = {k: {a: (b.tolist() if isinstance(b, np.ndarray) else b)
+                                   for a, b in v.items()} for k, v in self.relative.items()}
+        if self.features:
+            doc["features"] = {k: {"scale": v} for k, v in self.features.items()}
+        if self.motion:
+            doc["motion"] = {k: {"point": v.tolist()} for k, v in self.motion.items()}
+        return doc
 
 
 def _parse_rotation(rot: Any, where: str) -> np.ndarray:
@@ -321,15 +498,21 @@ def _parse_rotation(rot: Any, where: str) -> np.ndarray:
     return (angle / 2.0) * axis / na
 
 
-def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str]) -> Move:
-    """Parse and validate a MOVE document against the SPEC's handle names.
+def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str],
+               names: dict[str, Any] | None = None) -> Move:
+    """Parse and validate a MOVE document against the SPEC's names.
 
     Parameters
     ----------
     doc : dict
         ``{"handles": {HANDLE: {"translation": [..], "rotation": {...}, "pivot": [..],
-        "scale": s}}}``; every field is optional.
+        "scale": s}}, "points": {POINT: [x, y, z]}, "relative": {NAME: {"offset": [..]}
+        | {"scale": s}}, "features": {FEATURE: {"scale": s}}, "motion": {NAME:
+        {"point": [x, y, z]}}}``; every field is optional.
     handle_names : sequence of str
+    names : dict, optional
+        Names the SPEC defines per category (``"points"``, ``"relative"``,
+        ``"features"``, ``"motion"``); categories not given accept no names.
 
     Returns
     -------
@@ -345,7 +528,14 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str]) -> Move:
     >>> m.handles["h"].translation.tolist()
     [1.0, 0.0, 0.0]
     """
-    _check_keys(doc, ("handles",), "MOVE")
+    _check_keys(doc, ("handles", "points", "relative", "features", "motion"), "MOVE")
+    names = names or {}
+    for key in ("points", "relative", "features", "motion"):
+        val = doc.get(key, {})
+        _expect(isinstance(val, dict), f"MOVE.{key} must be an object", field=key)
+        bad = sorted(set(val) - set(names.get(key, ())))
+        _expect(not bad, f"MOVE.{key} names unknown {key} {bad}; the SPEC defines "
+                f"{sorted(names.get(key, ()))}", field=key, unknown=bad)
     hs = doc.get("handles", {})
     _expect(isinstance(hs, dict), "MOVE.handles must be an object", field="handles")
     unknown = sorted(set(hs) - set(handle_names))
@@ -361,4 +551,28 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str]) -> Move:
         _expect(s > 0, f"{where}.scale must be > 0, got {s}", field=f"{where}.scale")
         p = _vec3(h["pivot"], f"{where}.pivot") if "pivot" in h else None
         out[name] = HandleMove(t, r, s, p)
-    return Move(out)
+    points = {k: _vec3(v, f"MOVE.points.{k}") for k, v in doc.get("points", {}).items()}
+    relative = {}
+    for k, v in doc.get("relative", {}).items():
+        where = f"MOVE.relative.{k}"
+        _check_keys(v, ("offset", "scale"), where)
+        _expect(len(v) == 1, f"{where} needs exactly one of offset or scale", field=where)
+        if "offset" in v:
+            relative[k] = {"offset": _vec3(v["offset"], f"{where}.offset")}
+        else:
+            sc = _number(v["scale"], f"{where}.scale")
+            _expect(sc > 0, f"{where}.scale must be > 0, got {sc}", field=where)
+            relative[k] = {"scale": sc}
+    features = {}
+    for k, v in doc.get("features", {}).items():
+        where = f"MOVE.features.{k}"
+        _check_keys(v, ("scale",), where)
+        sc = _number(v.get("scale", 1.0), f"{where}.scale")
+        _expect(sc > 0, f"{where}.scale must be > 0, got {sc}", field=where)
+        features[k] = sc
+    motion = {}
+    for k, v in doc.get("motion", {}).items():
+        where = f"MOVE.motion.{k}"
+        _check_keys(v, ("point",), where)
+        motion[k] = _vec3(v.get("point"), f"{where}.point")
+    return Move(out, points, relative, features, motion)

@@ -81,6 +81,7 @@ class Session:
             "last_move": self.last_move,
             "setup_timings": d.setup_timings if d is not None else None,
             "factor_bytes": d.nbytes if d is not None else None,
+            "constraints_at_rest": d.rest_constraints if d is not None else None,
             "last_report": self.report,
         }
 

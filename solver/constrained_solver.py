@@ -88,6 +88,19 @@ class RankAnalysis:
     components: int
     largest: tuple[int, int]
 
+    def dropped_residuals(self, C: sp.csr_matrix, d: np.ndarray) -> np.ndarray:
+        """|C_q x - d_q| of each dropped row ``q`` for any ``x`` meeting the kept rows.
+
+        A dropped row is a combination of kept rows, so its value is the same
+        at every feasible ``x``; the minimum-norm ``x_p = Xp d`` serves. Zero
+        (to round-off) means redundant, non-zero conflicting (ECLS §5).
+        """
+        drop = np.flatnonzero(~self.kept)
+        if not drop.size:
+            return np.zeros(0)
+        xp = self.Xp @ np.where(self.kept[:, None], d, 0.0)
+        return np.abs(C[drop] @ xp - d[drop]).max(axis=1)
+
 
 def _component_labels(C: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray, int]:
     """Component label of each touched unknown and of each row (bipartite graph)."""
@@ -264,6 +277,10 @@ class ConstrainedSolver:
         Penalty weight (``method="penalty"``).
     what : str
         Name used in error messages.
+    rank_tol : float
+        Relative tolerance of the dependency test.
+    analysis : RankAnalysis, optional
+        :func:`rank_analysis` of ``C``, when the caller already has it.
 
     Raises
     ------
@@ -284,7 +301,7 @@ class ConstrainedSolver:
 
     def __init__(self, C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.spmatrix | None = None,
                  method: str = "null_space", beta: float = 1.0e4, what: str = "system",
-                 rank_tol: float = RANK_TOL) -> None:
+                 rank_tol: float = RANK_TOL, analysis: RankAnalysis | None = None) -> None:
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         if (A is None) == (H is None):
@@ -295,7 +312,7 @@ class ConstrainedSolver:
         self.At = None if A is None else sp.csr_matrix(self.A.T)
         self.H = None if H is None else sp.csr_matrix(H)
         self.N = self.C.shape[1]
-        self.ra = rank_analysis(self.C, rank_tol)
+        self.ra = analysis if analysis is not None else rank_analysis(self.C, rank_tol)
         self.kept = self.ra.kept
         self.Ck = self.C[np.flatnonzero(self.kept)]
         self.beta = beta

@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import factorization as fz
-from .constrained_solver import ConstrainedSolver
+from .constrained_solver import ConstrainedSolver, rank_analysis
 from .constraint_rows import Assembly, Block, assemble, block_targets, describe, position_blocks, \
     rotation_blocks
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
@@ -179,6 +179,7 @@ class Deformer:
         elif mode == "auto":
             mode = "split"
         self.solve_mode = mode
+        self._analyse_constraints()
         report("constraints", 0.05)
 
         # --- operators -----------------------------------------------------------
@@ -210,7 +211,6 @@ class Deformer:
 
         # --- rotation field ------------------------------------------------------
         t1 = time.perf_counter()
-        self._bidx = np.flatnonzero(B)
         self._Phi = self._rotation_basis(K, Lb, B, owner)
         t_rot = time.perf_counter() - t1
         report("rotation", 0.5)
@@ -229,7 +229,6 @@ class Deformer:
         sj = tet_quality(V0, self._Tt)[1] if not mesh.is_surface else np.zeros(0)
         self._sj_before = (float(sj.min()) if sj.size else None,
                            float(np.partition(sj, sj.size // 100)[sj.size // 100]) if sj.size else None)
-        self._diag = float(np.linalg.norm(V0[mesh.referenced].max(0) - V0[mesh.referenced].min(0)))
         self.setup_timings = {
             "assembly_ms": 1e3 * t_assembly,
             "rotation_factorization_ms": 1e3 * t_rot,
@@ -237,17 +236,6 @@ class Deformer:
             "total_ms": 1e3 * (time.perf_counter() - t0),
         }
         self.factorizations = fz.STATS["factorizations"] - self._n_factor0
-        self._conflict_tol = CONFLICT_TOL * max(self._diag, 1e-300)
-        self.redundant_at_rest: list[dict[str, Any]] = []
-        if self.spec.conflicts == "reject" or self._has_dropped():
-            rest = self.constraint_report(self.solve_positions(Move({})), Move({}))
-            if rest["conflicting_constraints"] and self.spec.conflicts == "reject":
-                raise ConstraintError(
-                    f"{len(rest['conflicting_constraints'])} hard constraints conflict with the ones "
-                    f"before them (first: {_entry_text(rest['conflicting_constraints'][0])}); "
-                    "SPEC.conflicts is 'reject'", code="conflicting_constraints",
-                    conflicting_constraints=rest["conflicting_constraints"],
-                    redundant_constraints=rest["redundant_constraints"])
         report("done", 1.0)
 
     @property
@@ -276,9 +264,50 @@ class Deformer:
                  "features": [e["name"] for e in sp_.features], "motion": [e["name"] for e in sp_.motion]}
         return parse_move(move, self.handle_names, names)
 
-    def _has_dropped(self) -> bool:
-        return bool((~self._psys.kept).any() if self._psys is not None else False) or \
-            bool((~self._rsys.kept).any() if self._rsys is not None else False)
+    def _analyse_constraints(self) -> None:
+        """Assemble the hard constraint rows, find dependent ones, and check them at rest.
+
+        Runs before any factorization, so a SPEC whose constraints conflict
+        with ``"conflicts": "reject"`` is refused at the "constraints" stage.
+        Sets ``self.rest_constraints`` (redundant and conflicting entries with
+        every handle at rest).
+        """
+        mesh = self.mesh
+        V0 = mesh.V
+        self._diag = float(np.linalg.norm(V0[mesh.referenced].max(0) - V0[mesh.referenced].min(0)))
+        self._conflict_tol = CONFLICT_TOL * max(self._diag, 1e-300)
+        self._bidx = np.flatnonzero(mesh.boundary)
+        unknowns = self._bidx if self.solve_mode == "split" else np.flatnonzero(mesh.referenced)
+        self._unknowns = unknowns
+        self._pasm = self._pra = None
+        if unknowns.size:
+            umap = np.full(mesh.n, -1, np.int64)
+            umap[unknowns] = np.arange(unknowns.size)
+            self._pasm = assemble(self._blocks, umap, unknowns.size, self._vector)
+            self._pra = rank_analysis(self._pasm.C)
+        self._rasm = self._rra = None
+        if self.handle_names and self._bidx.size:
+            umap = np.full(mesh.n, -1, np.int64)
+            umap[self._bidx] = np.arange(self._bidx.size)
+            self._rasm = assemble(self._rblocks, umap, self._bidx.size, vector=False)
+            self._rra = rank_analysis(self._rasm.C)
+        redundant, conflicting = [], []
+        if self._pra is not None and not self._pra.kept.all():
+            d = block_targets(self._blocks, self._pasm, Move({}), lambda ids: np.zeros((len(ids), 3)))
+            res = self._pra.dropped_residuals(self._pasm.C, d)
+            drop = np.flatnonzero(~self._pra.kept)
+            bad = res > self._conflict_tol
+            redundant += describe(self._blocks, self._pasm, drop[~bad], "positions")
+            conflicting += describe(self._blocks, self._pasm, drop[bad], "positions", res[bad])
+        if self._rra is not None:  # at rest every rotation target is 0: dropped rows are redundant
+            redundant += describe(self._rblocks, self._rasm, np.flatnonzero(~self._rra.kept), "rotations")
+        self.rest_constraints = {"redundant_constraints": redundant, "conflicting_constraints": conflicting}
+        if conflicting and self.spec.conflicts == "reject":
+            raise ConstraintError(
+                f"{len(conflicting)} hard constraints conflict with the ones before them (first: "
+                f"{_entry_text(conflicting[0])}); SPEC.conflicts is 'reject'",
+                code="conflicting_constraints", conflicting_constraints=conflicting,
+                redundant_constraints=redundant)
 
     # ------------------------------------------------------------------ checks
     def _check_determined(self, constrained: np.ndarray) -> None:
@@ -331,16 +360,14 @@ class Deformer:
         else:
             Lbb = Lb[bidx][:, bidx]
             Q = (Lbb.T @ Lbb).tocsr()
-        umap = np.full(self.mesh.n, -1, np.int64)
-        umap[bidx] = np.arange(bidx.size)
-        self._rasm = assemble(self._rblocks, umap, bidx.size, vector=False)
         D = np.zeros((self._rasm.C.shape[0], H))
         for b_i, t in enumerate(self._rbasis):
             rows = self._rasm.block == b_i
             D[rows] = t[self._rasm.local[rows]]
         self._rD = D
         self._rsys = ConstrainedSolver(self._rasm.C, H=Q, method=self.spec.method,
-                                       beta=self.spec.penalty_weight, what="rotation system")
+                                       beta=self.spec.penalty_weight, what="rotation system",
+                                       analysis=self._rra)
         Phi = self._rsys.solve(np.zeros((bidx.size, H)), D, None, refine=REFINE_STEPS)
         # residual of every row per unit handle rotation: dropped rows reveal conflicts
         self._rres = self._rasm.C @ Phi - D
@@ -354,22 +381,18 @@ class Deformer:
     def _unlayout(self, x: np.ndarray) -> np.ndarray:
         return x.reshape(-1, 3) if self._vector else x
 
-    def _position_system(self, A: sp.csr_matrix, unknowns: np.ndarray, what: str) -> None:
-        umap = np.full(self.mesh.n, -1, np.int64)
-        umap[unknowns] = np.arange(unknowns.size)
-        self._unknowns = unknowns
-        self._pasm = assemble(self._blocks, umap, unknowns.size, self._vector)
+    def _position_system(self, A: sp.csr_matrix, what: str) -> None:
         if self._vector:
             A = sp.kron(A, sp.identity(3), format="csr")
         self._psys = ConstrainedSolver(self._pasm.C, A=A, method=self.spec.method,
-                                       beta=self.spec.penalty_weight, what=what)
+                                       beta=self.spec.penalty_weight, what=what, analysis=self._pra)
 
     def _setup_joint(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix, wi: np.ndarray) -> None:
         ref = np.flatnonzero(self.mesh.referenced)
         A = _csr(Lb + sp.diags(wi) @ Mi)  # every row of eq. (4.2), weighted
         self._rows = ref  # row r of the system is vertex ref[r]
         self._fi = np.zeros(0, np.int64)
-        self._position_system(_csr(A[ref][:, ref]), ref, "position system (joint)")
+        self._position_system(_csr(A[ref][:, ref]), "position system (joint)")
 
     def _setup_split(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix, constrained: np.ndarray) -> None:
         mesh = self.mesh
@@ -377,7 +400,7 @@ class Deformer:
         self._rows = bidx
         self._psys = None
         if bidx.size:
-            self._position_system(_csr(Lb[bidx][:, bidx]), bidx, "boundary position system")
+            self._position_system(_csr(Lb[bidx][:, bidx]), "boundary position system")
         # interior: square MVC system of the free interior vertices
         self._fi = np.flatnonzero(mesh.interior & ~constrained & mesh.referenced)
         if self._fi.size:

@@ -448,3 +448,33 @@ def test_tetrahedralize_leaves_no_file_behind(tmp_path, monkeypatch):
     V, F = sphere_surface(1, 1.0)
     tetrahedralize(V, F, edge_length_fac=0.3)
     assert not (tmp_path / TRACKED_SURFACE).exists()
+
+
+def test_conflicting_constraints_are_reported_or_rejected(client, tc):
+    """A point pulled away from a fixed vertex: reported in the REPORT, or refused with 'reject'."""
+    mesh = upload_bracket(client)
+    from solver import read_mesh
+
+    V = read_mesh(BRACKET).V
+    v = int(np.flatnonzero(np.abs(V[:, 0]) < 1e-9)[0])  # a node of the FIXED end
+    spec = {**BRACKET_SPEC, "points": [{"name": "pull", "vertices": [v],
+                                        "target": (V[v] + [0, 0, 1]).tolist()}]}
+    s = client.create_session(mesh["id"], spec)
+    rest = client.session(s["id"])["constraints_at_rest"]
+    assert [c["name"] for c in rest["conflicting_constraints"]] == ["pull"]
+    _, report = client.deform(s["id"], MOVES[0])
+    (c,) = report["conflicting_constraints"]
+    assert c["kind"] == "point" and c["vertices"] == [v] and abs(c["residual"] - 1) < 1e-9
+    r = tc.post("/v1/sessions", json={"mesh_id": mesh["id"], "spec": {**spec, "conflicts": "reject"}})
+    e = err(r)
+    assert r.status_code == 422 and e["code"] == "conflicting_constraints"
+    assert e["details"]["conflicting_constraints"][0]["name"] == "pull"
+    # consistent at rest, conflicting after a MOVE: that MOVE is refused, the session keeps its state
+    ok = {**BRACKET_SPEC, "points": [{"name": "p", "vertices": [v]}], "conflicts": "reject"}
+    s2 = client.create_session(mesh["id"], ok)
+    X0, rep0 = client.deform(s2["id"], MOVES[0])
+    assert rep0["redundant_constraints"][0]["name"] == "p"
+    with pytest.raises(TetmorphError) as ex:
+        client.deform(s2["id"], {**MOVES[0], "points": {"p": [0, 0, 0]}})
+    assert ex.value.status == 422 and ex.value.code == "conflicting_constraints"
+    np.testing.assert_array_equal(client.positions(s2["id"]), X0)

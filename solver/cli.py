@@ -89,6 +89,41 @@ def cmd_morph(args: argparse.Namespace) -> int:
     return 1 if rejected else 0
 
 
+def cmd_features(args: argparse.Namespace) -> int:
+    from .features import feature_candidates, feature_region
+    from .selection import select
+    from .spec import parse_spec
+
+    mesh = read_mesh(args.mesh, args.format)
+    out: dict[str, Any] = {}
+    if args.band:
+        band = []
+        for k, text in enumerate(args.band):
+            try:
+                band_sel = json.loads(text)
+            except json.JSONDecodeError as e:
+                raise SolverError(f"--band #{k + 1} is not valid JSON: {e}", code="invalid_json") from None
+            parse_spec({"selections": {"band": band_sel}, "fixed": ["band"]})  # validates the selection
+            band.append(select(mesh, band_sel, f"band {k + 1}"))
+        region = feature_region(mesh, np.unique(np.concatenate(band)))
+        out["region"] = {"vertices": int(region["ids"].size), "faces": int(region["faces"].size),
+                         "area": region["area"], "cut_edges": int(region["cut_edges"].shape[0]),
+                         "selection": {"ids": region["ids"].tolist()}}
+        sets = {args.region_name: region["ids"]}
+    else:
+        cands = feature_candidates(mesh, args.angle, args.tol)
+        out["candidates"] = [c.to_dict() for c in cands]
+        sets = {c.name: c.ids for c in cands}
+        for c in out["candidates"]:
+            if not args.ids:
+                c.pop("selection")
+    if args.write:
+        write_mesh(mesh, mesh.V, args.write, args.output_format, point_sets=sets)
+        out["written"] = {"path": args.write, "sets": sorted(sets)}
+    _dump(out, None)
+    return 0
+
+
 def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.ArgumentParser:
     """The ``tetmorph`` parser; ``extend(subparsers)`` may add commands (``serve``)."""
     p = argparse.ArgumentParser(prog="tetmorph", description="Deform tetrahedral FE meshes with exact "
@@ -108,6 +143,20 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pm.add_argument("--format", help="input meshio format name")
     pm.add_argument("--output-format", help="output meshio format name")
     pm.set_defaults(func=cmd_morph)
+    pf = sub.add_parser("features", help="form-feature candidates (holes, bosses, planes) or the "
+                        "min-cut feature region inside a band")
+    pf.add_argument("mesh")
+    pf.add_argument("--angle", type=float, default=30.0, help="sharp-edge dihedral angle, degrees")
+    pf.add_argument("--tol", type=float, default=1e-3, help="fit tolerance relative to a patch's size")
+    pf.add_argument("--band", action="append", help="a SELECTION (JSON) around a feature's border "
+                    "(repeat for several border loops, e.g. both rims of a hole): print the region the "
+                    "minimum cut separates instead of the candidates")
+    pf.add_argument("--region-name", default="FEATURE", help="set name of the --band region")
+    pf.add_argument("--ids", action="store_true", help="include each candidate's vertex ids")
+    pf.add_argument("--write", help="write the mesh with the features as node sets")
+    pf.add_argument("--format", help="input meshio format name")
+    pf.add_argument("--output-format", help="output meshio format name")
+    pf.set_defaults(func=cmd_features)
     if extend is not None:
         extend(sub)
     return p

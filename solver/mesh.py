@@ -289,8 +289,11 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
     for name, ids in (m.point_sets or {}).items():
         sets[name] = np.unique(np.asarray(ids, dtype=np.int64))
     for name, per_block in (m.cell_sets or {}).items():
+        if name.startswith("gmsh:"):  # meshio's entity bookkeeping (bounding entities), not a set
+            continue
         nodes = [np.asarray(m.cells[b].data)[np.asarray(ix, dtype=np.int64)].ravel()
-                 for b, ix in enumerate(per_block) if ix is not None and len(ix)]
+                 for b, ix in enumerate(per_block)
+                 if ix is not None and np.ndim(ix) == 1 and len(ix) and b < len(m.cells)]
         if nodes and name not in sets:
             sets[name] = np.unique(np.concatenate(nodes))
     # gmsh physical groups: cell data "gmsh:physical" with names in field_data
@@ -383,7 +386,8 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
 
 def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
                file_format: str | None = None, point_data: dict[str, np.ndarray] | None = None,
-               cell_data: dict[str, list[np.ndarray]] | None = None) -> None:
+               cell_data: dict[str, list[np.ndarray]] | None = None,
+               point_sets: dict[str, np.ndarray] | None = None) -> None:
     """Write ``mesh`` with new coordinates ``V``, changing nothing else.
 
     Parameters
@@ -396,6 +400,10 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         meshio format name; defaults to the extension.
     point_data, cell_data : dict, optional
         Extra arrays to add (for example per-element quality).
+    point_sets : dict of str to int array, optional
+        Extra node sets (vertex ids) to add, e.g. detected features; written
+        where the format has node sets (Abaqus NSET, Gmsh physical groups are
+        not created).
 
     Raises
     ------
@@ -416,6 +424,8 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     else:
         cells = [("tetra", mesh.T)] if not mesh.is_surface else [("triangle", mesh.surface)]
         out = meshio.Mesh(V, cells, point_sets={k: v for k, v in mesh.sets.items()})
+    if point_sets:
+        out.point_sets = {**out.point_sets, **{k: np.asarray(v, np.int64) for k, v in point_sets.items()}}
     if point_data:
         out.point_data.update(point_data)
     if cell_data:

@@ -30,7 +30,7 @@ from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
 from .errors import SpecError, format_ids
 from .mesh import Mesh
-from .rotation import rotate_by_log
+from .rotation import log_to_matrix, rotate_by_log
 from .spec import Move, Spec
 
 __all__ = ["Block", "position_blocks", "rotation_blocks", "assemble", "block_targets", "describe"]
@@ -243,8 +243,7 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
             s = mv.features.get(name, 1.0)
             if root < 0:
                 return s * D0
-            r = np.repeat(rot(np.array([root])), D0.shape[0], axis=0)
-            return s * rotate_by_log(D0, r)
+            return (s * D0) @ log_to_matrix(rot(np.array([root]))[0]).T
 
         rows = np.repeat(np.arange(m), 2)
         verts = np.stack([chi, par], axis=1).ravel()

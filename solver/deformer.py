@@ -43,7 +43,7 @@ from .mvc_matrix import mvc_matrix
 from .quality import DEGENERATE_TOL, tet_quality
 from .rotation import rotate_by_log
 from .selection import select
-from .spec import Move, Spec, parse_move, parse_spec
+from .spec import HandleMove, Move, Spec, parse_move, parse_spec
 
 __all__ = ["Deformer", "DeformResult", "precompute"]
 
@@ -54,6 +54,9 @@ REPORT_IDS = 100
 #: once more. Normal equations square the condition number, which slivers make
 #: large (screw.msh: rigid-motion error 6e-8 of the diagonal without, <1e-10 with).
 REFINE_STEPS = 1
+#: The refinement step is skipped when, for a probe move at set-up, it moves no
+#: vertex by more than this fraction of the diagonal (Deformer.refine_probe).
+REFINE_TOL = 1e-11
 #: A dropped constraint row whose residual exceeds this fraction of the mesh
 #: diagonal (positions) or this many radians/2 (rotation logarithms) conflicts.
 CONFLICT_TOL = 1e-9
@@ -222,6 +225,12 @@ class Deformer:
             self._setup_joint(Lb, Mi, wi)
         else:
             self._setup_split(Lb, Mi, constrained)
+        self._bpos = np.full(n, -1, np.int64)
+        self._bpos[self._bidx] = np.arange(self._bidx.size)
+        self.refine_steps = REFINE_STEPS
+        self.refine_probe = self._probe_refinement()
+        if self.refine_probe <= REFINE_TOL * self._diag:
+            self.refine_steps = 0
         t_pos = time.perf_counter() - t2
         report("positions", 0.95)
 
@@ -438,13 +447,11 @@ class Deformer:
                 s[h] = np.log(hm.scale)
         return C, s
 
-    def solve_positions(self, mv: Move) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Positions for a parsed MOVE: ``(P, U, d)`` -- positions (n, 3), fixed/handle
-        targets (k, 3) and the position system's row targets (or None)."""
+    def _right_hand_sides(self, mv: Move) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Fixed/handle targets U (k, 3), rotated normals b (n, 3) (eq. 3.2) and row targets d."""
         U = self.targets(mv)
         r, sigma = self.rotation_field(mv)
-        bpos = np.full(self.mesh.n, -1, np.int64)
-        bpos[self._bidx] = np.arange(self._bidx.size)
+        bpos = self._bpos
 
         def rot_at(ids: np.ndarray) -> np.ndarray:
             return r[bpos[ids]]
@@ -452,17 +459,43 @@ class Deformer:
         b = np.zeros((self.mesh.n, 3))
         if self._bidx.size:
             b[self._bidx] = np.exp(sigma)[:, None] * rotate_by_log(self._delta[self._bidx], r)
+        d = block_targets(self._blocks, self._pasm, mv, rot_at) if self._psys is not None else None
+        return U, b, d
+
+    def _probe_refinement(self) -> float:
+        """Size of the refinement step for a probe move (every handle turned 10° and moved 1%).
+
+        Residual form makes one back-substitution exact to round-off on
+        well-conditioned systems; slivers (large condition numbers) need the
+        refinement step. Returns the step's largest vertex correction.
+        """
+        if self._psys is None or not self.handle_names:
+            return 0.0
+        axis = np.array([0.36, 0.48, 0.8])
+        mv = Move({h: HandleMove(0.01 * self._diag * axis, np.radians(10.0) / 2 * axis)
+                   for h in self.handle_names})
+        _, b, d = self._right_hand_sides(mv)
+        sysp = self._psys
+        x = sysp.start(self._layout(self.mesh.V[self._unknowns]), d)
+        c = self._layout(b[self._rows])
+        x = x + sysp.step(sysp.gradient(x, c), x, d)
+        dx = sysp.step(sysp.gradient(x, c), x, d)
+        return float(np.abs(dx).max())
+
+    def solve_positions(self, mv: Move) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Positions for a parsed MOVE: ``(P, U, d)`` -- positions (n, 3), fixed/handle
+        targets (k, 3) and the position system's row targets (or None)."""
+        U, b, d = self._right_hand_sides(mv)
         # Residual form: every system is solved for the displacement of the free
         # vertices from their rest positions, so round-off scales with the change,
         # not with the coordinates (a zero move gives exactly the rest shape).
         V0 = self.mesh.V
         P = V0.copy()
         P[self._constrained] = U
-        d = None
         if self._psys is not None:
-            d = block_targets(self._blocks, self._pasm, mv, rot_at)
             u = self._unknowns
-            x = self._psys.solve(self._layout(V0[u]), d, self._layout(b[self._rows]), refine=REFINE_STEPS)
+            x = self._psys.solve(self._layout(V0[u]), d, self._layout(b[self._rows]),
+                                 refine=self.refine_steps)
             P[u] = self._unlayout(x)
         if self._fi.size:
             P[self._fi] -= self._finter.solve(self._Mfi @ P)
@@ -575,7 +608,9 @@ class Deformer:
             "conflicting_constraints": cons["conflicting_constraints"],
             "max_displacement": float(np.linalg.norm(P - mesh.V, axis=1).max()),
             "solve_method": self.spec.method, "solve_mode": self.solve_mode,
-            "backend": fz.backend(), "lu_backend": fz.lu_backend(),
+            "refine_steps": self.refine_steps,
+            "backend": fz.backend(),
+            "lu_backend": self._finter.name if getattr(self, "_finter", None) is not None else None,
             "finite": bool(np.isfinite(P).all()),
         }
         if not mesh.is_surface:

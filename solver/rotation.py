@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rotate_by_log"]
+__all__ = ["rotate_by_log", "log_to_matrix"]
 
 
 def rotate_by_log(v: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -36,3 +36,23 @@ def rotate_by_log(v: np.ndarray, r: np.ndarray) -> np.ndarray:
     s = np.sin(theta)[:, None]
     adv = np.einsum("ij,ij->i", a, v)[:, None]
     return v * c + np.cross(a, v) * s + a * adv * (1.0 - c)
+
+
+def log_to_matrix(r: np.ndarray) -> np.ndarray:
+    """Rotation matrix (3, 3) of one quaternion logarithm ``r`` (3,): about ``r/|r|`` by ``2|r|``.
+
+    Examples
+    --------
+    >>> (log_to_matrix(np.array([0, 0, np.pi / 4])) @ [1.0, 0, 0]).round(12).tolist()
+    [0.0, 1.0, 0.0]
+    """
+    half = float(np.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
+    if half == 0.0:
+        return np.eye(3)
+    x, y, z = (float(c) / half for c in r)
+    th = 2.0 * half
+    c, s = np.cos(th), np.sin(th)
+    C = 1.0 - c
+    return np.array([[c + x * x * C, x * y * C - z * s, x * z * C + y * s],
+                     [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
+                     [z * x * C - y * s, z * y * C + x * s, c + z * z * C]])

@@ -100,7 +100,7 @@ def main() -> None:
                 "fixed": ["f"], "handles": {"h": "h"}, "solve": "split"}
         name = f"cube n={a.n}"
     d = precompute(mesh, spec)
-    Af = sp.csr_matrix(d._Bft.T)
+    Af = sp.csr_matrix(d._psys.A @ d._psys.ra.Z)  # boundary rows on the free boundary unknowns
     Mb = (Af.T @ Af).tocsc()
     Mi = sp.csr_matrix(d._Mfi[:, d._fi])
     rng = np.random.default_rng(1)

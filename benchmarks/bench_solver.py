@@ -97,8 +97,9 @@ def main() -> None:
         return
     sizes = a.sizes or ("12,26,55" if a.mesh == "cube" else "2.1,0.95,0.44")
     print(f"mesh: {a.mesh}")
-    print("| tets | vertices | solve | setup s (assembly + factor) | update ms: solve | update ms: solve+check | peak RSS GB |")
-    print("|---:|---:|---|---:|---:|---:|---:|")
+    print("| tets | vertices | solve | setup s (assembly + factor) | update ms: solve | update ms: solve+check | "
+          "peak RSS GB | inverted (last update) |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|")
     for size in sizes.split(","):
         if a.mesh == "bracket":
             bracket_deck(float(size))
@@ -107,12 +108,12 @@ def main() -> None:
                                   "--updates", str(a.updates)], capture_output=True, text=True)
             if out.returncode != 0:
                 print(f"| {a.mesh} {size} | | {mode} | failed: "
-                      f"{out.stderr.strip().splitlines()[-1]} | | | |")
+                      f"{out.stderr.strip().splitlines()[-1]} | | | | |")
                 continue
             r = json.loads(out.stdout.strip().splitlines()[-1])
             print(f"| {r['tets']:,} | {r['vertices']:,} | {mode} | {r['setup_s']:.2f} "
                   f"({r['assembly_s']:.2f} + {r['factor_s']:.2f}) | {r['update_solve_ms']:.1f} | "
-                  f"{r['update_total_ms']:.1f} | {r['peak_rss_gb']:.2f} |", flush=True)
+                  f"{r['update_total_ms']:.1f} | {r['peak_rss_gb']:.2f} | {r['inverted']} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -108,10 +108,11 @@ def backend() -> str:
 _LU_BACKEND: str | None = None
 #: Square systems up to this size use SuperLU even when PARDISO is there: PARDISO
 #: costs ~2 ms per solve however small the system (255 unknowns: 2.3 ms vs 0.03 ms;
-#: 2,588: 2.4 vs 0.41 ms; 12,892: 14.9 vs 9.4 ms), while SuperLU's factorization
-#: grows much faster beyond (48,651 unknowns: 19 s vs 1.1 s). Measured on the
-#: interior mean-value systems of the bracket and plate decks.
-LU_SMALL = 15_000
+#: 2,588: 2.4 vs 0.41 ms), while SuperLU's factorization grows much faster with
+#: size (12,892 unknowns of the 107k-tet bracket: 0.33 s vs 0.17 s, for a 9.4 vs
+#: 14.9 ms solve; the 105k-tet cube's interior: set-up 1.80 s instead of 0.94 s;
+#: 48,651 unknowns: 19 s vs 1.1 s). Measured on interior mean-value systems.
+LU_SMALL = 5_000
 
 
 def lu_backend() -> str:

@@ -168,7 +168,9 @@ def parse_spec(doc: Any) -> Spec:
     doc : dict
         ``{"selections": {...}, "fixed": [...], "handles": {...}, "laplacian": ...,
         "constraints": {"method": ..., "penalty_weight": ...}, "solve": ...,
-        "rotation": ..., "inversion": ...}``.
+        "rotation": ..., "inversion": ..., "points": [...], "relative": [...],
+        "features": [...], "motion": [...], "sliding": [...], "conflicts": ...}``;
+        the README's "Hard constraints" section gives each form.
 
     Returns
     -------
@@ -178,7 +180,8 @@ def parse_spec(doc: Any) -> Spec:
     ------
     SpecError
         Unknown fields, names that are not selections, bad values, a selection
-        used both as fixed and as a handle, or two handles on one selection.
+        used both as fixed and as a handle, two handles on one selection, or a
+        constraint name used twice in one list.
 
     Examples
     --------

@@ -9,6 +9,9 @@ from fastapi import APIRouter, File, Form, Query, Response, UploadFile
 from pydantic import BaseModel, Field
 
 from solver.errors import InvalidMeshError
+from solver.features import feature_candidates, feature_region
+from solver.selection import select
+from solver.spec import parse_spec
 from solver.mesh import mesh_from_arrays
 
 from ..errors import ServiceError
@@ -115,6 +118,49 @@ async def download_mesh(
     stem = safe_name(meta["name"].rsplit(".", 1)[0], "mesh")
     body, fname, media = await reg.run(export_mesh, mesh, mesh.V, fmt, stem)
     return _file(body, fname, media)
+
+
+@router.get("/meshes/{mesh_id}/features", summary="Form-feature candidates of a mesh")
+async def mesh_features(
+    mesh_id: str,
+    angle: Annotated[float, Query(gt=0, lt=180, description="sharp-edge dihedral angle, degrees")] = 30.0,
+    tol: Annotated[float, Query(gt=0, le=0.1, description="fit tolerance relative to a patch's size")
+                   ] = 1e-3,
+    ids: Annotated[bool, Query(description="include each candidate's vertex ids (a SPEC selection)")
+                   ] = False,
+    owner: str = Owner, reg: Registry = Reg,
+) -> list[dict[str, Any]]:
+    """Boundary patches between sharp edges fitted as hole / boss / plane / other (see README)."""
+    mesh = await reg.mesh(reg.mesh_meta(owner, mesh_id))
+    cands = await reg.run(feature_candidates, mesh, angle, tol)
+    out = [c.to_dict() for c in cands]
+    if not ids:
+        for c in out:
+            c.pop("selection")
+    return out
+
+
+class Band(BaseModel):
+    """Selections whose union is a band around a feature's border."""
+
+    band: list[dict[str, Any]] = Field(min_length=1, description="SELECTION documents (as in a SPEC)")
+
+
+@router.post("/meshes/{mesh_id}/feature-region", summary="Min-cut feature region inside a band")
+async def mesh_feature_region(mesh_id: str, body: Band, owner: str = Owner,
+                              reg: Registry = Reg) -> dict[str, Any]:
+    """The region the minimum cut through the band separates (Form features §4.3)."""
+    mesh = await reg.mesh(reg.mesh_meta(owner, mesh_id))
+    sels = {f"band{k}": sel for k, sel in enumerate(body.band)}
+    parse_spec({"selections": sels, "fixed": list(sels)})  # 422 on a malformed selection
+
+    def region() -> dict[str, Any]:
+        band = np.unique(np.concatenate([select(mesh, sel, name) for name, sel in sels.items()]))
+        r = feature_region(mesh, band)
+        return {"vertices": int(r["ids"].size), "faces": int(r["faces"].size), "area": r["area"],
+                "cut_edges": int(r["cut_edges"].shape[0]), "selection": {"ids": r["ids"].tolist()}}
+
+    return await reg.run(region)
 
 
 @router.delete("/meshes/{mesh_id}", status_code=204, summary="Delete a mesh")

@@ -478,3 +478,29 @@ def test_conflicting_constraints_are_reported_or_rejected(client, tc):
         client.deform(s2["id"], {**MOVES[0], "points": {"p": [0, 0, 0]}})
     assert ex.value.status == 422 and ex.value.code == "conflicting_constraints"
     np.testing.assert_array_equal(client.positions(s2["id"]), X0)
+
+
+def test_feature_candidates_and_min_cut_region_over_http(client, tc):
+    mesh = upload_bracket(client)
+    r = tc.get(f"/v1/meshes/{mesh['id']}/features")
+    assert r.status_code == 200
+    kinds = [c["kind"] for c in r.json()]
+    assert kinds.count("hole") == 1 and kinds.count("plane") == 6
+    hole = next(c for c in tc.get(f"/v1/meshes/{mesh['id']}/features?ids=true").json()
+                if c["kind"] == "hole")
+    assert abs(hole["radius"] - 5) < 1e-6
+    band = [{"box": {"min": [52, 2, -1], "max": [68, 18, 2]}, "boundary_only": True},
+            {"box": {"min": [52, 2, 8], "max": [68, 18, 11]}, "boundary_only": True}]
+    r = tc.post(f"/v1/meshes/{mesh['id']}/feature-region", json={"band": band})
+    assert r.status_code == 200
+    assert sorted(r.json()["selection"]["ids"]) == sorted(hole["selection"]["ids"])
+    # the returned selection is usable as a rigid feature in a session
+    spec = {**BRACKET_SPEC, "selections": {**BRACKET_SPEC["selections"], "wall": r.json()["selection"]},
+            "features": [{"selection": "wall", "mode": "rigid", "name": "bolt"}]}
+    s = client.create_session(mesh["id"], spec)
+    X, rep = client.deform(s["id"], MOVES[0])
+    assert rep["constraint_residual_max"] < 1e-9
+    r = tc.post(f"/v1/meshes/{mesh['id']}/feature-region", json={"band": band[:1]})
+    assert r.status_code == 422 and err(r)["code"] == "band_not_separating"
+    r = tc.post(f"/v1/meshes/{mesh['id']}/feature-region", json={"band": [{"cube": 1}]})
+    assert r.status_code == 422

@@ -416,7 +416,9 @@ class Registry:
             if not r.report["finite"]:
                 raise ServiceError(422, "the solve produced non-finite positions; the session is "
                                    "unchanged", code="non_finite_result", report=r.report)
-            s.positions, s.report, s.last_move = r.V, _small(r.report), move
+            # a clamped MOVE is stored as applied, so a rebuild reproduces these positions
+            applied = r.move.to_dict() if r.report.get("clamped") and r.move is not None else move
+            s.positions, s.report, s.last_move = r.V, _small(r.report), applied
             s.updates += 1
             s.last_used = time.time()
             self.store.save_session(s.record())

@@ -68,7 +68,7 @@ def cmd_morph(args: argparse.Namespace) -> int:
     for i, mv in enumerate(moves):
         out = args.output.replace("{i}", str(i))
         try:
-            res = deformer.solve(mv)
+            res = deformer.solve(mv, args.inversion)
         except InversionError as e:
             reports.append({"move": i, "output": None, **e.report, "error": e.to_dict()})
             print(f"move {i}: rejected, {e.message}", file=sys.stderr)
@@ -78,6 +78,9 @@ def cmd_morph(args: argparse.Namespace) -> int:
         rep = {"move": i, "output": out, **res.report}
         reports.append(rep)
         t = rep["timings"]["update"]
+        if rep.get("clamped"):
+            print(f"move {i}: clamped to {rep['applied_fraction']:.4f} of the move "
+                  f"({rep['inverted_elements_unclamped']} elements inverted at full size)", file=sys.stderr)
         print(f"move {i}: wrote {out}  inverted={rep['inverted_elements']}  "
               f"min_sj={rep['min_scaled_jacobian']}  residual={rep['constraint_residual_max']:.3g}  "
               f"update={t['total_ms']:.1f} ms")
@@ -142,6 +145,9 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pm.add_argument("--report", help="write the REPORT (a list with --moves) as JSON")
     pm.add_argument("--format", help="input meshio format name")
     pm.add_argument("--output-format", help="output meshio format name")
+    pm.add_argument("--inversion", choices=["warn", "reject", "clamp"],
+                    help="override the SPEC's inversion policy; 'clamp' writes the largest safe "
+                    "fraction of an inverting MOVE")
     pm.set_defaults(func=cmd_morph)
     pf = sub.add_parser("features", help="form-feature candidates (holes, bosses, planes) or the "
                         "min-cut feature region inside a band")

@@ -43,7 +43,7 @@ from .mvc_matrix import mvc_matrix
 from .quality import DEGENERATE_TOL, tet_quality
 from .rotation import rotate_by_log
 from .selection import select
-from .spec import HandleMove, Move, Spec, parse_move, parse_spec
+from .spec import INVERSION_POLICIES, HandleMove, Move, Spec, parse_move, parse_spec
 
 __all__ = ["Deformer", "DeformResult", "precompute"]
 
@@ -57,6 +57,8 @@ REFINE_STEPS = 1
 #: The refinement step is skipped when, for a probe move at set-up, it moves no
 #: vertex by more than this fraction of the diagonal (Deformer.refine_probe).
 REFINE_TOL = 1e-11
+#: Bracket width of the safe-fraction bisection (10 halvings).
+SAFE_TOL = 1.0 / 1024
 #: A dropped constraint row whose residual exceeds this fraction of the mesh
 #: diagonal (positions) or this many radians/2 (rotation logarithms) conflicts.
 CONFLICT_TOL = 1e-9
@@ -72,10 +74,13 @@ class DeformResult:
         Deformed positions in file order (unreferenced vertices unchanged).
     report : dict
         The REPORT document.
+    move : Move
+        The MOVE that was applied (the scaled one when the policy clamped it).
     """
 
     V: np.ndarray
     report: dict[str, Any]
+    move: Move | None = None
 
 
 def _csr(M: sp.spmatrix) -> sp.csr_matrix:
@@ -536,6 +541,86 @@ class Deformer:
         return {"constraint_residual_max": res_max, "constraint_rows": rows,
                 "redundant_constraints": redundant, "conflicting_constraints": conflicting}
 
+    # --------------------------------------------------------------- safe step
+    def scaled_move(self, mv: Move, f: float) -> Move:
+        """The MOVE scaled by ``f`` in [0, 1]: ``f = 0`` is the rest shape, ``f = 1`` the MOVE.
+
+        Handles: translation ``f t``, rotation angle ``f θ``, scale ``s^f``.
+        Point and motion targets and relative offsets: ``rest + f (target - rest)``.
+        Feature and relative scales: ``s^f``.
+        """
+        V0 = self.mesh.V
+        handles = {k: h.interpolate(f) for k, h in mv.handles.items()}
+        rest: dict[tuple[str, str], np.ndarray] = {}
+        for b in self._blocks:
+            if b.kind in ("point", "motion"):
+                rest[(b.kind, b.name)] = b.coeff[b.row == 0] @ V0[b.vert[b.row == 0]]
+        points = {}
+        for e in self.spec.points:
+            target = mv.points.get(e["name"], np.asarray(e["target"]) if "target" in e else None)
+            if target is not None:
+                r0 = rest[("point", e["name"])]
+                points[e["name"]] = r0 + f * (np.asarray(target) - r0)
+        motion = {k: rest[("motion", k)] + f * (v - rest[("motion", k)]) for k, v in mv.motion.items()}
+        relative = {}
+        for k, v in mv.relative.items():
+            if "offset" in v:
+                i, j = next(e["vertices"] for e in self.spec.relative if e["name"] == k)
+                r0 = V0[i] - V0[j]
+                relative[k] = {"offset": r0 + f * (v["offset"] - r0)}
+            else:
+                relative[k] = {"scale": v["scale"] ** f}
+        features = {k: v ** f for k, v in mv.features.items()}
+        return Move(handles, points, relative, features, motion)
+
+    def _inverted(self, P: np.ndarray) -> int:
+        vol6, sj = tet_quality(P, self._Tt)
+        return int(np.count_nonzero((vol6 <= 0) | (np.abs(sj) <= DEGENERATE_TOL)))
+
+    def safe_fraction(self, move: Move | dict[str, Any], tol: float = SAFE_TOL,
+                      inverts: bool | None = None) -> tuple[float, int]:
+        """Largest fraction of a MOVE that inverts no element, by bisection.
+
+        Each step is one back-substitution and one volume check (no
+        refactorization). ``f = 0`` (the rest shape) is valid because inputs
+        with inverted elements are refused.
+
+        Parameters
+        ----------
+        move : Move or dict
+        tol : float
+            Width of the final bracket in ``f``.
+        inverts : bool, optional
+            Whether the whole MOVE is known to invert (saves one solve).
+
+        Returns
+        -------
+        f : float
+            1.0 when the whole MOVE is valid; else the valid end of the final
+            bracket (``[f, f + tol]`` contains the first inverting fraction
+            that bisection meets).
+        steps : int
+            Solves used.
+        """
+        mv = self.parse_move(move)
+        if self.mesh.is_surface:
+            return 1.0, 0
+        steps = 0
+        if inverts is None:
+            steps = 1
+            inverts = self._inverted(self.solve_positions(mv)[0]) > 0
+        if not inverts:
+            return 1.0, steps
+        lo, hi = 0.0, 1.0
+        while hi - lo > tol:
+            mid = 0.5 * (lo + hi)
+            steps += 1
+            if self._inverted(self.solve_positions(self.scaled_move(mv, mid))[0]) == 0:
+                lo = mid
+            else:
+                hi = mid
+        return lo, steps
+
     def solve(self, move: Move | dict[str, Any], inversion: str | None = None) -> DeformResult:
         """Deform for one MOVE by back-substitution only.
 
@@ -543,12 +628,17 @@ class Deformer:
         ----------
         move : Move or dict
             A parsed :class:`~solver.spec.Move` or a MOVE document.
-        inversion : {"warn", "reject"}, optional
-            Overrides the SPEC's policy.
+        inversion : {"warn", "reject", "clamp"}, optional
+            Overrides the SPEC's policy. With ``"clamp"`` an inverting MOVE is
+            scaled by its safe fraction (:meth:`safe_fraction`) and the REPORT
+            says so (``clamped``, ``applied_fraction``,
+            ``inverted_elements_unclamped``).
 
         Returns
         -------
         DeformResult
+            The REPORT has ``safe_fraction`` when the MOVE inverted elements
+            (1.0 otherwise).
 
         Raises
         ------
@@ -564,8 +654,8 @@ class Deformer:
         t0 = time.perf_counter()
         mv = self.parse_move(move)
         policy = inversion or self.spec.inversion
-        if policy not in ("warn", "reject"):
-            raise SpecError(f"inversion policy must be 'warn' or 'reject', got {policy!r}")
+        if policy not in INVERSION_POLICIES:
+            raise SpecError(f"inversion policy must be one of {list(INVERSION_POLICIES)}, got {policy!r}")
         n0 = fz.STATS["factorizations"]
         t1 = time.perf_counter()
         solved = self.solve_positions(mv)
@@ -573,10 +663,27 @@ class Deformer:
         t2 = time.perf_counter()
         report = self._report(P, solved, mv)
         t3 = time.perf_counter()
+        safe_ms = 0.0
+        report["safe_fraction"] = 1.0
+        report["clamped"] = False
+        if report["inverted_elements"] > 0:
+            f, steps = self.safe_fraction(mv, inverts=True)
+            report["safe_fraction"] = f
+            report["safe_fraction_solves"] = steps
+            if policy == "clamp":
+                unclamped = report["inverted_elements"]
+                mv = self.scaled_move(mv, f)
+                solved = self.solve_positions(mv)
+                P = solved[0]
+                report = {**self._report(P, solved, mv), "safe_fraction": f, "safe_fraction_solves": steps,
+                          "clamped": True, "applied_fraction": f,
+                          "inverted_elements_unclamped": unclamped}
+            safe_ms = 1e3 * (time.perf_counter() - t3)
+        t4 = time.perf_counter()
         report["timings"] = {
             "setup": self.setup_timings,
             "update": {"rhs_ms": 1e3 * (t1 - t0), "solve_ms": 1e3 * (t2 - t1), "check_ms": 1e3 * (t3 - t2),
-                       "total_ms": 1e3 * (t3 - t0)},
+                       "safe_fraction_ms": safe_ms, "total_ms": 1e3 * (t4 - t0)},
         }
         report["refactorized"] = fz.STATS["factorizations"] != n0
         if self.spec.conflicts == "reject" and report["conflicting_constraints"]:
@@ -590,7 +697,7 @@ class Deformer:
                 f"the move inverts {report['inverted_elements']} elements (first "
                 f"{format_ids(report['inverted_ids'])}); policy 'reject' returns no result",
                 report)
-        return DeformResult(P, report)
+        return DeformResult(P, report, mv)
 
     def _report(self, P: np.ndarray, solved: tuple, mv: Move) -> dict[str, Any]:
         mesh = self.mesh

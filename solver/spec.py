@@ -27,7 +27,7 @@ FEATURE_MODES = ("rigid", "keep_direction")
 RELATIVE_MODES = ("rotate", "translate")
 SOLVE_MODES = ("auto", "split", "joint")
 ROTATIONS = ("harmonic", "least_squares")
-INVERSION_POLICIES = ("warn", "reject")
+INVERSION_POLICIES = ("warn", "reject", "clamp")
 SELECTION_KINDS = ("ids", "set", "box", "sphere", "plane")
 
 
@@ -56,7 +56,9 @@ class Spec:
     rotation : {"harmonic", "least_squares"}
         Rotation propagation: harmonic interpolation of quaternion logarithms
         (ECLS eq. 25-27) or the least-squares form of eq. (3.8)/(3.9).
-    inversion : {"warn", "reject"}
+    inversion : {"warn", "reject", "clamp"}
+        What an inverting MOVE does: solved and reported, refused, or scaled
+        back to its safe fraction (see :meth:`solver.deformer.Deformer.safe_fraction`).
     points, relative, features, motion, sliding : tuple of dict
         The further hard constraints, normalised (see :func:`parse_spec`).
     conflicts : {"report", "reject"}

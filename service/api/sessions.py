@@ -87,8 +87,9 @@ async def deform(
     kind: Annotated[Kind, Query()] = "positions",
     dtype: Annotated[Dtype, Query()] = "float64",
     format: Annotated[str, Query(description="mesh format for result=mesh")] = "vtu",
-    inversion: Annotated[Literal["warn", "reject"] | None, Query(
-        description="override the SPEC's inversion policy")] = None,
+    inversion: Annotated[Literal["warn", "reject", "clamp"] | None, Query(
+        description="override the SPEC's inversion policy; 'clamp' applies the largest safe "
+                    "fraction of an inverting MOVE")] = None,
     accept: Annotated[str | None, Header()] = None,
     owner: str = Owner, reg: Registry = Reg,
 ) -> Response:

@@ -27,7 +27,8 @@ router = APIRouter(tags=["sessions"])
 
 #: REPORT fields sent with each streamed frame.
 STREAM_REPORT = ("inverted_elements", "degenerate_elements", "min_scaled_jacobian",
-                 "constraint_residual_max", "max_displacement")
+                 "constraint_residual_max", "max_displacement", "safe_fraction", "clamped",
+                 "applied_fraction", "inverted_elements_unclamped", "conflicting_constraints")
 
 
 @router.websocket("/sessions/{session_id}/stream")

@@ -504,3 +504,27 @@ def test_feature_candidates_and_min_cut_region_over_http(client, tc):
     assert r.status_code == 422 and err(r)["code"] == "band_not_separating"
     r = tc.post(f"/v1/meshes/{mesh['id']}/feature-region", json={"band": [{"cube": 1}]})
     assert r.status_code == 422
+
+
+def test_clamp_policy_over_http_and_websocket(client, tc, tmp_path):
+    """An inverting MOVE with inversion=clamp: applied at its safe fraction, kept across a restart."""
+    mesh = upload_bracket(client)
+    s = client.create_session(mesh["id"], BRACKET_SPEC)
+    bad = {"handles": {"tip": {"rotation": {"axis": [0, 1, 0], "angle_deg": 170},
+                               "translation": [-90, 0, 0]}}}
+    _, rep = client.deform(s["id"], bad)
+    assert rep["inverted_elements"] > 0 and 0 < rep["safe_fraction"] < 1 and not rep["clamped"]
+    X, rep2 = client.deform(s["id"], bad, inversion="clamp")
+    assert rep2["clamped"] and rep2["inverted_elements"] == 0
+    assert rep2["applied_fraction"] == rep["safe_fraction"]
+    last = client.session(s["id"])["last_move"]
+    assert last != bad  # the applied (scaled) MOVE is what the session keeps
+    lib = precompute(read_mesh(BRACKET), BRACKET_SPEC).solve(last)
+    np.testing.assert_allclose(X, lib.V, atol=1e-9)
+    assert lib.report["inverted_elements"] == 0
+    with tc.websocket_connect(f"/v1/sessions/{s['id']}/stream") as ws:
+        ws.send_text(json.dumps({"seq": 1, "move": bad, "inversion": "clamp"}))
+        _, head = decode_frame(ws.receive_bytes())
+    assert head["report"]["clamped"] and head["report"]["inverted_elements"] == 0
+    r = tc.post(f"/v1/sessions/{s['id']}/deform?inversion=sideways", json=bad)
+    assert r.status_code == 422

@@ -32,7 +32,8 @@ Redundancy and conflicts (ECLS §5): constraint rows are ranked in priority
 order (their order in ``C``). Within each component, an unpivoted Householder
 QR of ``C^T`` measures each row's distance from the span of the rows before
 it; a row at relative distance ``<= rank_tol`` is *dependent* and dropped (the
-paper's "skip the column"). Every method uses only the kept rows. After a
+paper's "skip the column"), and the rows after it are measured again against
+the kept rows only (:func:`_independent_columns`). Every method uses only the kept rows. After a
 solve, :meth:`ConstrainedSolver.dropped_residuals` evaluates the dropped rows:
 consistent ones are redundant, inconsistent ones conflicting.
 """
@@ -111,26 +112,31 @@ def _component_labels(C: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray, int]:
     return lab[:N], lab[N:], int(lab.max()) + 1 if lab.size else 0
 
 
-def _dependent(R: np.ndarray, norms: np.ndarray, r: int, tol: float) -> np.ndarray:
-    """Which of the ``r`` columns of ``C^T`` are dependent on earlier columns.
+def _independent_columns(Ct: np.ndarray, norms: np.ndarray, tol: float) -> np.ndarray:
+    """Which columns of ``Ct`` (u, r) are independent of the columns before them.
 
-    With an unpivoted Householder QR, a dependent column ``k`` leaves a noise
-    reflector ``q_k``; later columns then split their true distance between
-    ``R[k, j]`` and ``R[j, j]``. Their distance from the span of the earlier
-    *kept* columns is the norm of ``R[D ∪ {j}, j]`` over the earlier dependent
-    indices ``D`` (and of ``R[D, j]`` only once ``j`` exceeds the rank of Q).
+    Blocked Gram-Schmidt with the paper's skip (ECLS §5): the columns not yet
+    decided are projected (twice) off the orthonormal basis of the kept ones
+    and factored by an unpivoted QR; every column before the first small
+    diagonal entry is kept, that column is dropped, and the pass restarts
+    after it. One QR per dependent column.
     """
-    u = R.shape[0]
-    dep = np.zeros(r, bool)
-    D: list[int] = []
-    for j in range(r):
-        idx = D + ([j] if j < u else [])
-        dist = float(np.linalg.norm(R[idx, j])) if idx else 0.0
-        if dist <= tol * norms[j]:
-            dep[j] = True
-            if j < u:
-                D.append(j)
-    return dep
+    u, r = Ct.shape
+    keep = np.zeros(r, bool)
+    Q = np.zeros((u, 0))
+    j = 0
+    while j < r and Q.shape[1] < u:
+        B = Ct[:, j:]
+        B = B - Q @ (Q.T @ B)
+        B = B - Q @ (Q.T @ B)
+        q, R = np.linalg.qr(B)
+        d = np.abs(np.diagonal(R))
+        ok = d > tol * norms[j:j + d.size]
+        bad = int(np.argmin(ok)) if not ok.all() else d.size
+        keep[j:j + bad] = True
+        Q = np.hstack([Q, q[:, :bad]])
+        j += bad + (1 if bad < d.size else 0)
+    return keep
 
 
 def rank_analysis(C: sp.csr_matrix, rank_tol: float = RANK_TOL) -> RankAnalysis:
@@ -231,8 +237,7 @@ def rank_analysis(C: sp.csr_matrix, rank_tol: float = RANK_TOL) -> RankAnalysis:
                     z_v.append(Q2.reshape(ci.size, -1).ravel())
                     ncol += ci.size * q
             for j in np.flatnonzero(~clean):
-                dep = _dependent(R[j], norms[j], r, rank_tol)
-                keep_local = np.flatnonzero(~dep)
+                keep_local = np.flatnonzero(_independent_columns(Ct[j], norms[j], rank_tol))
                 kept[rrows[j, keep_local]] = True
                 rk = keep_local.size
                 if rk:

@@ -218,8 +218,12 @@ class _PardisoFactor:
         self._A.sort_indices()
         mtype = (-2 if indefinite else 2) if symmetric else 11
         self._ps = pypardiso.PyPardisoSolver(mtype=mtype)
-        # no iterative refinement inside PARDISO: callers refine with their own residuals
-        self._ps.set_iparm(8, 0)
+        # pypardiso leaves iparm(1) = 0, which makes PARDISO use its defaults for every iparm.
+        # Saddle-point (KKT) systems need non-defaults (MKL docs: scaling and weighted matching
+        # for highly indefinite matrices, small pivot perturbation), so they set all of them.
+        if indefinite:
+            for i, v in ((1, 1), (2, 2), (8, 2), (10, 13), (11, 1), (13, 1), (18, -1), (21, 1)):
+                self._ps.set_iparm(i, v)
         self._ps.set_statistical_info_off()
         try:
             self._ps.factorize(self._A)

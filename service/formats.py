@@ -86,8 +86,12 @@ def resolve_format(fmt: str | None, filename: str | None = None,
     raise ServiceError(422, "no file name and no format given", code="unknown_format")
 
 
-def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str) -> tuple[bytes, str, str]:
+def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = False
+                ) -> tuple[bytes, str, str]:
     """Write ``mesh`` with positions ``V`` in a format, as bytes.
+
+    With ``quality`` the per-element metrics are written as cell data where
+    the format stores it.
 
     Formats that write several files (TetGen ``.node`` + ``.ele``) come back
     as one zip archive.
@@ -104,7 +108,7 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str) -> tuple[bytes, 
     name, ext = resolve_format(fmt)
     with tempfile.TemporaryDirectory(prefix="tetmorph-export-") as tmp:
         path = Path(tmp) / f"{stem}{ext}"
-        write_mesh(mesh, V, path, file_format=name)
+        write_mesh(mesh, V, path, file_format=name, quality=quality)
         files = sorted(p for p in Path(tmp).iterdir() if p.is_file())
         if len(files) == 1:
             return files[0].read_bytes(), files[0].name, "application/octet-stream"

@@ -397,8 +397,8 @@ class Registry:
                                code=(s.error or {}).get("code", "build_failed"), error=s.error)
         return await self._start_build(s)
 
-    async def deform(self, s: Session, move: dict[str, Any], inversion: str | None = None
-                     ) -> DeformResult:
+    async def deform(self, s: Session, move: dict[str, Any], inversion: str | None = None,
+                     quality: str = "basic") -> DeformResult:
         """Solve one MOVE (serialized per session) and make it the session's state.
 
         Raises
@@ -412,7 +412,7 @@ class Registry:
             d = await self.deformer(s)
             mv = d.parse_move(move)
             loop = asyncio.get_running_loop()
-            r = await loop.run_in_executor(self.solve_pool, d.solve, mv, inversion)
+            r = await loop.run_in_executor(self.solve_pool, d.solve, mv, inversion, quality)
             if not r.report["finite"]:
                 raise ServiceError(422, "the solve produced non-finite positions; the session is "
                                    "unchanged", code="non_finite_result", report=r.report)

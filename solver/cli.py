@@ -68,13 +68,13 @@ def cmd_morph(args: argparse.Namespace) -> int:
     for i, mv in enumerate(moves):
         out = args.output.replace("{i}", str(i))
         try:
-            res = deformer.solve(mv, args.inversion)
+            res = deformer.solve(mv, args.inversion, "full" if args.quality else "basic")
         except InversionError as e:
             reports.append({"move": i, "output": None, **e.report, "error": e.to_dict()})
             print(f"move {i}: rejected, {e.message}", file=sys.stderr)
             continue
         os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-        write_mesh(mesh, res.V, out, args.output_format)
+        write_mesh(mesh, res.V, out, args.output_format, quality=args.quality)
         rep = {"move": i, "output": out, **res.report}
         reports.append(rep)
         t = rep["timings"]["update"]
@@ -145,6 +145,8 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pm.add_argument("--report", help="write the REPORT (a list with --moves) as JSON")
     pm.add_argument("--format", help="input meshio format name")
     pm.add_argument("--output-format", help="output meshio format name")
+    pm.add_argument("--quality", action="store_true", help="REPORT quality summaries before/after "
+                    "and per-element metrics as cell data in the output (VTU, VTK, Gmsh)")
     pm.add_argument("--inversion", choices=["warn", "reject", "clamp"],
                     help="override the SPEC's inversion policy; 'clamp' writes the largest safe "
                     "fraction of an inverting MOVE")

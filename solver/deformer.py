@@ -40,7 +40,7 @@ from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from .errors import ConstraintError, InversionError, SolverError, SpecError, format_ids
 from .mesh import Mesh
 from .mvc_matrix import mvc_matrix
-from .quality import DEGENERATE_TOL, tet_quality
+from .quality import DEGENERATE_TOL, element_quality, summarize_quality, tet_quality
 from .rotation import rotate_by_log
 from .selection import select
 from .spec import INVERSION_POLICIES, HandleMove, Move, Spec, parse_move, parse_spec
@@ -76,11 +76,14 @@ class DeformResult:
         The REPORT document.
     move : Move
         The MOVE that was applied (the scaled one when the policy clamped it).
+    cell_quality : dict of str to (m,) array, optional
+        Per-element metrics (``quality="full"``), see :func:`solver.quality.element_quality`.
     """
 
     V: np.ndarray
     report: dict[str, Any]
     move: Move | None = None
+    cell_quality: dict[str, np.ndarray] | None = None
 
 
 def _csr(M: sp.spmatrix) -> sp.csr_matrix:
@@ -621,7 +624,15 @@ class Deformer:
                 hi = mid
         return lo, steps
 
-    def solve(self, move: Move | dict[str, Any], inversion: str | None = None) -> DeformResult:
+    @property
+    def quality_before(self) -> dict[str, Any]:
+        """Summary of every quality metric of the rest mesh (computed once)."""
+        if getattr(self, "_quality_before", None) is None:
+            self._quality_before = summarize_quality(element_quality(self.mesh.V, self.mesh.T))
+        return self._quality_before
+
+    def solve(self, move: Move | dict[str, Any], inversion: str | None = None,
+              quality: str = "basic") -> DeformResult:
         """Deform for one MOVE by back-substitution only.
 
         Parameters
@@ -633,6 +644,11 @@ class Deformer:
             scaled by its safe fraction (:meth:`safe_fraction`) and the REPORT
             says so (``clamped``, ``applied_fraction``,
             ``inverted_elements_unclamped``).
+        quality : {"basic", "full"}
+            ``"full"`` adds ``report["quality"] = {"before", "after"}`` (min,
+            percentiles, max and histograms of volume, scaled Jacobian, min/max
+            dihedral angle and aspect ratio) and the per-element arrays in
+            ``DeformResult.cell_quality``.
 
         Returns
         -------
@@ -656,6 +672,8 @@ class Deformer:
         policy = inversion or self.spec.inversion
         if policy not in INVERSION_POLICIES:
             raise SpecError(f"inversion policy must be one of {list(INVERSION_POLICIES)}, got {policy!r}")
+        if quality not in ("basic", "full"):
+            raise SpecError(f"quality must be 'basic' or 'full', got {quality!r}", field="quality")
         n0 = fz.STATS["factorizations"]
         t1 = time.perf_counter()
         solved = self.solve_positions(mv)
@@ -679,6 +697,10 @@ class Deformer:
                           "clamped": True, "applied_fraction": f,
                           "inverted_elements_unclamped": unclamped}
             safe_ms = 1e3 * (time.perf_counter() - t3)
+        cell_q = None
+        if quality == "full" and not self.mesh.is_surface:
+            cell_q = element_quality(P, self.mesh.T)
+            report["quality"] = {"before": self.quality_before, "after": summarize_quality(cell_q)}
         t4 = time.perf_counter()
         report["timings"] = {
             "setup": self.setup_timings,
@@ -697,7 +719,7 @@ class Deformer:
                 f"the move inverts {report['inverted_elements']} elements (first "
                 f"{format_ids(report['inverted_ids'])}); policy 'reject' returns no result",
                 report)
-        return DeformResult(P, report, mv)
+        return DeformResult(P, report, mv, cell_q)
 
     def _report(self, P: np.ndarray, solved: tuple, mv: Move) -> dict[str, Any]:
         mesh = self.mesh

@@ -387,7 +387,7 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
 def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
                file_format: str | None = None, point_data: dict[str, np.ndarray] | None = None,
                cell_data: dict[str, list[np.ndarray]] | None = None,
-               point_sets: dict[str, np.ndarray] | None = None) -> None:
+               point_sets: dict[str, np.ndarray] | None = None, quality: bool = False) -> None:
     """Write ``mesh`` with new coordinates ``V``, changing nothing else.
 
     Parameters
@@ -400,6 +400,10 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         meshio format name; defaults to the extension.
     point_data, cell_data : dict, optional
         Extra arrays to add (for example per-element quality).
+    quality : bool
+        Add the per-element metrics of :func:`solver.quality.element_quality`
+        at ``V`` as cell data (``quality:scaled_jacobian`` ...; NaN on
+        non-tet cells), where the format stores cell data (VTU, VTK, Gmsh).
     point_sets : dict of str to int array, optional
         Extra node sets (vertex ids) to add, e.g. detected features; written
         where the format has node sets (Abaqus NSET, Gmsh physical groups are
@@ -424,6 +428,12 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     else:
         cells = [("tetra", mesh.T)] if not mesh.is_surface else [("triangle", mesh.surface)]
         out = meshio.Mesh(V, cells, point_sets={k: v for k, v in mesh.sets.items()})
+    if quality and not mesh.is_surface:
+        from .quality import element_quality
+
+        q = element_quality(V, mesh.T)
+        cell_data = {**(cell_data or {}),
+                     **{f"quality:{k}": tet_cell_data(mesh, v, out) for k, v in q.items()}}
     if point_sets:
         out.point_sets = {**out.point_sets, **{k: np.asarray(v, np.int64) for k, v in point_sets.items()}}
     if point_data:
@@ -440,6 +450,25 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     except Exception as e:
         raise InvalidMeshError(f"cannot write {os.fspath(path)!r} as "
                                f"{file_format or 'its extension'}: {e}", code="unwritable_format") from e
+
+
+def tet_cell_data(mesh: Mesh, values: np.ndarray, out: meshio.Mesh | None = None) -> list[np.ndarray]:
+    """Per-tet ``values`` (m,) spread over the cell blocks of the written mesh (NaN elsewhere).
+
+    Tets are numbered as :attr:`Mesh.T`: the file's tetra blocks in order.
+    """
+    blocks = out.cells if out is not None else (mesh.source.cells if mesh.source is not None else None)
+    if blocks is None:
+        return [np.asarray(values, float)]
+    parts, k = [], 0
+    for c in blocks:
+        nc = len(c.data)
+        if c.type == "tetra":
+            parts.append(np.asarray(values[k:k + nc], float))
+            k += nc
+        else:
+            parts.append(np.full(nc, np.nan))
+    return parts
 
 
 def _needs_gmsh22(m: meshio.Mesh, path: str, file_format: str | None) -> bool:

@@ -10,7 +10,10 @@ from fastapi import APIRouter, Body, Header, Query, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
+from solver.quality import METRICS, element_quality, summarize_quality
+
 from ..binary import MEDIA_TYPE, encode_frame
+from ..errors import ServiceError
 from ..formats import export_mesh
 from ..registry import Registry, Session
 from .deps import Owner, Reg, safe_name
@@ -90,25 +93,29 @@ async def deform(
     inversion: Annotated[Literal["warn", "reject", "clamp"] | None, Query(
         description="override the SPEC's inversion policy; 'clamp' applies the largest safe "
                     "fraction of an inverting MOVE")] = None,
+    quality: Annotated[Literal["basic", "full"], Query(
+        description="full: REPORT quality summaries before/after (volume, scaled Jacobian, "
+                    "dihedral angles, aspect ratio; histograms) and, with result=mesh, per-element "
+                    "metrics as cell data")] = "basic",
     accept: Annotated[str | None, Header()] = None,
     owner: str = Owner, reg: Registry = Reg,
 ) -> Response:
     """Back-substitute for the MOVE and answer the REPORT and the result."""
     s = reg.session(owner, session_id)
-    r = await reg.deform(s, move, inversion)
+    r = await reg.deform(s, move, inversion, quality)
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
     if mode == "mesh":
-        return await _mesh_response(reg, s, r.V, format, r.report)
+        return await _mesh_response(reg, s, r.V, format, r.report, quality == "full")
     mesh = await reg.session_mesh(s)
     return result_response(r.V, mesh.V, r.report, mode, kind, dtype)
 
 
 async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
-                         report: dict[str, Any] | None) -> Response:
+                         report: dict[str, Any] | None, quality: bool = False) -> Response:
     mesh = await reg.session_mesh(s)
     meta = reg.store.mesh_meta(s.mesh_id) or {}
     stem = safe_name(str(meta.get("name", "mesh")).rsplit(".", 1)[0], "mesh") + "_deformed"
-    body, fname, media = await reg.run(export_mesh, mesh, V, fmt, stem)
+    body, fname, media = await reg.run(export_mesh, mesh, V, fmt, stem, quality)
     headers = {"Content-Disposition": f'attachment; filename="{fname}"'}
     if report is not None:
         small = {k: report[k] for k in ("inverted_elements", "degenerate_elements",
@@ -123,12 +130,34 @@ async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
 async def download_current(
     session_id: str,
     format: Annotated[str, Query(description="format name or extension")] = "vtu",
+    quality: Annotated[bool, Query(description="per-element quality metrics as cell data")] = False,
     owner: str = Owner, reg: Registry = Reg,
 ) -> Response:
     """The mesh at the session's last MOVE (rest shape before any), in any format."""
     s = reg.session(owner, session_id)
     V = await reg.positions(s)
-    return await _mesh_response(reg, s, V, format, s.report)
+    return await _mesh_response(reg, s, V, format, s.report, quality)
+
+
+@router.get("/sessions/{session_id}/quality", summary="Per-element quality of the current mesh")
+async def current_quality(
+    session_id: str,
+    metrics: Annotated[str | None, Query(description="comma-separated subset of "
+                                         f"{list(METRICS)}; default all")] = None,
+    owner: str = Owner, reg: Registry = Reg,
+) -> dict[str, Any]:
+    """Per-element metrics at the last MOVE (one list per metric, tet order of the file) and summaries."""
+    s = reg.session(owner, session_id)
+    names = list(METRICS) if metrics is None else [m.strip() for m in metrics.split(",") if m.strip()]
+    bad = sorted(set(names) - set(METRICS))
+    if bad or not names:
+        raise ServiceError(422, f"unknown metrics {bad}; choose from {list(METRICS)}",
+                           code="unknown_metric", unknown=bad)
+    V = await reg.positions(s)
+    mesh = await reg.session_mesh(s)
+    q = await reg.run(element_quality, V, mesh.T)
+    return {"elements": int(mesh.T.shape[0]), "summary": summarize_quality({k: q[k] for k in names}),
+            "per_element": {k: q[k].tolist() for k in names}}
 
 
 @router.get("/sessions/{session_id}/positions", summary="Current positions as JSON or binary",

@@ -528,3 +528,25 @@ def test_clamp_policy_over_http_and_websocket(client, tc, tmp_path):
     assert head["report"]["clamped"] and head["report"]["inverted_elements"] == 0
     r = tc.post(f"/v1/sessions/{s['id']}/deform?inversion=sideways", json=bad)
     assert r.status_code == 422
+
+
+def test_quality_summaries_cell_data_and_per_element_arrays(client, tc, tmp_path):
+    mesh = upload_bracket(client)
+    s = client.create_session(mesh["id"], BRACKET_SPEC)
+    r = tc.post(f"/v1/sessions/{s['id']}/deform?result=report&quality=full", json=MOVES[0])
+    assert r.status_code == 200
+    q = r.json()["report"]["quality"]
+    assert q["before"]["aspect_ratio"]["min"] >= 1.0 - 1e-9
+    assert sum(q["after"]["scaled_jacobian"]["histogram"]["counts"]) == 4228
+    body = tc.get(f"/v1/sessions/{s['id']}/mesh?format=vtu&quality=true").content
+    path = tmp_path / "q.vtu"
+    path.write_bytes(body)
+    back = meshio.read(path)
+    assert "quality:min_dihedral_deg" in back.cell_data
+    per = tc.get(f"/v1/sessions/{s['id']}/quality?metrics=scaled_jacobian,volume").json()
+    assert per["elements"] == 4228 and set(per["per_element"]) == {"scaled_jacobian", "volume"}
+    tets = np.concatenate([np.asarray(a) for a, c in zip(back.cell_data["quality:scaled_jacobian"],
+                                                         back.cells) if c.type == "tetra"])
+    np.testing.assert_allclose(per["per_element"]["scaled_jacobian"], tets)
+    r = tc.get(f"/v1/sessions/{s['id']}/quality?metrics=beauty")
+    assert r.status_code == 422 and err(r)["code"] == "unknown_metric"

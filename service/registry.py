@@ -398,7 +398,7 @@ class Registry:
         return await self._start_build(s)
 
     async def deform(self, s: Session, move: dict[str, Any], inversion: str | None = None,
-                     quality: str = "basic") -> DeformResult:
+                     quality: str = "basic", repair: bool | None = None) -> DeformResult:
         """Solve one MOVE (serialized per session) and make it the session's state.
 
         Raises
@@ -412,7 +412,7 @@ class Registry:
             d = await self.deformer(s)
             mv = d.parse_move(move)
             loop = asyncio.get_running_loop()
-            r = await loop.run_in_executor(self.solve_pool, d.solve, mv, inversion, quality)
+            r = await loop.run_in_executor(self.solve_pool, d.solve, mv, inversion, quality, repair)
             if not r.report["finite"]:
                 raise ServiceError(422, "the solve produced non-finite positions; the session is "
                                    "unchanged", code="non_finite_result", report=r.report)

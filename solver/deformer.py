@@ -40,6 +40,7 @@ from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from .errors import ConstraintError, InversionError, SolverError, SpecError, format_ids
 from .mesh import Mesh
 from .mvc_matrix import mvc_matrix
+from .repair import repair_inverted
 from .quality import DEGENERATE_TOL, element_quality, summarize_quality, tet_quality
 from .rotation import rotate_by_log
 from .selection import select
@@ -631,8 +632,19 @@ class Deformer:
             self._quality_before = summarize_quality(element_quality(self.mesh.V, self.mesh.T))
         return self._quality_before
 
+    @property
+    def movable(self) -> np.ndarray:
+        """(n,) bool: free interior vertices (in no hard constraint), which repair may move."""
+        if getattr(self, "_movable", None) is None:
+            mv = self.mesh.interior & self.mesh.referenced
+            mv[self._constrained] = False
+            for b in self._blocks:
+                mv[b.vert] = False
+            self._movable = mv
+        return self._movable
+
     def solve(self, move: Move | dict[str, Any], inversion: str | None = None,
-              quality: str = "basic") -> DeformResult:
+              quality: str = "basic", repair: bool | None = None) -> DeformResult:
         """Deform for one MOVE by back-substitution only.
 
         Parameters
@@ -644,6 +656,11 @@ class Deformer:
             scaled by its safe fraction (:meth:`safe_fraction`) and the REPORT
             says so (``clamped``, ``applied_fraction``,
             ``inverted_elements_unclamped``).
+        repair : bool, optional
+            Overrides ``SPEC.repair``: untangle inverted elements by moving
+            free interior vertices near them (:func:`solver.repair.repair_inverted`);
+            ``report["repair"]`` says what happened. Never worse: a repair that
+            does not reduce the inverted count is discarded.
         quality : {"basic", "full"}
             ``"full"`` adds ``report["quality"] = {"before", "after"}`` (min,
             percentiles, max and histograms of volume, scaled Jacobian, min/max
@@ -681,6 +698,16 @@ class Deformer:
         t2 = time.perf_counter()
         report = self._report(P, solved, mv)
         t3 = time.perf_counter()
+        do_repair = self.spec.repair if repair is None else repair
+        repair_rep = None
+        if do_repair and report["inverted_elements"] > 0 and not self.mesh.is_surface:
+            rr = repair_inverted(self.mesh.V, P, self.mesh.T, self.movable)
+            repair_rep = rr.report
+            if rr.report["accepted"]:
+                P = rr.V
+                solved = (P, *solved[1:])
+                report = self._report(P, solved, mv)
+            t3 = time.perf_counter()
         safe_ms = 0.0
         report["safe_fraction"] = 1.0
         report["clamped"] = False
@@ -697,6 +724,8 @@ class Deformer:
                           "clamped": True, "applied_fraction": f,
                           "inverted_elements_unclamped": unclamped}
             safe_ms = 1e3 * (time.perf_counter() - t3)
+        if repair_rep is not None:
+            report["repair"] = repair_rep
         cell_q = None
         if quality == "full" and not self.mesh.is_surface:
             cell_q = element_quality(P, self.mesh.T)

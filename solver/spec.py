@@ -64,6 +64,9 @@ class Spec:
     conflicts : {"report", "reject"}
         What a conflicting constraint does: reported in the REPORT, or the
         SPEC (and any MOVE) that makes constraints conflict is refused.
+    repair : bool
+        Untangle inverted elements after each solve by moving free interior
+        vertices near them (:mod:`solver.repair`).
     """
 
     selections: dict[str, dict[str, Any]]
@@ -81,6 +84,7 @@ class Spec:
     motion: tuple[dict[str, Any], ...] = ()
     sliding: tuple[dict[str, Any], ...] = ()
     conflicts: str = "report"
+    repair: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""
@@ -89,7 +93,7 @@ class Spec:
             "laplacian": self.laplacian,
             "constraints": {"method": self.method, "penalty_weight": self.penalty_weight},
             "solve": self.solve, "rotation": self.rotation, "inversion": self.inversion,
-            "conflicts": self.conflicts,
+            "conflicts": self.conflicts, "repair": self.repair,
         }
         for key in ("points", "relative", "features", "motion", "sliding"):
             if getattr(self, key):
@@ -194,7 +198,7 @@ def parse_spec(doc: Any) -> Spec:
     """
     _check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
                       "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
-                      "conflicts"), "SPEC")
+                      "conflicts", "repair"), "SPEC")
     sels = doc.get("selections", {})
     _expect(isinstance(sels, dict) and len(sels) > 0, "SPEC.selections must name at least one selection",
             field="selections")
@@ -231,6 +235,9 @@ def parse_spec(doc: Any) -> Spec:
         val = doc.get(key, default)
         _expect(val in allowed, f"SPEC.{key} must be one of {list(allowed)}, got {val!r}", field=key)
         out[key] = val
+    repair = doc.get("repair", False)
+    _expect(isinstance(repair, bool), f"SPEC.repair must be true or false, got {repair!r}", field="repair")
+    out["repair"] = repair
     _expect(not (method == "penalty" and out["solve"] == "split"),
             "SPEC.solve 'split' needs exact constraints (constraints.method 'null_space' or 'kkt')",
             field="solve")

@@ -138,3 +138,35 @@ def test_full_quality_report_and_cell_data(armadillo, tmp_path):
     np.testing.assert_allclose(sj, r.cell_quality["scaled_jacobian"])
     with pytest.raises(Exception, match="quality"):
         d.solve(_move(m, 10, 0.01), quality="all")
+
+
+def test_repair_untangles_a_few_elements_and_keeps_constraints_exact(armadillo):
+    m, d = armadillo
+    mv = _move(m, 20, 0.1)
+    plain = d.solve(mv)
+    assert 0 < plain.report["inverted_elements"] <= 5  # 1 measured
+    r = d.solve(mv, repair=True)
+    rep = r.report["repair"]
+    assert rep["success"] and rep["accepted"] and r.report["inverted_elements"] == 0
+    assert (signed_volumes(r.V, m.T) > 0).all()
+    assert sorted(rep["repaired_elements"]) == sorted(plain.report["inverted_ids"])
+    # only free interior vertices moved: boundary and constrained vertices are bit-identical
+    moved = np.flatnonzero(np.any(r.V != plain.V, axis=1))
+    assert moved.size == rep["moved_vertices"] > 0
+    assert d.movable[moved].all() and not m.boundary[moved].any()
+    assert r.report["constraint_residual_max"] == plain.report["constraint_residual_max"]
+    assert r.report["safe_fraction"] == 1.0  # the repaired result is valid
+
+
+def test_repair_is_never_worse_and_says_why_it_stops(armadillo):
+    m, d = armadillo
+    mv = _move(m, 30, 0.2)
+    plain = d.solve(mv)
+    r = d.solve(mv, repair=True)
+    rep = r.report["repair"]
+    assert rep["inverted_after"] <= rep["inverted_before"] == plain.report["inverted_elements"]
+    assert r.report["inverted_elements"] == rep["inverted_after"]
+    if not rep["success"]:
+        assert "stay inverted" in rep["reason"] and rep["unrepaired_ids"]
+    if not rep["accepted"]:
+        np.testing.assert_array_equal(r.V, plain.V)

@@ -97,12 +97,14 @@ async def deform(
         description="full: REPORT quality summaries before/after (volume, scaled Jacobian, "
                     "dihedral angles, aspect ratio; histograms) and, with result=mesh, per-element "
                     "metrics as cell data")] = "basic",
+    repair: Annotated[bool | None, Query(description="override SPEC.repair: untangle inverted "
+                                         "elements by moving free interior vertices")] = None,
     accept: Annotated[str | None, Header()] = None,
     owner: str = Owner, reg: Registry = Reg,
 ) -> Response:
     """Back-substitute for the MOVE and answer the REPORT and the result."""
     s = reg.session(owner, session_id)
-    r = await reg.deform(s, move, inversion, quality)
+    r = await reg.deform(s, move, inversion, quality, repair)
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
     if mode == "mesh":
         return await _mesh_response(reg, s, r.V, format, r.report, quality == "full")

@@ -1,6 +1,6 @@
 """``/v1/sessions/{id}/stream``: WebSocket for interactive drags, latest MOVE wins.
 
-Client → server, text frames: ``{"seq": 7, "move": MOVE, "inversion": "warn"}``
+Client → server, text frames: ``{"seq": 7, "move": MOVE, "inversion": "warn", "repair": false}``
 (or a bare MOVE). Server → client: for each solved MOVE a binary frame
 (:mod:`service.binary`) whose header carries ``seq``, ``dropped`` (MOVEs
 superseded while the previous one was solving) and a small REPORT; for a
@@ -28,7 +28,7 @@ router = APIRouter(tags=["sessions"])
 #: REPORT fields sent with each streamed frame.
 STREAM_REPORT = ("inverted_elements", "degenerate_elements", "min_scaled_jacobian",
                  "constraint_residual_max", "max_displacement", "safe_fraction", "clamped",
-                 "applied_fraction", "inverted_elements_unclamped", "conflicting_constraints")
+                 "applied_fraction", "inverted_elements_unclamped", "conflicting_constraints", "repair")
 
 
 @router.websocket("/sessions/{session_id}/stream")
@@ -84,9 +84,12 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
                 continue
             seq = doc.get("seq")
             move = doc["move"] if "move" in doc else {k: v for k, v in doc.items()
-                                                        if k not in ("seq", "inversion")}
+                                                        if k not in ("seq", "inversion", "repair")}
             try:
-                r = await reg.deform(s, move, doc.get("inversion"))
+                rep_flag = doc.get("repair")
+                if rep_flag is not None and not isinstance(rep_flag, bool):
+                    raise ServiceError(422, "repair must be true or false", code="invalid_message")
+                r = await reg.deform(s, move, doc.get("inversion"), "basic", rep_flag)
             except (SolverError, ServiceError) as e:
                 await ws.send_json({"seq": seq, "dropped": skipped, **error_body(e)[1]})
                 continue

@@ -528,6 +528,9 @@ def test_clamp_policy_over_http_and_websocket(client, tc, tmp_path):
     assert head["report"]["clamped"] and head["report"]["inverted_elements"] == 0
     r = tc.post(f"/v1/sessions/{s['id']}/deform?inversion=sideways", json=bad)
     assert r.status_code == 422
+    rep3 = tc.post(f"/v1/sessions/{s['id']}/deform?result=report&repair=true", json=bad).json()["report"]
+    assert rep3["repair"]["attempted"] and rep3["repair"]["inverted_after"] <= rep["inverted_elements"]
+    assert rep3["inverted_elements"] == rep3["repair"]["inverted_after"]
 
 
 def test_quality_summaries_cell_data_and_per_element_arrays(client, tc, tmp_path):

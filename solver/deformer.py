@@ -210,6 +210,7 @@ class Deformer:
             wb[B] = 1.0 / val[B]  # L(p_i) = p_i - mean of neighbours
         Lb = _csr(sp.diags(wb) @ K)  # boundary rows; zero rows elsewhere
         self._delta = Lb @ V0  # original mean curvature normals delta_i
+        self._wall_rows(Lb)
         if I.any():
             W, S = mvc_matrix(V0, mesh.T, I)
             wi = np.zeros(n)
@@ -405,12 +406,71 @@ class Deformer:
         self._psys = ConstrainedSolver(self._pasm.C, A=A, method=self.spec.method,
                                        beta=self.spec.penalty_weight, what=what, analysis=self._pra)
 
+    def _wall_rows(self, Lb: sp.csr_matrix) -> None:
+        """Rows tying the two faces of walls one tet thick (``SPEC.thin_walls``).
+
+        A tet whose four vertices are all on the boundary gets no mean-value
+        row: nothing in the paper's system holds the wall's thickness, and
+        such walls invert first (measured on kiefer_fea_bracket.vtu). For
+        every edge of such a tet that is not an edge of the boundary surface
+        (it crosses the wall), a soft row ``w_ij (p_i - p_j) = w_ij s R_ij
+        (p0_i - p0_j)`` keeps the edge's rest vector, turned and scaled by
+        the rotation field averaged over its two ends. ``w_ij = thin_walls *
+        sqrt(|L_ii| |L_jj|)`` matches the boundary rows' magnitude. Meshes
+        without all-boundary tets are unchanged.
+        """
+        mesh = self.mesh
+        self._wall = None
+        if self.spec.thin_walls <= 0 or mesh.is_surface:
+            return
+        T = mesh.T[mesh.boundary[mesh.T].all(axis=1)]
+        if not T.size:
+            return
+        E = np.sort(np.concatenate([T[:, [a, b]] for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))]),
+                    axis=1)
+        E = np.unique(E, axis=0)
+        F = mesh.F
+        FE = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+        n = mesh.n
+        key = E[:, 0] * n + E[:, 1]
+        E = E[~np.isin(key, FE[:, 0] * n + FE[:, 1])]
+        if not E.size:
+            return
+        d = np.abs(Lb.diagonal())
+        w = self.spec.thin_walls * np.sqrt(d[E[:, 0]] * d[E[:, 1]])
+        self._wall = (E, w, mesh.V[E[:, 0]] - mesh.V[E[:, 1]])
+
+    def _wall_matrix(self, unknowns: np.ndarray) -> sp.csr_matrix | None:
+        if self._wall is None:
+            return None
+        E, w, _ = self._wall
+        umap = np.full(self.mesh.n, -1, np.int64)
+        umap[unknowns] = np.arange(unknowns.size)
+        k = np.arange(E.shape[0])
+        return sp.csr_matrix((np.r_[w, -w], (np.r_[k, k], np.r_[umap[E[:, 0]], umap[E[:, 1]]])),
+                             shape=(E.shape[0], unknowns.size))
+
+    def _soft_rhs(self, b: np.ndarray, r: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+        """Right-hand side of the position system's soft rows: vertex rows, then wall rows."""
+        c = b[self._rows]
+        if self._wall is None:
+            return c
+        E, w, D0 = self._wall
+        bp = self._bpos
+        rr = 0.5 * (r[bp[E[:, 0]]] + r[bp[E[:, 1]]])
+        s = np.exp(0.5 * (sigma[bp[E[:, 0]]] + sigma[bp[E[:, 1]]]))
+        return np.vstack([c, (w * s)[:, None] * rotate_by_log(D0, rr)])
+
     def _setup_joint(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix, wi: np.ndarray) -> None:
         ref = np.flatnonzero(self.mesh.referenced)
         A = _csr(Lb + sp.diags(wi) @ Mi)  # every row of eq. (4.2), weighted
         self._rows = ref  # row r of the system is vertex ref[r]
         self._fi = np.zeros(0, np.int64)
-        self._position_system(_csr(A[ref][:, ref]), "position system (joint)")
+        A = _csr(A[ref][:, ref])
+        Wm = self._wall_matrix(ref)
+        if Wm is not None:
+            A = _csr(sp.vstack([A, Wm]))
+        self._position_system(A, "position system (joint)")
 
     def _setup_split(self, Lb: sp.csr_matrix, Mi: sp.csr_matrix, constrained: np.ndarray) -> None:
         mesh = self.mesh
@@ -418,7 +478,11 @@ class Deformer:
         self._rows = bidx
         self._psys = None
         if bidx.size:
-            self._position_system(_csr(Lb[bidx][:, bidx]), "boundary position system")
+            A = _csr(Lb[bidx][:, bidx])
+            Wm = self._wall_matrix(bidx)
+            if Wm is not None:
+                A = _csr(sp.vstack([A, Wm]))
+            self._position_system(A, "boundary position system")
         # interior: square MVC system of the free interior vertices
         self._fi = np.flatnonzero(mesh.interior & ~constrained & mesh.referenced)
         if self._fi.size:
@@ -457,7 +521,8 @@ class Deformer:
         return C, s
 
     def _right_hand_sides(self, mv: Move) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Fixed/handle targets U (k, 3), rotated normals b (n, 3) (eq. 3.2) and row targets d."""
+        """Fixed/handle targets U (k, 3), the soft rows' right-hand side c (rotated normals,
+        eq. 3.2, then thin-wall rows) and the hard rows' targets d."""
         U = self.targets(mv)
         r, sigma = self.rotation_field(mv)
         bpos = self._bpos
@@ -469,7 +534,7 @@ class Deformer:
         if self._bidx.size:
             b[self._bidx] = np.exp(sigma)[:, None] * rotate_by_log(self._delta[self._bidx], r)
         d = block_targets(self._blocks, self._pasm, mv, rot_at) if self._psys is not None else None
-        return U, b, d
+        return U, self._soft_rhs(b, r, sigma), d
 
     def _probe_refinement(self) -> float:
         """Size of the refinement step for a probe move (every handle turned 10° and moved 1%).
@@ -486,7 +551,7 @@ class Deformer:
         _, b, d = self._right_hand_sides(mv)
         sysp = self._psys
         x = sysp.start(self._layout(self.mesh.V[self._unknowns]), d)
-        c = self._layout(b[self._rows])
+        c = self._layout(b)
         x = x + sysp.step(sysp.gradient(x, c), x, d)
         dx = sysp.step(sysp.gradient(x, c), x, d)
         return float(np.abs(dx).max())
@@ -503,7 +568,7 @@ class Deformer:
         P[self._constrained] = U
         if self._psys is not None:
             u = self._unknowns
-            x = self._psys.solve(self._layout(V0[u]), d, self._layout(b[self._rows]),
+            x = self._psys.solve(self._layout(V0[u]), d, self._layout(b),
                                  refine=self.refine_steps)
             P[u] = self._unlayout(x)
         if self._fi.size:

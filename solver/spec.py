@@ -23,6 +23,10 @@ __all__ = ["Spec", "HandleMove", "Move", "parse_spec", "parse_move", "axis_angle
 LAPLACIANS = ("cotangent", "uniform")
 METHODS = ("null_space", "kkt", "penalty")
 CONFLICT_POLICIES = ("report", "reject")
+#: Default weight of the thin-wall rows (SPEC "thin_walls": true). Measured with
+#: benchmarks/compare/thin_walls.py: on kiefer_fea_bracket.vtu, Armadillo13K.msh and
+#: screw.msh, 0.01-0.03 removes most inversions, while 0.1-1 over-constrains thin limbs.
+THIN_WALL_WEIGHT = 0.03
 FEATURE_MODES = ("rigid", "keep_direction")
 RELATIVE_MODES = ("rotate", "translate")
 SOLVE_MODES = ("auto", "split", "joint")
@@ -67,6 +71,10 @@ class Spec:
     repair : bool
         Untangle inverted elements after each solve by moving free interior
         vertices near them (:mod:`solver.repair`).
+    thin_walls : float
+        Weight of the rows that tie the two faces of walls one tet thick
+        (default ``THIN_WALL_WEIGHT``; 0 is the paper's method unchanged). See
+        :meth:`solver.deformer.Deformer._wall_rows` and the README.
     """
 
     selections: dict[str, dict[str, Any]]
@@ -85,6 +93,7 @@ class Spec:
     sliding: tuple[dict[str, Any], ...] = ()
     conflicts: str = "report"
     repair: bool = False
+    thin_walls: float = 0.03
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""
@@ -93,7 +102,7 @@ class Spec:
             "laplacian": self.laplacian,
             "constraints": {"method": self.method, "penalty_weight": self.penalty_weight},
             "solve": self.solve, "rotation": self.rotation, "inversion": self.inversion,
-            "conflicts": self.conflicts, "repair": self.repair,
+            "conflicts": self.conflicts, "repair": self.repair, "thin_walls": self.thin_walls,
         }
         for key in ("points", "relative", "features", "motion", "sliding"):
             if getattr(self, key):
@@ -198,7 +207,7 @@ def parse_spec(doc: Any) -> Spec:
     """
     _check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
                       "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
-                      "conflicts", "repair"), "SPEC")
+                      "conflicts", "repair", "thin_walls"), "SPEC")
     sels = doc.get("selections", {})
     _expect(isinstance(sels, dict) and len(sels) > 0, "SPEC.selections must name at least one selection",
             field="selections")
@@ -238,6 +247,15 @@ def parse_spec(doc: Any) -> Spec:
     repair = doc.get("repair", False)
     _expect(isinstance(repair, bool), f"SPEC.repair must be true or false, got {repair!r}", field="repair")
     out["repair"] = repair
+    tw = doc.get("thin_walls", True)
+    if isinstance(tw, bool):
+        tw = THIN_WALL_WEIGHT if tw else 0.0
+    else:
+        _expect(isinstance(tw, dict) and set(tw) <= {"weight"}, "SPEC.thin_walls must be true, false or "
+                "{\"weight\": w}", field="thin_walls")
+        tw = _number(tw.get("weight", 1.0), "SPEC.thin_walls.weight")
+        _expect(tw >= 0, "SPEC.thin_walls.weight must be >= 0", field="thin_walls")
+    out["thin_walls"] = float(tw)
     _expect(not (method == "penalty" and out["solve"] == "split"),
             "SPEC.solve 'split' needs exact constraints (constraints.method 'null_space' or 'kkt')",
             field="solve")

@@ -16,8 +16,9 @@ from tests.conftest import DATA, bend_spec, load, longest_axis
 
 @pytest.fixture(scope="module")
 def armadillo():
+    """The paper's method unchanged (no thin-wall rows), so that these moves invert elements."""
     m = load("Armadillo13K.msh")
-    return m, precompute(m, bend_spec(m))
+    return m, precompute(m, bend_spec(m, thin_walls=False))
 
 
 def _move(m, angle, frac):
@@ -86,7 +87,7 @@ def test_constraint_targets_are_interpolated_too():
 def test_cli_clamp(tmp_path, capsys):
     m = load("Armadillo13K.msh")
     spec, move = tmp_path / "spec.json", tmp_path / "move.json"
-    spec.write_text(json.dumps(bend_spec(m)))
+    spec.write_text(json.dumps(bend_spec(m, thin_walls=False)))
     move.write_text(json.dumps(_move(m, 45, 0.1)))
     out, rep = tmp_path / "out.vtu", tmp_path / "rep.json"
     assert main(["morph", str(DATA / "Armadillo13K.msh"), "--spec", str(spec), "--move", str(move),
@@ -170,3 +171,41 @@ def test_repair_is_never_worse_and_says_why_it_stops(armadillo):
         assert "stay inverted" in rep["reason"] and rep["unrepaired_ids"]
     if not rep["accepted"]:
         np.testing.assert_array_equal(r.V, plain.V)
+
+
+def _kiefer_corners():
+    """kiefer_fea_bracket.vtu (../shared, tetra10) as linear tets on its corner nodes."""
+    import meshio
+
+    from solver import mesh_from_arrays
+    from tests.conftest import shared_file
+
+    m0 = meshio.read(shared_file("tet/kiefer_fea_bracket.vtu"))
+    T10 = np.concatenate([c.data for c in m0.cells if c.type == "tetra10"])
+    return mesh_from_arrays(np.asarray(m0.points, float), T10[:, :4])
+
+
+def test_thin_wall_rows_remove_the_inversions_of_one_tet_thick_walls():
+    """The issue's case: fixed lowest 10%, handle highest 10% moved 15% of the diagonal and turned 30°."""
+    mesh = _kiefer_corners()
+    spec = bend_spec(mesh)
+    ax, diag = longest_axis(mesh)
+    mv = {"handles": {"h": {"translation": (0.15 * diag * np.eye(3)[(ax + 1) % 3]).tolist(),
+                            "rotation": {"axis": np.eye(3)[(ax + 2) % 3].tolist(), "angle_deg": 30}}}}
+    paper = precompute(mesh, {**spec, "thin_walls": False})
+    r0 = paper.solve(mv).report
+    inv = np.asarray(r0["inverted_ids"])
+    assert r0["inverted_elements"] >= 20  # 33 measured
+    assert mesh.boundary[mesh.T[inv]].all(axis=1).sum() >= 10  # 13 in walls with no interior vertex
+    d = precompute(mesh, spec)  # thin_walls on by default
+    r1 = d.solve(mv).report
+    assert r1["inverted_elements"] == 0 and r1["min_scaled_jacobian"] > 0.02
+    # the rows only touch cross-wall edges of tets without an interior vertex
+    E, w, _ = d._wall
+    allb = mesh.T[mesh.boundary[mesh.T].all(axis=1)]
+    edges = {tuple(sorted(e)) for t in allb for e in ((t[0], t[1]), (t[0], t[2]), (t[0], t[3]),
+                                                         (t[1], t[2]), (t[1], t[3]), (t[2], t[3]))}
+    assert {tuple(e) for e in E.tolist()} <= edges and (w > 0).all()
+    F = mesh.F
+    surface_edges = {tuple(sorted(e)) for f in F for e in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+    assert not ({tuple(e) for e in E.tolist()} & surface_edges)

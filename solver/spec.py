@@ -23,10 +23,10 @@ __all__ = ["Spec", "HandleMove", "Move", "parse_spec", "parse_move", "axis_angle
 LAPLACIANS = ("cotangent", "uniform")
 METHODS = ("null_space", "kkt", "penalty")
 CONFLICT_POLICIES = ("report", "reject")
-#: Default weight of the thin-wall rows (SPEC "thin_walls": true). Measured with
-#: benchmarks/compare/thin_walls.py: on kiefer_fea_bracket.vtu, Armadillo13K.msh and
-#: screw.msh, 0.01-0.03 removes most inversions, while 0.1-1 over-constrains thin limbs.
-THIN_WALL_WEIGHT = 0.03
+#: Default weight of the thin-wall rows (SPEC "thin_walls": true): the weight with the fewest
+#: inverted tets over kiefer_fea_bracket.vtu, Armadillo13K.msh and screw.msh and eight bends
+#: each (benchmarks/compare/thin_walls.py: 0 -> 10,518, 0.03 -> 520, 0.1 -> 117, 0.3 -> 3,367, 1 -> 7,403).
+THIN_WALL_WEIGHT = 0.1
 FEATURE_MODES = ("rigid", "keep_direction")
 RELATIVE_MODES = ("rotate", "translate")
 SOLVE_MODES = ("auto", "split", "joint")
@@ -93,7 +93,7 @@ class Spec:
     sliding: tuple[dict[str, Any], ...] = ()
     conflicts: str = "report"
     repair: bool = False
-    thin_walls: float = 0.03
+    thin_walls: float = 0.1
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""

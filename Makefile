@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test bench sysdeps install lint clean
+.PHONY: run morph-demo test bench compare sysdeps install lint clean
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -29,6 +29,14 @@ test: install
 bench: install
 	$(BIN)/python benchmarks/bench_solver.py
 	$(BIN)/python benchmarks/bench_service.py
+
+# the study against libigl and RBF morphing (writes benchmarks/results/), and the
+# thin-wall and safe-step tables; needs ../shared/data beside the repository
+compare: install
+	$(BIN)/pip install -q -e ".[compare]"
+	$(BIN)/python benchmarks/compare/study.py
+	$(BIN)/python benchmarks/compare/thin_walls.py
+	$(BIN)/python benchmarks/compare/validity.py
 
 # System libraries for the CHOLMOD backend. Installed with apt when we are
 # root on a Debian-like machine; elsewhere tetmorph falls back to a pip-only

@@ -8,13 +8,13 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test bench compare sysdeps install lint clean
+.PHONY: run morph-demo test bench compare sysdeps install web browser lint clean
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
 PORT ?= 8000
 
-run: install
+run: install web
 	$(BIN)/tetmorph serve --host $(HOST) --port $(PORT) --data-dir data --demo
 
 morph-demo: install
@@ -23,7 +23,7 @@ morph-demo: install
 	  --output out/beam_{i}.vtu --report out/report.json
 	@echo "deformed meshes in out/, reports in out/report.json"
 
-test: install
+test: install web browser
 	$(BIN)/python -m pytest -q
 
 bench: install
@@ -37,6 +37,27 @@ compare: install
 	$(BIN)/python benchmarks/compare/study.py
 	$(BIN)/python benchmarks/compare/thin_walls.py
 	$(BIN)/python benchmarks/compare/validity.py
+
+# The browser editor (served at /): three.js from npm, pinned by web/package-lock.json,
+# copied with our sources into service/static/editor. npm comes from apt when missing.
+EDITOR := service/static/editor/.built
+web: $(EDITOR)
+
+$(EDITOR): web/package.json web/package-lock.json web/build.mjs $(wildcard web/src/*)
+	@command -v npm >/dev/null || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing npm (apt)"; apt-get update -qq && \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq npm >/dev/null; \
+	  else echo "ERROR: npm is needed to build the editor (apt install npm)"; exit 1; fi; }
+	cd web && npm ci --no-audit --no-fund --loglevel=error && npm run build --silent
+
+# Chromium for the browser tests (Playwright drives the system browser; nothing is downloaded).
+browser:
+	@command -v chromium >/dev/null || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing chromium (apt)"; apt-get update -qq && \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
+	  else echo "ERROR: the browser tests need chromium (apt install chromium)"; exit 1; fi; }
 
 # System libraries for the CHOLMOD backend. Installed with apt when we are
 # root on a Debian-like machine; elsewhere tetmorph falls back to a pip-only

@@ -17,7 +17,11 @@ import logging
 from collections.abc import AsyncIterator
 from typing import Any
 
+from pathlib import Path
+
 from fastapi import FastAPI
+from fastapi.responses import FileResponse, HTMLResponse, Response
+from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -141,7 +145,28 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
                 "cached_sessions": reg.cached_sessions, "cache_bytes": reg.cache_bytes,
                 "cache_budget_bytes": settings.cache_budget_bytes, "evictions": reg.evictions}
 
+    _mount_editor(app)
     return app
+
+
+#: Where ``web/build.mjs`` puts the browser editor (``make web``).
+EDITOR_DIR = Path(__file__).parent / "static" / "editor"
+
+
+def _mount_editor(app: FastAPI) -> None:
+    """Serve the browser editor at ``/`` and its files under ``/editor/``."""
+
+    @app.get("/", include_in_schema=False)
+    def editor() -> Response:
+        index = EDITOR_DIR / "index.html"
+        if not index.is_file():
+            return HTMLResponse(
+                "<h1>tetmorph</h1><p>The browser editor is not built. Run <code>make web</code> "
+                "(or <code>make run</code>), then reload. The REST API is at <a href=\"/docs\">/docs</a>.</p>",
+                status_code=503)
+        return FileResponse(index, media_type="text/html")
+
+    app.mount("/editor", StaticFiles(directory=EDITOR_DIR, check_dir=False), name="editor")
 
 
 def _version() -> str:

@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MAGIC", "MEDIA_TYPE", "encode_frame", "decode_frame", "FrameError"]
+__all__ = ["MAGIC", "MEDIA_TYPE", "encode_frame", "decode_frame", "FrameError", "encode_bundle",
+           "decode_bundle"]
 
 MAGIC = b"TMF1"
 MEDIA_TYPE = "application/octet-stream"
@@ -90,3 +91,64 @@ def decode_frame(body: bytes) -> tuple[np.ndarray, dict[str, Any]]:
         raise FrameError(f"expected {count} values of {head['dtype']} after offset {start}, "
                          f"got {len(body) - start} bytes")
     return np.frombuffer(body, dt, count=count, offset=start).reshape(shape), head
+
+
+BUNDLE_MAGIC = b"TMG1"
+_BUNDLE_DTYPES = {"float32": "<f4", "float64": "<f8", "uint32": "<u4", "int32": "<i4", "uint8": "u1"}
+
+
+def encode_bundle(arrays: dict[str, np.ndarray], header: dict[str, Any]) -> bytes:
+    """Pack several named arrays and a JSON header (mesh geometry for the editor).
+
+    Layout: ``b"TMG1"``, uint32 ``H``, ``H`` bytes of JSON header, zero padding to
+    a multiple of 8, then each array in C order, each starting at a multiple of 8.
+    The header's ``"arrays"`` lists ``{"name", "dtype", "shape", "offset"}`` with
+    byte offsets from the start of the body, so a browser can view each one with
+    ``new Float32Array(buffer, offset, length)`` without copying.
+
+    Examples
+    --------
+    >>> body = encode_bundle({"V": np.zeros((2, 3), np.float32)}, {"n": 2})
+    >>> arrays, head = decode_bundle(body)
+    >>> arrays["V"].shape, head["n"]
+    ((2, 3), 2)
+    """
+    entries, blobs = [], []
+    for name, a in arrays.items():
+        dt = next((k for k, v in _BUNDLE_DTYPES.items() if np.dtype(v) == np.dtype(a.dtype)), None)
+        if dt is None:
+            raise ValueError(f"array {name!r}: dtype {a.dtype} is not one of {sorted(_BUNDLE_DTYPES)}")
+        entries.append({"name": name, "dtype": dt, "shape": list(a.shape)})
+        blobs.append(np.ascontiguousarray(a, dtype=_BUNDLE_DTYPES[dt]).tobytes())
+    # offsets depend on the header length, which depends on the offsets: iterate to a fixed point
+    offsets = [0] * len(blobs)
+    for _ in range(4):
+        hb = json.dumps({**header, "arrays": [dict(e, offset=o) for e, o in zip(entries, offsets)]},
+                        separators=(",", ":")).encode()
+        pos = 8 + len(hb) + ((-(8 + len(hb))) % 8)
+        new = []
+        for b in blobs:
+            new.append(pos)
+            pos += len(b) + ((-len(b)) % 8)
+        if new == offsets:
+            break
+        offsets = new
+    out = bytearray(BUNDLE_MAGIC + struct.pack("<I", len(hb)) + hb)
+    for o, b in zip(offsets, blobs):
+        out += b"\0" * (o - len(out))
+        out += b
+    return bytes(out)
+
+
+def decode_bundle(body: bytes) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Unpack :func:`encode_bundle` output into ``({name: array}, header)``."""
+    if len(body) < 8 or body[:4] != BUNDLE_MAGIC:
+        raise FrameError("not a tetmorph bundle (bad magic)")
+    (h,) = struct.unpack("<I", body[4:8])
+    head = json.loads(body[8:8 + h].decode())
+    arrays = {}
+    for e in head["arrays"]:
+        dt = np.dtype(_BUNDLE_DTYPES[e["dtype"]])
+        count = int(np.prod(e["shape"])) if e["shape"] else 0
+        arrays[e["name"]] = np.frombuffer(body, dt, count, e["offset"]).reshape(e["shape"])
+    return arrays, head

@@ -78,7 +78,7 @@ class Session:
             "progress": round(self.progress, 3), "error": self.error, "created": self.created,
             "last_used": self.last_used, "updates": self.updates, "builds": self.builds,
             "handles": list(d.handle_names) if d is not None else list(self.spec.get("handles", {})),
-            "last_move": self.last_move,
+            "last_move": self.last_move, "spec": self.spec,
             "setup_timings": d.setup_timings if d is not None else None,
             "factor_bytes": d.nbytes if d is not None else None,
             "constraints_at_rest": d.rest_constraints if d is not None else None,

@@ -14,6 +14,7 @@ from solver.selection import select
 from solver.spec import parse_spec
 from solver.mesh import mesh_from_arrays
 
+from ..binary import encode_bundle
 from ..errors import ServiceError
 from ..formats import MESH_FORMATS, export_mesh, resolve_format
 from ..registry import Registry
@@ -118,6 +119,30 @@ async def download_mesh(
     stem = safe_name(meta["name"].rsplit(".", 1)[0], "mesh")
     body, fname, media = await reg.run(export_mesh, mesh, mesh.V, fmt, stem)
     return _file(body, fname, media)
+
+
+@router.get("/meshes/{mesh_id}/geometry", summary="Vertices, boundary faces, tets and sets, binary",
+            responses={200: {"content": {"application/octet-stream": {}}}})
+async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -> Response:
+    """The mesh for a viewer, as one TMG1 bundle (see ``service.binary.encode_bundle``).
+
+    Arrays: ``V`` float32 (n, 3) rest positions, ``F`` uint32 (k, 3) outward
+    boundary faces, ``T`` uint32 (m, 4) tetrahedra, ``boundary`` uint8 (n,),
+    and ``set:NAME`` uint32 vertex ids for every named set of the file.
+    """
+    meta = reg.mesh_meta(owner, mesh_id)
+    mesh = await reg.mesh(meta)
+
+    def pack() -> bytes:
+        arrays = {"V": mesh.V.astype(np.float32), "F": mesh.F.astype(np.uint32),
+                  "T": mesh.T.astype(np.uint32), "boundary": mesh.boundary.astype(np.uint8)}
+        for name, ids in mesh.sets.items():
+            arrays[f"set:{name}"] = np.asarray(ids, np.uint32)
+        lo, hi = mesh.V[mesh.referenced].min(0), mesh.V[mesh.referenced].max(0)
+        return encode_bundle(arrays, {"mesh_id": meta["id"], "name": meta.get("name"), "n": mesh.n,
+                                      "sets": sorted(mesh.sets), "bbox": [lo.tolist(), hi.tolist()]})
+
+    return Response(await reg.run(pack), media_type="application/octet-stream")
 
 
 @router.get("/meshes/{mesh_id}/features", summary="Form-feature candidates of a mesh")

@@ -570,5 +570,10 @@ window.tetmorph = {
     const v = pivot.position.clone().project(camera);
     return { x: rect.left + (v.x + 1) / 2 * rect.width, y: rect.top + (1 - v.y) / 2 * rect.height };
   },
+  screenOf(i) {
+    const rect = canvas.getBoundingClientRect();
+    const v = screenOf(i, new THREE.Vector3());
+    return { x: rect.left + (v.x + 1) / 2 * rect.width, y: rect.top + (1 - v.y) / 2 * rect.height };
+  },
   positions: () => Array.from(state.V),
 };

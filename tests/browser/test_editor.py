@@ -1,0 +1,211 @@
+"""The browser editor in a real browser: Debian's chromium, headless, driven by Playwright.
+
+A real ``tetmorph serve`` runs in a subprocess; the page is loaded from it. Screenshots
+are saved in ``tests/artifacts/`` (kept out of git). ``make test`` builds the editor and
+installs chromium when they are missing; without them these tests fail and say why.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from pathlib import Path
+
+import httpx
+import meshio
+import numpy as np
+import pytest
+
+from service.process import serve_process
+from solver import precompute, read_mesh
+from tests.conftest import DATA
+
+ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
+EDITOR = Path(__file__).resolve().parents[2] / "service" / "static" / "editor" / ".built"
+BRACKET = DATA / "bracket.inp"
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    if not EDITOR.exists():
+        pytest.fail("the editor is not built: run 'make web' (make test does)")
+    with serve_process(tmp_path_factory.mktemp("data")) as (base, _proc):
+        yield base
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from playwright.sync_api import sync_playwright
+
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        pytest.fail("chromium is not installed: 'make browser' (make test does) installs it with apt")
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=exe, args=["--use-gl=angle", "--use-angle=swiftshader",
+                                                          "--enable-unsafe-swiftshader"])
+        yield b
+        b.close()
+
+
+@pytest.fixture
+def page(browser, server, request):
+    ctx = browser.new_context(viewport={"width": 1300, "height": 800}, accept_downloads=True)
+    pg = ctx.new_page()
+    errors: list[str] = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.goto(server + "/")
+    yield pg
+    ARTIFACTS.mkdir(exist_ok=True)
+    pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}-final.png"))
+    ctx.close()
+    assert not errors, errors  # no uncaught exception in the page
+
+
+def shot(pg, name: str) -> bytes:
+    ARTIFACTS.mkdir(exist_ok=True)
+    return pg.screenshot(path=str(ARTIFACTS / f"{name}.png"))
+
+
+def differs(a: bytes, b: bytes) -> int:
+    """Number of differing pixels between two PNG screenshots."""
+    import io
+
+    import matplotlib.image as mpimg
+
+    A = mpimg.imread(io.BytesIO(a), format="png")
+    B = mpimg.imread(io.BytesIO(b), format="png")
+    return int(np.count_nonzero(np.abs(A - B).max(axis=2) > 0.02))
+
+
+def load_bracket(pg) -> None:
+    pg.set_input_files("#upload", str(BRACKET))
+    pg.wait_for_function("window.tetmorph.state.V !== null && window.tetmorph.state.meshName === 'bracket.inp'",
+                         timeout=30000)
+
+
+def select_and_create(pg, handle_by_box: bool = True, policy: str = "warn") -> None:
+    # fixed: the file's node set
+    pg.select_option("#sets", "FIXED")
+    pg.click("#set-apply")
+    pg.check("input[name=role][value='2']")
+    if handle_by_box:  # handle: a box drawn with the mouse around the x = 100 end
+        ids = pg.evaluate("Array.from(window.tetmorph.state.sets['LOAD'])")
+        pts = pg.evaluate("(ids) => ids.map((i) => window.tetmorph.screenOf(i))", ids)
+        xs, ys = [p["x"] for p in pts], [p["y"] for p in pts]
+        pg.check("input[name=tool][value='box']")
+        pg.mouse.move(min(xs) - 6, min(ys) - 6)
+        pg.mouse.down()
+        pg.mouse.move((min(xs) + max(xs)) / 2, (min(ys) + max(ys)) / 2, steps=3)
+        pg.mouse.move(max(xs) + 6, max(ys) + 6, steps=3)
+        pg.mouse.up()
+        pg.check("input[name=tool][value='orbit']")
+    else:
+        pg.select_option("#sets", "LOAD")
+        pg.click("#set-apply")
+    pg.select_option("#policy", policy)
+    pg.click("#create")
+    pg.wait_for_function("window.tetmorph.state.sessionId !== null", timeout=30000)
+
+
+def settle(pg) -> None:
+    """Wait until the last MOVE sent has come back over the WebSocket."""
+    pg.wait_for_function("window.tetmorph.state.seq > 0 && window.tetmorph.state.lastSeq === window.tetmorph.state.seq",
+                         timeout=30000)
+
+
+def test_upload_select_drag_download_matches_the_library(page, server, tmp_path):
+    load_bracket(page)
+    select_and_create(page)
+    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
+    load_set = read_mesh(BRACKET).sets["LOAD"]
+    assert (role[load_set] == 2).all() and (role == 1).sum() == read_mesh(BRACKET).sets["FIXED"].size
+    before = shot(page, "editor-before-drag")
+    p0 = np.array(page.evaluate("window.tetmorph.positions()"))
+    # drag the gizmo with the real mouse: press on its centre, move up
+    c = page.evaluate("window.tetmorph.pivotScreen()")
+    page.mouse.move(c["x"], c["y"])
+    page.mouse.down()
+    for k in range(1, 13):
+        page.mouse.move(c["x"] - 2 * k, c["y"] - 7 * k)
+        time.sleep(0.03)
+    page.mouse.up()
+    settle(page)
+    after = shot(page, "editor-after-drag")
+    p1 = np.array(page.evaluate("window.tetmorph.positions()"))
+    assert np.abs(p1 - p0).max() > 1.0  # the mesh moved by more than a millimetre
+    assert differs(before, after) > 2000  # and the picture on screen changed
+    sid = page.evaluate("window.tetmorph.state.sessionId")
+    with httpx.Client(base_url=server) as c_:
+        server_pos = np.array(c_.get(f"/v1/sessions/{sid}/positions").json()["positions"])
+        doc = c_.get(f"/v1/sessions/{sid}").json()
+    np.testing.assert_allclose(p1.reshape(-1, 3), server_pos, atol=1e-4)  # float32 on the wire
+    # download the deformed mesh as VTU through the page, compare with the library's result
+    page.select_option("#format", "vtu")
+    with page.expect_download() as dl:
+        page.click("#download")
+    path = tmp_path / "deformed.vtu"
+    dl.value.save_as(path)
+    got = np.asarray(meshio.read(path).points)
+    expected = precompute(read_mesh(BRACKET), doc["spec"]).solve(doc["last_move"]).V
+    np.testing.assert_allclose(got, expected, atol=1e-9)
+    assert json.loads(json.dumps(page.evaluate("window.tetmorph.state.lastMove"))) == doc["last_move"]
+
+
+def test_numeric_moves_undo_and_reset(page, server):
+    load_bracket(page)
+    select_and_create(page, handle_by_box=False)
+    page.fill("#tz", "5")
+    page.click("#apply-move")
+    settle(page)
+    first = np.array(page.evaluate("window.tetmorph.positions()"))
+    page.fill("#tz", "10")
+    page.click("#apply-move")
+    settle(page)
+    second = np.array(page.evaluate("window.tetmorph.positions()"))
+    assert np.abs(second - first).max() > 1.0
+    page.click("#undo")
+    settle(page)
+    np.testing.assert_allclose(np.array(page.evaluate("window.tetmorph.positions()")), first, atol=1e-5)
+    page.click("#reset")
+    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    V0 = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)"))
+    np.testing.assert_array_equal(np.array(page.evaluate("window.tetmorph.positions()")), V0)
+
+
+def test_clipping_shows_interior_tets_and_colours_bad_ones(page):
+    load_bracket(page)
+    select_and_create(page, handle_by_box=False)
+    # a hard twist of the handle end: some tets become poor or inverted
+    page.fill("#ax", "1"), page.fill("#ay", "0"), page.fill("#az", "0"), page.fill("#angle", "150")
+    page.click("#apply-move")
+    settle(page)
+    bad = page.evaluate("window.tetmorph.state.badCount")
+    assert bad > 0
+    plain = shot(page, "editor-unclipped")
+    page.check("#clip")
+    page.select_option("#clip-axis", "1")
+    page.wait_for_function("window.tetmorph.state.cut > 0")
+    cut = page.evaluate("window.tetmorph.state.cut")
+    clipped = shot(page, "editor-clipped")
+    assert differs(plain, clipped) > 2000
+    # moving the plane changes which tets are cut
+    page.fill("#clip-pos", "0.2")
+    page.dispatch_event("#clip-pos", "input")
+    page.wait_for_function(f"window.tetmorph.state.cut !== {cut}")
+    assert "tets in the section" in page.inner_text("#cut-count")
+
+
+def test_error_panel_shows_the_report_of_a_rejected_move(page):
+    load_bracket(page)
+    select_and_create(page, handle_by_box=False, policy="reject")
+    page.fill("#tx", "-90"), page.fill("#ax", "0"), page.fill("#ay", "1"), page.fill("#az", "0")
+    page.fill("#angle", "170")
+    page.click("#apply-move")
+    page.wait_for_selector("#errors:not([hidden])", timeout=30000)
+    text = page.inner_text("#error-text")
+    assert "inverted_elements" in text and "safe fraction" in text
+    shot(page, "editor-error-panel")
+    # the session stayed where it was: the rest shape
+    V0 = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)"))
+    np.testing.assert_array_equal(np.array(page.evaluate("window.tetmorph.positions()")), V0)

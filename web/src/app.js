@@ -155,7 +155,7 @@ async function openMesh(id) {
   surfGeom.computeVertexNormals();
   surfGeom.computeBoundingSphere();
   if (edges) { scene.remove(edges); edges.geometry.dispose(); }
-  edges = new THREE.LineSegments(new THREE.WireframeGeometry(surfGeom), edgeMat);
+  edges = new THREE.LineSegments(edgeGeometry(), edgeMat);
   edges.visible = $("edges").checked;
   scene.add(edges);
   state.sjRest = scaledJacobians(state.V0, state.T);
@@ -165,6 +165,23 @@ async function openMesh(id) {
   refreshDerived();
   fit();
   showReport({ mesh: state.meshName, tets: state.T.length / 4, vertices: state.V.length / 3 });
+}
+
+/** Unique surface edges as an index into the shared position buffer (no copies per frame). */
+function edgeGeometry() {
+  const F = state.F, n = state.V.length / 3;
+  const seen = new Set(), idx = [];
+  for (let f = 0; f < F.length; f += 3) {
+    for (let k = 0; k < 3; k++) {
+      const a = F[f + k], b = F[f + (k + 1) % 3];
+      const key = a < b ? a * n + b : b * n + a;
+      if (!seen.has(key)) { seen.add(key); idx.push(a, b); }
+    }
+  }
+  const g = new THREE.BufferGeometry();
+  g.setAttribute("position", surfGeom.getAttribute("position"));
+  g.setIndex(new THREE.BufferAttribute(new Uint32Array(idx), 1));
+  return g;
 }
 
 async function listMeshes() {
@@ -346,9 +363,12 @@ function openStream() {
       return;
     }
     const { header, data } = decodeFrame(ev.data);
-    state.lastSeq = header.seq;
+    const rtt = header.seq === state.seq ? performance.now() - state.sentAt : undefined;
     applyPositions(data);
-    showReport({ seq: header.seq, dropped: header.dropped, ...header.report });
+    state.lastSeq = header.seq;
+    state.roundTripMs = rtt;
+    showReport({ seq: header.seq, dropped: header.dropped, ...header.report, round_trip_ms: rtt,
+      apply_ms: state.applyMs });
     const rep = header.report || {};
     if (rep.inverted_elements > 0 && $("policy").value === "warn") {
       showError({ body: { error: { code: "inverted_elements", message: `${rep.inverted_elements} elements inverted`,
@@ -372,6 +392,7 @@ function sendMove(move) {
   if (!state.ws || state.ws.readyState !== WebSocket.OPEN) return;
   state.lastMove = move;
   state.seq += 1;
+  state.sentAt = performance.now();
   state.ws.send(JSON.stringify({ seq: state.seq, move, inversion: $("policy").value, repair: $("repair").checked }));
 }
 
@@ -434,14 +455,15 @@ async function download() {
 
 // ------------------------------------------------------------------ derived views
 function applyPositions(P) {
+  const t0 = performance.now();
   state.V.set(P);
-  surfGeom.getAttribute("position").needsUpdate = true;
+  surfGeom.getAttribute("position").needsUpdate = true;  // the edges share this buffer
   surfGeom.computeVertexNormals();
   surfGeom.computeBoundingSphere();
-  if (edges) { edges.geometry.dispose(); edges.geometry = new THREE.WireframeGeometry(surfGeom); }
   state.sj = scaledJacobians(state.V, state.T, state.sj);
   state.frames += 1;
   refreshDerived();
+  state.applyMs = performance.now() - t0;
 }
 
 function colorOf(sj) {
@@ -522,7 +544,7 @@ function showReport(rep) {
   state.report = rep;
   const keys = ["mesh", "tets", "vertices", "seq", "dropped", "inverted_elements", "degenerate_elements",
     "min_scaled_jacobian", "safe_fraction", "clamped", "applied_fraction", "inverted_elements_unclamped",
-    "constraint_residual_max", "max_displacement", "solve_ms", "reset"];
+    "constraint_residual_max", "max_displacement", "solve_ms", "round_trip_ms", "apply_ms", "reset"];
   const rows = [];
   for (const k of keys) {
     if (rep[k] === undefined || rep[k] === null) continue;

@@ -1,0 +1,83 @@
+"""The browser editor at ~100k tets: load time and drag-to-screen latency in headless chromium.
+
+A real ``tetmorph serve`` and Debian's chromium (software WebGL, SwiftShader, on this
+machine's 2 cores). The gmsh bracket of ``tests/data/make_bracket.py`` at mesh size 0.95
+(107,047 tets) is uploaded through the page; FIXED fixed, LOAD the handle. Then 30
+numeric MOVEs are sent one after another, each waiting until its frame is on screen.
+"MOVE → frame on screen" is measured from Python and includes Playwright's own
+round trips for filling the input and clicking; "send → frame applied" is measured in
+the page (WebSocket send to the new positions, normals, quality and colours in place).
+Prints a table::
+
+    python benchmarks/bench_editor.py [--size 0.95] [--moves 30]
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def main() -> None:
+    from playwright.sync_api import sync_playwright
+
+    from service.process import serve_process
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=float, default=0.95)
+    ap.add_argument("--moves", type=int, default=30)
+    a = ap.parse_args()
+    deck = Path(tempfile.gettempdir()) / f"tetmorph-bracket-{a.size:g}.inp"
+    if not deck.exists():
+        subprocess.run([sys.executable, str(ROOT / "tests" / "data" / "make_bracket.py"), f"{a.size:g}", str(deck)],
+                       check=True)
+    with serve_process(tempfile.mkdtemp()) as (base, _), sync_playwright() as p:
+        b = p.chromium.launch(executable_path=shutil.which("chromium"),
+                              args=["--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        pg = b.new_page(viewport={"width": 1300, "height": 800})
+        pg.goto(base + "/")
+        t0 = time.perf_counter()
+        pg.set_input_files("#upload", str(deck))
+        pg.wait_for_function("window.tetmorph.state.V !== null", timeout=300000)
+        load_s = time.perf_counter() - t0
+        tets = pg.evaluate("window.tetmorph.state.T.length / 4")
+        pg.select_option("#sets", "FIXED")
+        pg.click("#set-apply")
+        pg.check("input[name=role][value='2']")
+        pg.select_option("#sets", "LOAD")
+        pg.click("#set-apply")
+        t0 = time.perf_counter()
+        pg.click("#create")
+        pg.wait_for_function("window.tetmorph.state.sessionId !== null", timeout=300000)
+        session_s = time.perf_counter() - t0
+        lat, frame_ms, apply_ms, rtt = [], [], [], []
+        for k in range(1, a.moves + 1):
+            pg.fill("#tz", str(0.5 * k))
+            t0 = time.perf_counter()
+            pg.click("#apply-move")
+            pg.wait_for_function(f"window.tetmorph.state.lastSeq === {k}", timeout=60000)
+            pg.evaluate("() => new Promise((r) => requestAnimationFrame(() => r()))")  # drawn
+            lat.append(time.perf_counter() - t0)
+            frame_ms.append(pg.evaluate("window.tetmorph.state.report.solve_ms"))
+            apply_ms.append(pg.evaluate("window.tetmorph.state.applyMs"))
+            rtt.append(pg.evaluate("window.tetmorph.state.roundTripMs"))
+        b.close()
+    print("| tets | page load + geometry s | session build s | MOVE → frame on screen ms (median) | p95 ms "
+          "| server update ms (median) | page: send → frame applied ms (median) | page: apply frame ms (median) |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print(f"| {int(tets):,} | {load_s:.2f} | {session_s:.2f} | {1e3 * np.median(lat):.0f} | "
+          f"{1e3 * np.percentile(lat, 95):.0f} | {np.median(frame_ms):.1f} | {np.median(rtt):.1f} | {np.median(apply_ms):.1f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -29,7 +29,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     app = create_app(settings)
     url = f"http://{args.host}:{args.port}"
-    print(f"tetmorph service on {url}  (OpenAPI docs: {url}/docs)", flush=True)
+    print(f"tetmorph service on {url}  (browser editor: {url}/ ; OpenAPI docs: {url}/docs)", flush=True)
     print(f"data directory: {settings.data_dir}", flush=True)
     if args.demo:
         print(f"demo session: {url}/v1/sessions/s_demo  (mesh m_demo_beam). Try:\n"

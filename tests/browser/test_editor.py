@@ -209,3 +209,26 @@ def test_error_panel_shows_the_report_of_a_rejected_move(page):
     # the session stayed where it was: the rest shape
     V0 = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)"))
     np.testing.assert_array_equal(np.array(page.evaluate("window.tetmorph.positions()")), V0)
+
+
+def test_brush_paints_vertices_near_the_cursor(page):
+    load_bracket(page)
+    page.check("input[name=role][value='2']")
+    page.check("input[name=tool][value='brush']")
+    # press on the middle of the x = 100 end face as drawn, and paint a short stroke
+    ids = page.evaluate("Array.from(window.tetmorph.state.sets['LOAD'])")
+    pts = page.evaluate("(ids) => ids.map((i) => window.tetmorph.screenOf(i))", ids)
+    x, y = np.mean([q["x"] for q in pts]), np.mean([q["y"] for q in pts])
+    page.mouse.move(x, y - 4)
+    page.mouse.down()
+    page.mouse.move(x, y + 4, steps=4)
+    page.mouse.up()
+    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
+    V = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)")).reshape(-1, 3)
+    painted = np.flatnonzero(role == 2)
+    assert painted.size > 0
+    # all of them on the boundary and near the x = 100 end (brush radius 4% of the diagonal)
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    assert V[painted, 0].min() > 100 - 0.15 * diag
+    boundary = np.array(page.evaluate("Array.from(window.tetmorph.state.boundary)"))
+    assert boundary[painted].all()

@@ -40,6 +40,7 @@ from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from .errors import ConstraintError, InversionError, SolverError, SpecError, format_ids
 from .mesh import Mesh
 from .mvc_matrix import mvc_matrix
+from .quadratic import MidsideNodes, node_jacobians
 from .repair import repair_inverted
 from .quality import DEGENERATE_TOL, element_quality, summarize_quality, tet_quality
 from .rotation import rotate_by_log
@@ -245,6 +246,9 @@ class Deformer:
         report("positions", 0.95)
 
         self._Tt = np.ascontiguousarray(mesh.T.T)
+        self._mid = MidsideNodes(V0, mesh.T10) if mesh.T10 is not None else None
+        # quadratic elements already folded in the input (node Jacobian <= 0) are reported, not counted
+        self._valid_rest = node_jacobians(V0, mesh.T10).min(axis=1) > 0 if mesh.T10 is not None else None
         sj = tet_quality(V0, self._Tt)[1] if not mesh.is_surface else np.zeros(0)
         self._sj_before = (float(sj.min()) if sj.size else None,
                            float(np.partition(sj, sj.size // 100)[sj.size // 100]) if sj.size else None)
@@ -573,6 +577,8 @@ class Deformer:
             P[u] = self._unlayout(x)
         if self._fi.size:
             P[self._fi] -= self._finter.solve(self._Mfi @ P)
+        if getattr(self, "_mid", None) is not None:
+            P = self._mid.place(P)  # quadratic elements: mid-side nodes follow their edges
         return P, U, d
 
     def constraint_report(self, solved: tuple[np.ndarray, np.ndarray, np.ndarray | None],
@@ -642,9 +648,18 @@ class Deformer:
         features = {k: v ** f for k, v in mv.features.items()}
         return Move(handles, points, relative, features, motion)
 
-    def _inverted(self, P: np.ndarray) -> int:
+    def _bad_elements(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(bad mask, scaled Jacobians of the corner tets, degenerate mask); quadratic
+        elements are also bad when their Jacobian is <= 0 at any of their ten nodes."""
         vol6, sj = tet_quality(P, self._Tt)
-        return int(np.count_nonzero((vol6 <= 0) | (np.abs(sj) <= DEGENERATE_TOL)))
+        degenerate = np.abs(sj) <= DEGENERATE_TOL
+        bad = (vol6 <= 0) | degenerate
+        if self.mesh.T10 is not None:
+            bad |= (node_jacobians(P, self.mesh.T10).min(axis=1) <= 0) & self._valid_rest
+        return bad, sj, degenerate
+
+    def _inverted(self, P: np.ndarray) -> int:
+        return int(np.count_nonzero(self._bad_elements(P)[0]))
 
     def safe_fraction(self, move: Move | dict[str, Any], tol: float = SAFE_TOL,
                       inverts: bool | None = None) -> tuple[float, int]:
@@ -837,11 +852,17 @@ class Deformer:
             "finite": bool(np.isfinite(P).all()),
         }
         if not mesh.is_surface:
-            vol6, sj = tet_quality(P, self._Tt)
             # scaled Jacobian = sqrt(2) vol6 / (edge-length products), so a tiny |sj| flags degeneracy
-            degenerate = np.abs(sj) <= DEGENERATE_TOL
-            bad = np.flatnonzero((vol6 <= 0) | degenerate)
+            badm, sj, degenerate = self._bad_elements(P)
+            bad = np.flatnonzero(badm)
             k = sj.size // 100
+            if mesh.T10 is not None:
+                dj = node_jacobians(P, mesh.T10)
+                ratio = dj.min(axis=1) / np.maximum(np.abs(dj).max(axis=1), 1e-300)
+                rep["element_order"] = 2
+                rep["min_jacobian_ratio"] = float(ratio[self._valid_rest].min()) if self._valid_rest.any() \
+                    else float(ratio.min())
+                rep["invalid_at_rest_elements"] = int((~self._valid_rest).sum())
             rep.update({
                 "inverted_elements": int(bad.size),
                 "inverted_ids": bad[:REPORT_IDS].tolist(),

@@ -26,7 +26,7 @@ __all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_from_arrays", "VOLUME_TYPES"
 
 #: Cell types that carry no volume and are kept untouched (boundary
 #: annotations, beams, point masses).
-IGNORED_TYPES = {"vertex", "line", "line3", "triangle", "quad"}
+IGNORED_TYPES = {"vertex", "line", "line3", "triangle", "quad", "triangle6", "quad8", "quad9"}
 #: Volume and higher-order cell types that a later release deforms; refused now.
 VOLUME_TYPES = {"tetra10", "tetra4", "hexahedron", "hexahedron20", "hexahedron27", "wedge",
                 "wedge15", "pyramid", "pyramid13", "triangle6", "quad8", "quad9"}
@@ -49,6 +49,14 @@ class Mesh:
         physical groups), 0-based.
     source : meshio.Mesh, optional
         The mesh as read, written back by :func:`write_mesh`.
+    raw : bytes, optional
+        The file's bytes, kept for Abaqus decks so that :func:`write_mesh`
+        changes only node coordinates (:mod:`solver.inp_patch`).
+    T10 : (m, 10) int64 array, optional
+        For quadratic tetrahedra (tetra10 / C3D10): every element's ten nodes in
+        VTK order (four corners, then the mid-side nodes of edges 01, 12, 02,
+        03, 13, 23). ``T`` is then its first four columns; the mid-side nodes
+        are placed after each solve (:mod:`solver.quadratic`).
     """
 
     V: np.ndarray
@@ -57,6 +65,8 @@ class Mesh:
     sets: dict[str, np.ndarray] = field(default_factory=dict)
     source: meshio.Mesh | None = None
     path: str | None = None
+    T10: np.ndarray | None = None
+    raw: bytes | None = field(default=None, repr=False)
 
     @property
     def n(self) -> int:
@@ -116,8 +126,10 @@ class Mesh:
             "unreferenced_vertices": int((~self.referenced).sum()),
             "bodies": int(self.body_labels.max() + 1) if self.n else 0,
             "boundary_shells": int(self.shell_labels.max() + 1) if self.boundary.any() else 0,
-            "cell_types": ({c.type: int(len(c.data)) for c in self.source.cells}
+            "cell_types": ({t: int(sum(len(c.data) for c in self.source.cells if c.type == t))
+                            for t in dict.fromkeys(c.type for c in self.source.cells)}
                            if self.source is not None else {}),
+            "element_order": 2 if self.T10 is not None else 1,
             "sets": {k: int(len(v)) for k, v in sorted(self.sets.items())},
         }
         if not self.is_surface:
@@ -346,6 +358,9 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> M
                                code="unreadable_file") from e
     mesh = mesh_from_meshio(m)
     mesh.path = path
+    if (file_format or "").lower() in ("abaqus", "inp") or path.lower().endswith(".inp"):
+        with open(path, "rb") as fh:
+            mesh.raw = fh.read()
     return mesh
 
 
@@ -365,6 +380,8 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
     InvalidMeshError, UnsupportedElementError
     """
     types = [c.type for c in m.cells]
+    if "tetra10" in types and "tetra" not in types:
+        return _quadratic_from_meshio(m)
     unsupported = sorted({t for t in types if t != "tetra" and t not in IGNORED_TYPES})
     if unsupported:
         counts = {t: int(sum(len(c.data) for c in m.cells if c.type == t)) for t in unsupported}
@@ -384,11 +401,35 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
     return Mesh(V=V, T=T, surface=surface, sets=_named_sets(m), source=m)
 
 
+def _quadratic_from_meshio(m: meshio.Mesh) -> Mesh:
+    """A tetra10 mesh: corners as the linear mesh, the ten-node connectivity kept as ``T10``."""
+    types = [c.type for c in m.cells]
+    unsupported = sorted({t for t in types if t != "tetra10" and t not in IGNORED_TYPES})
+    if unsupported:
+        counts = {t: int(sum(len(c.data) for c in m.cells if c.type == t)) for t in unsupported}
+        raise UnsupportedElementError(
+            f"element types {counts} next to quadratic tetrahedra are not supported yet", types=counts)
+    T10 = np.concatenate([np.asarray(c.data, np.int64) for c in m.cells if c.type == "tetra10"])
+    V = np.asarray(m.points, dtype=np.float64)
+    if V.ndim == 2 and V.shape[1] == 2:
+        V = np.c_[V, np.zeros(len(V))]
+    T = np.ascontiguousarray(T10[:, :4])
+    validate(V, T, None)
+    mid = np.setdiff1d(np.unique(T10[:, 4:]), np.unique(T))
+    if mid.size != np.unique(T10[:, 4:]).size:
+        raise InvalidMeshError("some tetra10 mid-side nodes are also corner nodes", code="bad_connectivity")
+    return Mesh(V=V, T=T, sets=_named_sets(m), source=m, T10=T10)
+
+
 def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
                file_format: str | None = None, point_data: dict[str, np.ndarray] | None = None,
                cell_data: dict[str, list[np.ndarray]] | None = None,
                point_sets: dict[str, np.ndarray] | None = None, quality: bool = False) -> None:
     """Write ``mesh`` with new coordinates ``V``, changing nothing else.
+
+    An Abaqus deck read from a file and written as ``.inp`` keeps every byte
+    except the coordinates of its node lines (materials, steps, comments and
+    formatting included); other targets go through meshio.
 
     Parameters
     ----------
@@ -418,6 +459,15 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     if V.shape != mesh.V.shape:
         raise InvalidMeshError(f"positions have shape {V.shape}, mesh has {mesh.V.shape}",
                                code="bad_shape")
+    target = os.fspath(path)
+    to_inp = (file_format or "").lower() in ("abaqus", "inp") or (file_format is None and target.lower().endswith(".inp"))
+    if to_inp and mesh.raw is not None and not (point_data or cell_data or point_sets or quality):
+        from .inp_patch import node_line_count, patch_inp
+
+        if node_line_count(mesh.raw) == mesh.n:  # the deck, byte for byte, with new coordinates
+            with open(target, "wb") as fh:
+                fh.write(patch_inp(mesh.raw, V))
+            return
     if mesh.source is not None:
         out = copy.copy(mesh.source)
         src_pts = np.asarray(mesh.source.points)

@@ -49,6 +49,16 @@ def bend_spec(mesh, boundary_only: bool = False, **extra):
             "fixed": ["fix"], "handles": {"h": "hand"}, **extra}
 
 
+def bend_move(mesh, angle: float, frac: float) -> dict:
+    """MOVE for bend_spec's handle "h": turn ``angle`` degrees about the axis after the longest
+    and translate ``frac`` of the diagonal along the one after that."""
+    ax, diag = longest_axis(mesh)
+    axis = [0.0, 0.0, 0.0]
+    axis[(ax + 1) % 3] = 1.0
+    return {"handles": {"h": {"translation": (frac * diag * np.eye(3)[(ax + 2) % 3]).tolist(),
+                              "rotation": {"axis": axis, "angle_deg": angle}}}}
+
+
 def longest_axis(mesh):
     V = mesh.V[mesh.referenced]
     ext = V.max(0) - V.min(0)

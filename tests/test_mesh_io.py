@@ -62,10 +62,16 @@ def test_tetgen_and_vtk_data_are_read():
 
 def test_quadratic_and_mixed_elements_are_refused(tmp_path):
     V, T = cube_mesh(1)
+    from solver.mesh import mesh_from_meshio
+
+    # tetra10 is read (tests/test_quadratic.py); one whose mid-side nodes are corners is refused
     m10 = meshio.Mesh(np.vstack([V, V[:2] + 5]), [("tetra10", np.c_[T, np.zeros((len(T), 6), int)][:1])])
-    with pytest.raises(UnsupportedElementError, match="tetra10"):
-        from solver.mesh import mesh_from_meshio
+    with pytest.raises(InvalidMeshError) as e:
         mesh_from_meshio(m10)
+    assert e.value.code == "bad_connectivity"
+    mixed = meshio.Mesh(V, [("tetra", T), ("tetra10", np.c_[T, T[:, :2], T[:, :2], T[:, :2]][:1])])
+    with pytest.raises(UnsupportedElementError, match="tetra10"):
+        mesh_from_meshio(mixed)
     hexm = meshio.Mesh(V, [("hexahedron", np.arange(8)[None])])
     p = tmp_path / "hex.vtu"
     meshio.write(p, hexm)

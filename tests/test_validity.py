@@ -11,7 +11,7 @@ from solver import factorization as fz
 from solver import precompute
 from solver.cli import main
 from solver.quality import signed_volumes
-from tests.conftest import DATA, bend_spec, load, longest_axis
+from tests.conftest import DATA, bend_move, bend_spec, load, longest_axis
 
 
 @pytest.fixture(scope="module")
@@ -21,12 +21,7 @@ def armadillo():
     return m, precompute(m, bend_spec(m, thin_walls=False))
 
 
-def _move(m, angle, frac):
-    ax, diag = longest_axis(m)
-    axis = [0.0, 0.0, 0.0]
-    axis[(ax + 1) % 3] = 1.0
-    return {"handles": {"h": {"translation": (frac * diag * np.eye(3)[(ax + 2) % 3]).tolist(),
-                              "rotation": {"axis": axis, "angle_deg": angle}}}}
+_move = bend_move
 
 
 def test_safe_move_has_fraction_one(armadillo):

@@ -37,7 +37,7 @@ def test_inp_deck_end_to_end_matches_library(client, tc, tmp_path, bracket_libra
     mesh = upload_bracket(client)
     info = mesh["info"]
     assert info["tetrahedra"] == 4228 and info["vertices"] == 1213
-    assert info["cell_types"] == {"triangle": 68, "tetra": 4228}
+    assert info["cell_types"] == {"triangle": 136, "tetra": 4228}  # two CPS3 end faces of 68
     assert {"FIXED", "LOAD", "SOLID"} <= set(info["sets"])
     assert info["quality"]["min_volume"] > 0
     s = client.create_session(mesh["id"], BRACKET_SPEC)
@@ -187,9 +187,9 @@ TET = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
     ("nan.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, float("nan")]]),
                            [[0, 1, 2, 3]]), "non_finite_coordinates"),
     ("badindex.inp", _inp_bytes(TET, [[0, 1, 2, 7]]), None),
-    ("quadratic.inp", _inp_bytes(np.vstack([TET, (TET[[0, 1, 2, 0, 0, 1]] + TET[[1, 2, 0, 3, 3, 3]])
-                                             / 2 + [0, 0, 0]]),
-                                  [list(range(10))], kind="C3D10"), "unsupported_element"),
+    ("hexahedron.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1],
+                                            [1, 1, 1], [0, 1, 1.0]]), [list(range(8))], kind="C3D8"),
+     "unsupported_element"),
     ("surface.xyz", b"1 2 3\n", "unknown_format"),
 ])
 def test_malformed_uploads_are_typed_422(tc, name, data, code):

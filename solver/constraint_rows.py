@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,7 +36,7 @@ from .spec import Move, Spec
 
 __all__ = ["Block", "position_blocks", "rotation_blocks", "assemble", "block_targets", "describe"]
 
-KINDS = ("fixed", "handle", "point", "relative", "feature", "motion", "sliding")
+KINDS = ("fixed", "handle", "tie", "point", "relative", "feature", "motion", "sliding")
 
 
 @dataclass
@@ -143,9 +144,43 @@ def _tree(ids: np.ndarray, mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(par, np.int64), np.asarray(chi, np.int64)
 
 
+#: Coincidence tolerance of automatic ties, relative to the mesh diagonal.
+TIE_TOL = 1e-9
+
+
+def tie_pairs(mesh: Mesh, ties: Any) -> np.ndarray:
+    """(k, 2) vertex pairs tied by ``SPEC.ties`` (coincident nodes of different bodies).
+
+    Raises
+    ------
+    SpecError
+        Ids out of range or unused in an explicit list.
+    """
+    if ties is False:
+        return np.zeros((0, 2), np.int64)
+    if isinstance(ties, list):
+        pairs = np.asarray(ties, np.int64).reshape(-1, 2)
+        _check_ids(pairs.ravel().tolist(), mesh.n, "SPEC.ties", mesh.referenced)
+        return pairs
+    from scipy.spatial import cKDTree
+
+    ref = np.flatnonzero(mesh.referenced)
+    if not ref.size:
+        return np.zeros((0, 2), np.int64)
+    V = mesh.V[ref]
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    tol = float(ties["tolerance"]) if isinstance(ties, dict) else TIE_TOL * diag
+    pairs = cKDTree(V).query_pairs(tol, output_type="ndarray")
+    if not len(pairs):
+        return np.zeros((0, 2), np.int64)
+    pairs = ref[pairs]
+    lab = mesh.body_labels
+    return np.sort(pairs[lab[pairs[:, 0]] != lab[pairs[:, 1]]], axis=1)
+
+
 def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
                     handle_ids: dict[str, np.ndarray], handle_centroids: dict[str, np.ndarray],
-                    ) -> list[Block]:
+                    ties: np.ndarray | None = None) -> list[Block]:
     """Rows of every hard positional constraint of ``spec``, in priority order.
 
     Parameters
@@ -188,6 +223,10 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
             return V0[ids] if hm is None else hm.apply(V0[ids], handle_centroids[name])
 
         blocks.append(Block("handle", h, name, ids.size, r, v, c, tgt, vertices=ids))
+    if ties is not None and len(ties):
+        m = len(ties)
+        blocks.append(Block("tie", 0, "ties", m, np.repeat(np.arange(m), 2), ties.ravel(), np.tile([1.0, -1.0], m),
+                            lambda mv, rot, m=m: np.zeros((m, 3)), vertices=np.unique(ties)))
     for k, e in enumerate(spec.points):
         ids, w = _point(e, mesh, sel_ids, f"SPEC.points[{k}]")
         default = np.asarray(e["target"]) if "target" in e else w @ V0[ids]
@@ -273,7 +312,8 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
 
 
 def rotation_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
-                    handle_ids: dict[str, np.ndarray]) -> tuple[list[Block], list[np.ndarray]]:
+                    handle_ids: dict[str, np.ndarray], ties: np.ndarray | None = None
+                    ) -> tuple[list[Block], list[np.ndarray]]:
     """Rows of the rotation system (ECLS eq. 26-29) and their targets per handle.
 
     The unknowns are the quaternion logarithms of the boundary vertices.
@@ -307,6 +347,13 @@ def rotation_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
             t = np.zeros((hb.size, H))
             t[:, h] = 1.0
             add("handle", h, name, hb, t)
+    if ties is not None and len(ties):
+        tb = ties[B[ties].all(axis=1)]
+        if len(tb):
+            m = len(tb)
+            blocks.append(Block("tie", 0, "ties", m, np.repeat(np.arange(m), 2), tb.ravel(), np.tile([1.0, -1.0], m),
+                                lambda mv, rot: None, vertices=np.unique(tb)))
+            basis.append(np.zeros((m, H)))
     for k, e in enumerate(spec.features):
         ids = sel_ids[e["selection"]]
         bids = ids[B[ids]]

@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from . import factorization as fz
 from .constrained_solver import ConstrainedSolver, rank_analysis
 from .constraint_rows import Assembly, Block, assemble, block_targets, describe, position_blocks, \
-    rotation_blocks
+    rotation_blocks, tie_pairs
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from .errors import ConstraintError, InversionError, SolverError, SpecError, format_ids
 from .mesh import Mesh
@@ -173,10 +173,12 @@ class Deformer:
             self.handle_centroids[name] = V0[ids].mean(axis=0)
         constrained = owner != -1
         self._owner = owner
+        self.ties = tie_pairs(mesh, self.spec.ties)
         self._check_determined(constrained)
         self._blocks = position_blocks(mesh, self.spec, sel_ids, fixed, self.handle_ids,
-                                       self.handle_centroids)
-        self._rblocks, self._rbasis = rotation_blocks(mesh, self.spec, sel_ids, fixed, self.handle_ids)
+                                       self.handle_centroids, self.ties)
+        self._rblocks, self._rbasis = rotation_blocks(mesh, self.spec, sel_ids, fixed, self.handle_ids,
+                                                      self.ties)
         self._vector = any(b.vector for b in self._blocks)
         general = [b for b in self._blocks if b.kind not in ("fixed", "handle")]
         touches_interior = any(mesh.interior[b.vert].any() for b in general)
@@ -339,6 +341,7 @@ class Deformer:
         nb = int(bodies.max()) + 1
         has = np.zeros(nb, bool)
         has[bodies[constrained & mesh.referenced]] = True
+        has = _spread(has, bodies, self.ties)  # a body tied to a held one is held
         if not has.all():
             b = int(np.flatnonzero(~has)[0])
             verts = np.flatnonzero(bodies == b)
@@ -350,6 +353,9 @@ class Deformer:
         ns = int(shells.max()) + 1 if mesh.boundary.any() else 0
         has_s = np.zeros(ns, bool)
         has_s[shells[constrained & mesh.boundary]] = True
+        if ns:
+            tb = self.ties[mesh.boundary[self.ties].all(axis=1)] if len(self.ties) else self.ties
+            has_s = _spread(has_s, shells, tb)
         if ns and not has_s.all():
             s = int(np.flatnonzero(~has_s)[0])
             verts = np.flatnonzero(shells == s)
@@ -871,6 +877,21 @@ class Deformer:
                 "p01_scaled_jacobian": float(np.partition(sj, k)[k]),
             })
         return rep
+
+
+def _spread(has: np.ndarray, labels: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """Mark every component tied (by vertex ``pairs``) to a marked one."""
+    if not len(pairs) or has.all():
+        return has
+    from scipy.sparse.csgraph import connected_components
+
+    la, lb = labels[pairs[:, 0]], labels[pairs[:, 1]]
+    k = has.size
+    G = sp.coo_matrix((np.ones(la.size), (la, lb)), shape=(k, k))
+    _, grp = connected_components(G, directed=False)
+    held = np.zeros(grp.max() + 1, bool)
+    held[grp[has]] = True
+    return held[grp]
 
 
 def _entry_text(e: dict[str, Any]) -> str:

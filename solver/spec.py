@@ -71,6 +71,10 @@ class Spec:
     repair : bool
         Untangle inverted elements after each solve by moving free interior
         vertices near them (:mod:`solver.repair`).
+    ties : "auto", False, {"tolerance": t} or list of [i, j]
+        Hard ties ``p_i = p_j`` (and equal rotations) between coincident nodes of
+        different bodies (assemblies); ``"auto"`` finds them within 1e-9 of the
+        diagonal.
     thin_walls : float
         Weight of the rows that tie the two faces of walls one tet thick
         (default ``THIN_WALL_WEIGHT``; 0 is the paper's method unchanged). See
@@ -94,6 +98,7 @@ class Spec:
     conflicts: str = "report"
     repair: bool = False
     thin_walls: float = 0.1
+    ties: Any = "auto"
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""
@@ -103,6 +108,7 @@ class Spec:
             "constraints": {"method": self.method, "penalty_weight": self.penalty_weight},
             "solve": self.solve, "rotation": self.rotation, "inversion": self.inversion,
             "conflicts": self.conflicts, "repair": self.repair, "thin_walls": self.thin_walls,
+            "ties": self.ties,
         }
         for key in ("points", "relative", "features", "motion", "sliding"):
             if getattr(self, key):
@@ -207,7 +213,7 @@ def parse_spec(doc: Any) -> Spec:
     """
     _check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
                       "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
-                      "conflicts", "repair", "thin_walls"), "SPEC")
+                      "conflicts", "repair", "thin_walls", "ties"), "SPEC")
     sels = doc.get("selections", {})
     _expect(isinstance(sels, dict) and len(sels) > 0, "SPEC.selections must name at least one selection",
             field="selections")
@@ -256,6 +262,18 @@ def parse_spec(doc: Any) -> Spec:
         tw = _number(tw.get("weight", 1.0), "SPEC.thin_walls.weight")
         _expect(tw >= 0, "SPEC.thin_walls.weight must be >= 0", field="thin_walls")
     out["thin_walls"] = float(tw)
+    ties = doc.get("ties", "auto")
+    if isinstance(ties, dict):
+        _check_keys(ties, ("tolerance",), "SPEC.ties")
+        _expect(_number(ties.get("tolerance"), "SPEC.ties.tolerance") >= 0, "SPEC.ties.tolerance must be >= 0",
+                field="ties")
+    elif isinstance(ties, list):
+        for k, pair in enumerate(ties):
+            _int_list(pair, f"SPEC.ties[{k}]", 2)
+    else:
+        _expect(ties in ("auto", False), "SPEC.ties must be \"auto\", false, {\"tolerance\": t} or a list "
+                "of [i, j] vertex pairs", field="ties")
+    out["ties"] = ties
     _expect(not (method == "penalty" and out["solve"] == "split"),
             "SPEC.solve 'split' needs exact constraints (constraints.method 'null_space' or 'kkt')",
             field="solve")

@@ -182,6 +182,17 @@ class Deformer:
         self._vector = any(b.vector for b in self._blocks)
         general = [b for b in self._blocks if b.kind not in ("fixed", "handle")]
         touches_interior = any(mesh.interior[b.vert].any() for b in general)
+        if self._free_shell.any():
+            on_void = [b for b in self._blocks if self._free_shell[b.vert].any()]
+            if on_void:
+                raise SpecError(f"{on_void[0].kind} {on_void[0].name!r} uses vertices of an internal void that "
+                                "has no fixed or handle vertex; fix or select a vertex of that void, or "
+                                "drop the constraint", code="constraint_on_free_void")
+            if self.spec.solve == "split":
+                raise SpecError("SPEC.solve 'split' cannot position an internal void with no fixed or handle "
+                                "vertex (its translation comes from the interior's mean-value rows); use "
+                                "'joint' or 'auto'", field="solve")
+            touches_interior = True  # auto: the joint solve
         mode = self.spec.solve
         if mode == "split" and touches_interior:
             b = next(b for b in general if mesh.interior[b.vert].any())
@@ -311,10 +322,11 @@ class Deformer:
             self._pasm = assemble(self._blocks, umap, unknowns.size, self._vector)
             self._pra = rank_analysis(self._pasm.C)
         self._rasm = self._rra = None
-        if self.handle_names and self._bidx.size:
+        self._rbidx = self._bidx[~self._free_shell[self._bidx]]  # rotation unknowns
+        if self.handle_names and self._rbidx.size:
             umap = np.full(mesh.n, -1, np.int64)
-            umap[self._bidx] = np.arange(self._bidx.size)
-            self._rasm = assemble(self._rblocks, umap, self._bidx.size, vector=False)
+            umap[self._rbidx] = np.arange(self._rbidx.size)
+            self._rasm = assemble(self._rblocks, umap, self._rbidx.size, vector=False)
             self._rra = rank_analysis(self._rasm.C)
         redundant, conflicting = [], []
         if self._pra is not None and not self._pra.kept.all():
@@ -356,6 +368,12 @@ class Deformer:
         if ns:
             tb = self.ties[mesh.boundary[self.ties].all(axis=1)] if len(self.ties) else self.ties
             has_s = _spread(has_s, shells, tb)
+        self._free_shell = np.zeros(mesh.n, bool)
+        if ns and not has_s.all() and self.spec.voids == "volume":
+            # internal voids: positioned by the surrounding volume (rotation extended through the
+            # tets, translation by the interior's mean-value rows in the joint solve)
+            self._free_shell = mesh.boundary & ~has_s[np.maximum(shells, 0)]
+            has_s[:] = True
         if ns and not has_s.all():
             s = int(np.flatnonzero(~has_s)[0])
             verts = np.flatnonzero(shells == s)
@@ -378,11 +396,11 @@ class Deformer:
         ``c_h``: ``r = sum_h phi_h c_h``. One factorization (by the SPEC's
         constraint method), one back-substitution per handle.
         """
-        bidx = self._bidx
         H = len(self.handle_names)
         self._rsys = None
-        if H == 0 or bidx.size == 0:
-            return np.zeros((bidx.size, H))
+        if H == 0 or self._rbidx.size == 0:
+            return np.zeros((self._bidx.size, H))
+        bidx = self._rbidx
         Kb = K[bidx][:, bidx]
         if self.spec.rotation == "harmonic":
             Q = Kb
@@ -400,7 +418,31 @@ class Deformer:
         Phi = self._rsys.solve(np.zeros((bidx.size, H)), D, None, refine=REFINE_STEPS)
         # residual of every row per unit handle rotation: dropped rows reveal conflicts
         self._rres = self._rasm.C @ Phi - D
-        return Phi
+        if bidx.size == self._bidx.size:
+            return Phi
+        full = np.zeros((self._bidx.size, H))
+        full[np.searchsorted(self._bidx, bidx)] = Phi
+        void = self._bidx[self._free_shell[self._bidx]]
+        full[np.searchsorted(self._bidx, void)] = self._extend_rotations(bidx, Phi, void)
+        return full
+
+    def _extend_rotations(self, known: np.ndarray, Phi: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """Rotation basis at internal-void vertices: the harmonic extension of the outer
+        shells' field through the tets (graph Laplacian of the tet edges, Dirichlet on
+        ``known``), so a void turns with the volume around it."""
+        mesh = self.mesh
+        T = mesh.T
+        E = np.concatenate([T[:, [a, b]] for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))])
+        n = mesh.n
+        A = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+        A = ((A + A.T) > 0).astype(float)
+        Lv = sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A
+        isknown = np.zeros(n, bool)
+        isknown[known] = True
+        u = np.flatnonzero(mesh.referenced & ~isknown)
+        f = fz.cholesky(Lv[u][:, u].tocsc(), "void rotation extension")
+        X = f.solve(-(Lv[u][:, known] @ Phi))
+        return X[np.searchsorted(u, targets)]
 
     # --------------------------------------------------------------- positions
     def _layout(self, X: np.ndarray) -> np.ndarray:

@@ -75,6 +75,11 @@ class Spec:
         Hard ties ``p_i = p_j`` (and equal rotations) between coincident nodes of
         different bodies (assemblies); ``"auto"`` finds them within 1e-9 of the
         diagonal.
+    voids : {"volume", "refuse"}
+        An internal void (a boundary shell with no fixed or handle vertex):
+        positioned by the surrounding volume (its rotation field extended
+        harmonically through the tets, its translation by the mean-value rows
+        of the interior around it; joint solve), or refused.
     thin_walls : float
         Weight of the rows that tie the two faces of walls one tet thick
         (default ``THIN_WALL_WEIGHT``; 0 is the paper's method unchanged). See
@@ -99,6 +104,7 @@ class Spec:
     repair: bool = False
     thin_walls: float = 0.1
     ties: Any = "auto"
+    voids: str = "volume"
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""
@@ -108,7 +114,7 @@ class Spec:
             "constraints": {"method": self.method, "penalty_weight": self.penalty_weight},
             "solve": self.solve, "rotation": self.rotation, "inversion": self.inversion,
             "conflicts": self.conflicts, "repair": self.repair, "thin_walls": self.thin_walls,
-            "ties": self.ties,
+            "ties": self.ties, "voids": self.voids,
         }
         for key in ("points", "relative", "features", "motion", "sliding"):
             if getattr(self, key):
@@ -213,7 +219,7 @@ def parse_spec(doc: Any) -> Spec:
     """
     _check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
                       "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
-                      "conflicts", "repair", "thin_walls", "ties"), "SPEC")
+                      "conflicts", "repair", "thin_walls", "ties", "voids"), "SPEC")
     sels = doc.get("selections", {})
     _expect(isinstance(sels, dict) and len(sels) > 0, "SPEC.selections must name at least one selection",
             field="selections")
@@ -246,7 +252,8 @@ def parse_spec(doc: Any) -> Spec:
     for key, allowed, default in (("laplacian", LAPLACIANS, "cotangent"), ("solve", SOLVE_MODES, "auto"),
                                   ("rotation", ROTATIONS, "harmonic"),
                                   ("inversion", INVERSION_POLICIES, "warn"),
-                                  ("conflicts", CONFLICT_POLICIES, "report")):
+                                  ("conflicts", CONFLICT_POLICIES, "report"),
+                                  ("voids", ("volume", "refuse"), "volume")):
         val = doc.get(key, default)
         _expect(val in allowed, f"SPEC.{key} must be one of {list(allowed)}, got {val!r}", field=key)
         out[key] = val

@@ -7,13 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from solver import (ConstraintError, InversionError, mesh_from_arrays, precompute, read_mesh)
+from solver import (ConstraintError, InversionError, SpecError, mesh_from_arrays, precompute, read_mesh)
 from solver import factorization as fz
 from solver.quality import signed_volumes
 from solver.spec import axis_angle_matrix
 from solver.testing import cube_mesh, sphere_surface
 
-from .conftest import DATA, bend_spec, load, longest_axis, slab
+from .conftest import DATA, bend_move, bend_spec, load, longest_axis, slab
 
 REAL = ["Armadillo13K.msh", "screw.msh", "beam.node"]
 
@@ -205,13 +205,39 @@ def test_surface_only_mesh_is_deformed_by_boundary_rows():
     assert np.abs(d.solve({"handles": {}}).V - V).max() < 1e-12
 
 
-def test_internal_voids_without_constraint_are_refused():
+def test_internal_voids_without_constraint_are_refused_when_asked():
     m = load("cones_with_cavities.inp")
     assert m.info()["boundary_shells"] == 3
     with pytest.raises(ConstraintError) as e:
-        precompute(m, bend_spec(m, boundary_only=True))
+        precompute(m, bend_spec(m, boundary_only=True, voids="refuse"))
     assert e.value.code == "unconstrained_shell"
     assert "internal void" in e.value.message
+
+
+def test_internal_voids_move_with_the_volume_around_them():
+    """cones_with_cavities.inp (FinEtools, MIT): two cavities with no constraint on them."""
+    m = load("cones_with_cavities.inp")
+    spec = bend_spec(m, boundary_only=True)
+    d = precompute(m, spec)
+    assert d.solve_mode == "joint" and d._free_shell.sum() == 61 + 37
+    with pytest.raises(SpecError, match="split"):
+        precompute(m, {**spec, "solve": "split"})
+    r = d.solve(bend_move(m, 20, 0.1))
+    assert r.report["inverted_elements"] == 0 and r.report["finite"]
+    void = np.flatnonzero(d._free_shell)
+    assert np.linalg.norm(r.V[void] - m.V[void], axis=1).min() > 0  # the cavities moved
+    # with one handle and nothing fixed, a translation or a rotation moves everything rigidly,
+    # the cavities included: the volume positions them (translation by the mean-value rows,
+    # rotation by the field extended through the tets)
+    d1 = precompute(m, {"selections": {"hand": spec["selections"]["hand"]}, "handles": {"h": "hand"}})
+    _, diag = longest_axis(m)
+    t = np.array([1.0, 2.0, 3.0])
+    P = d1.solve({"handles": {"h": {"translation": t.tolist()}}}).V
+    assert np.abs(P[void] - m.V[void] - t).max() <= 1e-12 * diag
+    R = axis_angle_matrix(np.array([0.0, 0, 1]), np.radians(30))
+    c = m.V[d1.handle_ids["h"]].mean(0)
+    P = d1.solve({"handles": {"h": {"rotation": {"axis": [0, 0, 1], "angle_deg": 30}}}}).V
+    assert np.abs(P[void] - (c + (m.V[void] - c) @ R.T)).max() <= 1e-10 * diag
 
 
 def test_body_without_constraint_is_refused():

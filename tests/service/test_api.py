@@ -126,7 +126,7 @@ def test_spec_errors_come_back_at_create_time(client, tc):
 
     r = tc.post("/v1/sessions", json={"mesh_id": cones["id"],
                                       "spec": bend_spec(load("cones_with_cavities.inp"),
-                                                        boundary_only=True)})
+                                                        boundary_only=True, voids="refuse")})
     assert r.status_code == 422 and err(r)["code"] == "unconstrained_shell"
     assert tc.get("/v1/sessions").json() == []  # nothing was stored
     r = tc.post("/v1/sessions", json={"mesh_id": "m_0000", "spec": BRACKET_SPEC})

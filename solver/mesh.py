@@ -358,7 +358,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> M
                                code="unreadable_file") from e
     mesh = mesh_from_meshio(m)
     mesh.path = path
-    if (file_format or "").lower() in ("abaqus", "inp") or path.lower().endswith(".inp"):
+    if (file_format or "").lower() in ("abaqus", "inp", "gmsh") or path.lower().endswith((".inp", ".msh")):
         with open(path, "rb") as fh:
             mesh.raw = fh.read()
     return mesh
@@ -427,9 +427,10 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
                point_sets: dict[str, np.ndarray] | None = None, quality: bool = False) -> None:
     """Write ``mesh`` with new coordinates ``V``, changing nothing else.
 
-    An Abaqus deck read from a file and written as ``.inp`` keeps every byte
-    except the coordinates of its node lines (materials, steps, comments and
-    formatting included); other targets go through meshio.
+    An Abaqus deck read from a file and written as ``.inp``, and an ASCII Gmsh
+    file written as ``.msh``, keep every byte except the coordinates of their
+    nodes (materials, steps, comments, physical names and formatting
+    included); other targets go through meshio.
 
     Parameters
     ----------
@@ -467,6 +468,16 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         if node_line_count(mesh.raw) == mesh.n:  # the deck, byte for byte, with new coordinates
             with open(target, "wb") as fh:
                 fh.write(patch_inp(mesh.raw, V))
+            return
+    to_msh = (file_format or "").lower() == "gmsh" or (file_format is None and target.lower().endswith(".msh"))
+    if to_msh and mesh.raw is not None and mesh.raw.lstrip().startswith(b"$MeshFormat") \
+            and not (point_data or cell_data or point_sets or quality):
+        from .inp_patch import patch_msh
+
+        patched = patch_msh(mesh.raw, V)
+        if patched is not None:
+            with open(target, "wb") as fh:
+                fh.write(patched)
             return
     if mesh.source is not None:
         out = copy.copy(mesh.source)

@@ -31,11 +31,13 @@ def test_round_trip_changes_only_coordinates(tmp_path, name, fmt):
     for a, b in zip(back.cells, src.cells):
         np.testing.assert_array_equal(a.data, b.data)
     if fmt is None:
-        # compare with meshio's own round trip of the untouched mesh: meshio's
-        # Gmsh 4.1 writer does not bring back node entity tags (gmsh:dim_tags)
-        ref_path = tmp_path / f"ref.{ext}"
-        meshio.write(ref_path, src)
-        src = meshio.read(ref_path)
+        if ext not in ("msh", "inp"):
+            # compare with meshio's own round trip of the untouched mesh (.msh and .inp are
+            # written by patching the original file, so they keep everything it had, e.g.
+            # Gmsh node entity tags that meshio's writer drops)
+            ref_path = tmp_path / f"ref.{ext}"
+            meshio.write(ref_path, src)
+            src = meshio.read(ref_path)
         assert set(back.point_data) == set(src.point_data)
         for k in src.point_data:
             np.testing.assert_array_equal(back.point_data[k], src.point_data[k])

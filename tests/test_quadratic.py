@@ -93,3 +93,28 @@ def test_abaqus_round_trip_changes_only_node_coordinates(path, tmp_path):
     np.testing.assert_array_equal(back.V, P)
     np.testing.assert_array_equal(back.T, mesh.T)
     assert {k: v.tolist() for k, v in back.sets.items()} == {k: v.tolist() for k, v in mesh.sets.items()}
+
+
+@pytest.mark.parametrize("name,version", [("screw.msh", "4.1"), ("Armadillo13K.msh", "4.1"), ("plate.inp", "2.2")])
+def test_gmsh_round_trip_changes_only_node_coordinates(name, version, tmp_path):
+    import meshio
+
+    src = DATA / name
+    if version == "2.2":  # an ASCII Gmsh 2.2 file of the plate, with its physical groups
+        src = tmp_path / "plate22.msh"
+        meshio.gmsh.write(str(src), meshio.read(DATA / name), fmt_version="2.2", binary=False)
+    mesh = read_mesh(src)
+    assert mesh.raw.splitlines()[1].split()[0].decode() == version
+    P = precompute(mesh, bend_spec(mesh)).solve(_bend(mesh)).V
+    out = tmp_path / "out.msh"
+    write_mesh(mesh, P, out)
+    a, b = src.read_bytes().splitlines(), out.read_bytes().splitlines()
+    assert len(a) == len(b)
+    changed = [k for k, (x, y) in enumerate(zip(a, b)) if x != y]
+    start = a.index(b"$Nodes")
+    end = a.index(b"$EndNodes")
+    assert all(start < k < end for k in changed) and len(changed) >= int((P != mesh.V).any(axis=1).sum())
+    back = read_mesh(out)
+    np.testing.assert_array_equal(back.V, P)
+    np.testing.assert_array_equal(back.T, mesh.T)
+    assert sorted(back.sets) == sorted(mesh.sets)

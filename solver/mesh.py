@@ -358,7 +358,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> M
                                code="unreadable_file") from e
     mesh = mesh_from_meshio(m)
     mesh.path = path
-    if (file_format or "").lower() in ("abaqus", "inp", "gmsh") or path.lower().endswith((".inp", ".msh")):
+    if (file_format or "").lower() in ("abaqus", "inp", "gmsh", "vtu") or path.lower().endswith((".inp", ".msh", ".vtu")):
         with open(path, "rb") as fh:
             mesh.raw = fh.read()
     return mesh
@@ -427,10 +427,10 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
                point_sets: dict[str, np.ndarray] | None = None, quality: bool = False) -> None:
     """Write ``mesh`` with new coordinates ``V``, changing nothing else.
 
-    An Abaqus deck read from a file and written as ``.inp``, and an ASCII Gmsh
-    file written as ``.msh``, keep every byte except the coordinates of their
-    nodes (materials, steps, comments, physical names and formatting
-    included); other targets go through meshio.
+    An Abaqus deck read from a file and written as ``.inp``, an ASCII Gmsh
+    file written as ``.msh`` and a VTU file written as ``.vtu`` keep every byte
+    except their node coordinates (materials, steps, comments, physical names,
+    data arrays and formatting included); other targets go through meshio.
 
     Parameters
     ----------
@@ -475,6 +475,16 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         from .inp_patch import patch_msh
 
         patched = patch_msh(mesh.raw, V)
+        if patched is not None:
+            with open(target, "wb") as fh:
+                fh.write(patched)
+            return
+    to_vtu = (file_format or "").lower() == "vtu" or (file_format is None and target.lower().endswith(".vtu"))
+    if to_vtu and mesh.raw is not None and b"<VTKFile" in mesh.raw[:400] \
+            and not (point_data or cell_data or point_sets or quality):
+        from .inp_patch import patch_vtu
+
+        patched = patch_vtu(mesh.raw, V)
         if patched is not None:
             with open(target, "wb") as fh:
                 fh.write(patched)

@@ -461,31 +461,9 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         raise InvalidMeshError(f"positions have shape {V.shape}, mesh has {mesh.V.shape}",
                                code="bad_shape")
     target = os.fspath(path)
-    to_inp = (file_format or "").lower() in ("abaqus", "inp") or (file_format is None and target.lower().endswith(".inp"))
-    if to_inp and mesh.raw is not None and not (point_data or cell_data or point_sets or quality):
-        from .inp_patch import node_line_count, patch_inp
-
-        if node_line_count(mesh.raw) == mesh.n:  # the deck, byte for byte, with new coordinates
-            with open(target, "wb") as fh:
-                fh.write(patch_inp(mesh.raw, V))
-            return
-    to_msh = (file_format or "").lower() == "gmsh" or (file_format is None and target.lower().endswith(".msh"))
-    if to_msh and mesh.raw is not None and mesh.raw.lstrip().startswith(b"$MeshFormat") \
-            and not (point_data or cell_data or point_sets or quality):
-        from .inp_patch import patch_msh
-
-        patched = patch_msh(mesh.raw, V)
-        if patched is not None:
-            with open(target, "wb") as fh:
-                fh.write(patched)
-            return
-    to_vtu = (file_format or "").lower() == "vtu" or (file_format is None and target.lower().endswith(".vtu"))
-    if to_vtu and mesh.raw is not None and b"<VTKFile" in mesh.raw[:400] \
-            and not (point_data or cell_data or point_sets or quality):
-        from .inp_patch import patch_vtu
-
-        patched = patch_vtu(mesh.raw, V)
-        if patched is not None:
+    if mesh.raw is not None and not (point_data or cell_data or point_sets or quality):
+        patched = _patched_original(mesh, V, target, file_format)
+        if patched is not None:  # the original file, byte for byte, with new coordinates
             with open(target, "wb") as fh:
                 fh.write(patched)
             return
@@ -521,6 +499,22 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     except Exception as e:
         raise InvalidMeshError(f"cannot write {os.fspath(path)!r} as "
                                f"{file_format or 'its extension'}: {e}", code="unwritable_format") from e
+
+
+def _patched_original(mesh: Mesh, V: np.ndarray, target: str, file_format: str | None) -> bytes | None:
+    """The mesh's own file with coordinates ``V``, when the target has its format (.inp, .msh, .vtu)."""
+    from .inp_patch import node_line_count, patch_inp, patch_msh, patch_vtu
+
+    fmt = (file_format or "").lower()
+    ext = target.lower().rsplit(".", 1)[-1] if file_format is None else ""
+    raw = mesh.raw
+    if fmt in ("abaqus", "inp") or ext == "inp":
+        return patch_inp(raw, V) if node_line_count(raw) == mesh.n else None
+    if (fmt == "gmsh" or ext == "msh") and raw.lstrip().startswith(b"$MeshFormat"):
+        return patch_msh(raw, V)
+    if (fmt == "vtu" or ext == "vtu") and b"<VTKFile" in raw[:400]:
+        return patch_vtu(raw, V)
+    return None
 
 
 def tet_cell_data(mesh: Mesh, values: np.ndarray, out: meshio.Mesh | None = None) -> list[np.ndarray]:

@@ -34,10 +34,10 @@ import scipy.sparse as sp
 
 from . import factorization as fz
 from .constrained_solver import ConstrainedSolver, rank_analysis
-from .constraint_rows import Assembly, Block, assemble, block_targets, describe, position_blocks, \
+from .constraint_rows import assemble, block_targets, describe, position_blocks, \
     rotation_blocks, tie_pairs
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
-from .errors import ConstraintError, InversionError, SolverError, SpecError, format_ids
+from .errors import ConstraintError, InversionError, SpecError, format_ids
 from .mesh import Mesh
 from .mvc_matrix import mvc_matrix
 from .quadratic import MidsideNodes, node_jacobians

@@ -85,7 +85,7 @@ def patch_inp(data: bytes, V: np.ndarray) -> bytes:
             raise ValueError(f"line {k + 1}: a node line needs an id and three coordinates: {body[:80]!r}")
         coords = [format(float(x), ".17g").encode() for x in V[row]]
         lead = [f[: len(f) - len(f.lstrip())] for f in fields[1:4]]  # keep each field's leading blanks
-        fields[1:4] = [sp + c for sp, c in zip(lead, coords)]
+        fields[1:4] = [sp + c for sp, c in zip(lead, coords, strict=True)]
         lines[k] = b",".join(fields) + end
     return b"".join(lines)
 

@@ -291,7 +291,7 @@ def summarize_quality(q: dict[str, np.ndarray]) -> dict[str, dict]:
         if not v.size:
             continue
         p = np.percentile(v, [0, 1, 5, 50, 95, 99, 100])
-        ent: dict = dict(zip(("min", "p01", "p05", "median", "p95", "p99", "max"), map(float, p)))
+        ent: dict = dict(zip(("min", "p01", "p05", "median", "p95", "p99", "max"), map(float, p), strict=True))
         if k in HISTOGRAM_EDGES:
             edges = HISTOGRAM_EDGES[k]
             counts, _ = np.histogram(np.clip(v, edges[0], edges[-1]), bins=edges)

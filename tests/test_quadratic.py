@@ -83,7 +83,7 @@ def test_abaqus_round_trip_changes_only_node_coordinates(path, tmp_path):
 
     node_lines = set(_node_lines(src.read_bytes().splitlines(keepends=True)))
     assert len(node_lines) == mesh.n
-    changed = {k for k, (x, y) in enumerate(zip(a, b)) if x != y}
+    changed = {k for k, (x, y) in enumerate(zip(a, b, strict=True)) if x != y}
     assert changed <= node_lines  # every other line (elements, sets, keywords) byte-identical
     moved = int(np.count_nonzero(np.any(P != mesh.V, axis=1)))
     assert len(changed) >= moved > 0  # fixed nodes may keep their text; moved ones do not
@@ -110,7 +110,7 @@ def test_gmsh_round_trip_changes_only_node_coordinates(name, version, tmp_path):
     write_mesh(mesh, P, out)
     a, b = src.read_bytes().splitlines(), out.read_bytes().splitlines()
     assert len(a) == len(b)
-    changed = [k for k, (x, y) in enumerate(zip(a, b)) if x != y]
+    changed = [k for k, (x, y) in enumerate(zip(a, b, strict=True)) if x != y]
     start = a.index(b"$Nodes")
     end = a.index(b"$EndNodes")
     assert all(start < k < end for k in changed) and len(changed) >= int((P != mesh.V).any(axis=1).sum())
@@ -140,8 +140,8 @@ def test_vtu_round_trip_changes_only_the_points_array(kind, tmp_path):
     assert a[:sa] == b[:sb] and a[a.find(b"</Points>"):] == b[b.find(b"</Points>"):]
     back, orig = meshio.read(out), meshio.read(src)
     np.testing.assert_array_equal(back.points, P.astype(orig.points.dtype))
-    for x, y in zip(back.cells, orig.cells):
+    for x, y in zip(back.cells, orig.cells, strict=True):
         np.testing.assert_array_equal(x.data, y.data)
     for k in orig.cell_data:
-        for x, y in zip(back.cell_data[k], orig.cell_data[k]):
+        for x, y in zip(back.cell_data[k], orig.cell_data[k], strict=True):
             np.testing.assert_array_equal(x, y)

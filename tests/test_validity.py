@@ -129,7 +129,7 @@ def test_full_quality_report_and_cell_data(armadillo, tmp_path):
     out = tmp_path / "q.vtu"
     write_mesh(m, r.V, out, quality=True)
     back = meshio.read(out)
-    sj = np.concatenate([np.asarray(a) for a, c in zip(back.cell_data["quality:scaled_jacobian"], back.cells)
+    sj = np.concatenate([np.asarray(a) for a, c in zip(back.cell_data["quality:scaled_jacobian"], back.cells, strict=True)
                          if c.type == "tetra"])
     np.testing.assert_allclose(sj, r.cell_quality["scaled_jacobian"])
     with pytest.raises(Exception, match="quality"):

@@ -1,4 +1,4 @@
-"""Boundary faces of a tetrahedral mesh."""
+"""Boundary faces and edges of a tetrahedral (or triangle) mesh."""
 
 from __future__ import annotations
 
@@ -6,12 +6,40 @@ import numpy as np
 
 from .errors import InvalidMeshError, format_ids
 
-__all__ = ["TET_FACES", "boundary_facets", "face_keys"]
+__all__ = ["TET_FACES", "boundary_facets", "face_keys", "simplex_edges"]
 
 #: Local vertex indices of the four faces of a positively oriented tet
 #: ``(a, b, c, d)``, ordered so that each face's normal points away from the
 #: opposite vertex: face ``k`` is opposite local vertex ``k``.
 TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
+
+
+def simplex_edges(S: np.ndarray, unique: bool = True) -> np.ndarray:
+    """Edges of simplices: every pair of an element's vertices.
+
+    Parameters
+    ----------
+    S : (k, d) int array
+        Triangles (d = 3) or tetrahedra (d = 4).
+    unique : bool
+        Return each edge once, as a sorted pair, rows sorted. Otherwise every
+        element's pairs in the order (0, 1), (0, 2), ... (d-2, d-1), element-major
+        per pair, as given.
+
+    Returns
+    -------
+    (e, 2) int array
+
+    Examples
+    --------
+    >>> simplex_edges(np.array([[0, 1, 2], [2, 1, 3]])).tolist()
+    [[0, 1], [0, 2], [1, 2], [1, 3], [2, 3]]
+    """
+    d = S.shape[1]
+    E = np.concatenate([S[:, [a, b]] for a in range(d) for b in range(a + 1, d)])
+    if not unique:
+        return E
+    return np.unique(np.sort(E, axis=1), axis=0)
 
 
 def face_keys(S: np.ndarray, n: int) -> np.ndarray:

@@ -29,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
+from .boundary_facets import simplex_edges
 from .errors import SpecError, format_ids
 from .mesh import Mesh
 from .rotation import log_to_matrix, rotate_by_log
@@ -127,7 +128,7 @@ def _tree(ids: np.ndarray, mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     inside[ids] = True
     T = mesh.T
     T = T[inside[T].sum(axis=1) >= 2]
-    E = np.concatenate([T[:, [a, b]] for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))])
+    E = simplex_edges(T, unique=False)  # repeats sum in G: the tree is as before
     E = E[inside[E].all(axis=1)]
     loc = np.full(n, -1, np.int64)
     loc[ids] = np.arange(ids.size)

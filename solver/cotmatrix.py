@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .boundary_facets import simplex_edges
+
 __all__ = ["COT_MAX", "AREA_FLOOR", "cotangents", "cotmatrix", "voronoi_areas", "uniform_matrix"]
 
 #: Cotangents are bounded by ``COT_MAX`` in magnitude. All three cotangents of a
@@ -109,6 +111,7 @@ def uniform_matrix(F: np.ndarray, n: int) -> sp.csr_matrix:
     Parameters
     ----------
     F : (k, 3) int array
+        Triangles; tetrahedra (k, 4) give the graph Laplacian of the tet edges.
     n : int
 
     Returns
@@ -121,8 +124,7 @@ def uniform_matrix(F: np.ndarray, n: int) -> sp.csr_matrix:
     Equality-constrained least squares deformation, eq. (9) (up to the row
     scaling ``1/n_i``, which the caller applies as the row weight).
     """
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    E = np.unique(np.sort(E, axis=1), axis=0)
+    E = simplex_edges(F)
     A = sp.csr_matrix((np.ones(2 * len(E)), (np.r_[E[:, 0], E[:, 1]], np.r_[E[:, 1], E[:, 0]])),
                       shape=(n, n))
     A.data[:] = 1.0

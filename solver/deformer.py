@@ -36,6 +36,7 @@ from . import factorization as fz
 from .constrained_solver import ConstrainedSolver, rank_analysis
 from .constraint_rows import assemble, block_targets, describe, position_blocks, \
     rotation_blocks, tie_pairs
+from .boundary_facets import simplex_edges
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from .errors import ConstraintError, InversionError, SpecError, format_ids
 from .mesh import Mesh
@@ -431,12 +432,8 @@ class Deformer:
         shells' field through the tets (graph Laplacian of the tet edges, Dirichlet on
         ``known``), so a void turns with the volume around it."""
         mesh = self.mesh
-        T = mesh.T
-        E = np.concatenate([T[:, [a, b]] for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))])
         n = mesh.n
-        A = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
-        A = ((A + A.T) > 0).astype(float)
-        Lv = sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A
+        Lv = uniform_matrix(mesh.T, n)
         isknown = np.zeros(n, bool)
         isknown[known] = True
         u = np.flatnonzero(mesh.referenced & ~isknown)
@@ -478,11 +475,8 @@ class Deformer:
         T = mesh.T[mesh.boundary[mesh.T].all(axis=1)]
         if not T.size:
             return
-        E = np.sort(np.concatenate([T[:, [a, b]] for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))]),
-                    axis=1)
-        E = np.unique(E, axis=0)
-        F = mesh.F
-        FE = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+        E = simplex_edges(T)
+        FE = simplex_edges(mesh.F)
         n = mesh.n
         key = E[:, 0] * n + E[:, 1]
         E = E[~np.isin(key, FE[:, 0] * n + FE[:, 1])]
@@ -696,15 +690,18 @@ class Deformer:
         features = {k: v ** f for k, v in mv.features.items()}
         return Move(handles, points, relative, features, motion)
 
-    def _bad_elements(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(bad mask, scaled Jacobians of the corner tets, degenerate mask); quadratic
-        elements are also bad when their Jacobian is <= 0 at any of their ten nodes."""
+    def _bad_elements(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """(bad mask, scaled Jacobians of the corner tets, degenerate mask, node Jacobians
+        (m, 10) of quadratic elements or None); quadratic elements are also bad when their
+        Jacobian is <= 0 at any of their ten nodes."""
         vol6, sj = tet_quality(P, self._Tt)
         degenerate = np.abs(sj) <= DEGENERATE_TOL
         bad = (vol6 <= 0) | degenerate
+        dj = None
         if self.mesh.T10 is not None:
-            bad |= (node_jacobians(P, self.mesh.T10).min(axis=1) <= 0) & self._valid_rest
-        return bad, sj, degenerate
+            dj = node_jacobians(P, self.mesh.T10)
+            bad |= (dj.min(axis=1) <= 0) & self._valid_rest
+        return bad, sj, degenerate, dj
 
     def _inverted(self, P: np.ndarray) -> int:
         return int(np.count_nonzero(self._bad_elements(P)[0]))
@@ -901,11 +898,10 @@ class Deformer:
         }
         if not mesh.is_surface:
             # scaled Jacobian = sqrt(2) vol6 / (edge-length products), so a tiny |sj| flags degeneracy
-            badm, sj, degenerate = self._bad_elements(P)
+            badm, sj, degenerate, dj = self._bad_elements(P)
             bad = np.flatnonzero(badm)
             k = sj.size // 100
-            if mesh.T10 is not None:
-                dj = node_jacobians(P, mesh.T10)
+            if dj is not None:
                 ratio = dj.min(axis=1) / np.maximum(np.abs(dj).max(axis=1), 1e-300)
                 rep["element_order"] = 2
                 rep["min_jacobian_ratio"] = float(ratio[self._valid_rest].min()) if self._valid_rest.any() \

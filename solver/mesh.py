@@ -394,11 +394,17 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
     T = np.concatenate(tets) if tets else np.zeros((0, 4), np.int64)
     tris = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "triangle"]
     surface = np.concatenate(tris) if (tris and not len(T)) else np.zeros((0, 3), np.int64)
+    V = _points(m)
+    validate(V, T, surface)
+    return Mesh(V=V, T=T, surface=surface, sets=_named_sets(m), source=m)
+
+
+def _points(m: meshio.Mesh) -> np.ndarray:
+    """The points as float64 (n, 3); planar files get z = 0."""
     V = np.asarray(m.points, dtype=np.float64)
     if V.ndim == 2 and V.shape[1] == 2:
         V = np.c_[V, np.zeros(len(V))]
-    validate(V, T, surface)
-    return Mesh(V=V, T=T, surface=surface, sets=_named_sets(m), source=m)
+    return V
 
 
 def _quadratic_from_meshio(m: meshio.Mesh) -> Mesh:
@@ -410,9 +416,7 @@ def _quadratic_from_meshio(m: meshio.Mesh) -> Mesh:
         raise UnsupportedElementError(
             f"element types {counts} next to quadratic tetrahedra are not supported yet", types=counts)
     T10 = np.concatenate([np.asarray(c.data, np.int64) for c in m.cells if c.type == "tetra10"])
-    V = np.asarray(m.points, dtype=np.float64)
-    if V.ndim == 2 and V.shape[1] == 2:
-        V = np.c_[V, np.zeros(len(V))]
+    V = _points(m)
     T = np.ascontiguousarray(T10[:, :4])
     validate(V, T, None)
     mid = np.setdiff1d(np.unique(T10[:, 4:]), np.unique(T))

@@ -17,6 +17,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from cases import slab_spec  # noqa: E402
 SHARED = ROOT.parent / "shared" / "data" / "tet"
 
 WEIGHTS = (0.0, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0)
@@ -39,18 +42,7 @@ def load(name: str):
 
 
 def spec_and_moves(mesh):
-    V = mesh.V[mesh.referenced]
-    lo, hi = V.min(0), V.max(0)
-    ax = int(np.argmax(hi - lo))
-    L = hi[ax] - lo[ax]
-    diag = float(np.linalg.norm(hi - lo))
-
-    def box(a: float, b: float) -> dict:
-        mn, mx = lo - 1e-9 * L, hi + 1e-9 * L
-        mn[ax], mx[ax] = lo[ax] + a * L - 1e-9 * L, lo[ax] + b * L + 1e-9 * L
-        return {"box": {"min": mn.tolist(), "max": mx.tolist()}}
-
-    spec = {"selections": {"fix": box(0, 0.1), "hand": box(0.9, 1.0)}, "fixed": ["fix"], "handles": {"h": "hand"}}
+    spec, ax, diag = slab_spec(mesh)
     moves = []
     for a, f, o in MOVES:
         side, axis = np.eye(3)[(ax + 1 + o) % 3], np.eye(3)[(ax + 2 - o) % 3]

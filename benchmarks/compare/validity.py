@@ -15,6 +15,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from cases import slab_spec  # noqa: E402
 SHARED = ROOT.parent / "shared" / "data" / "tet"
 MOVES = ((10, 0.05), (20, 0.1), (25, 0.15), (30, 0.2), (45, 0.1), (60, 0.3))
 
@@ -23,19 +26,8 @@ def main() -> None:
     from solver import precompute, read_mesh
 
     mesh = read_mesh(ROOT / "tests" / "data" / "Armadillo13K.msh")
-    V = mesh.V[mesh.referenced]
-    lo, hi = V.min(0), V.max(0)
-    ax = int(np.argmax(hi - lo))
-    L, diag = hi[ax] - lo[ax], float(np.linalg.norm(hi - lo))
-
-    def box(a: float, b: float) -> dict:
-        mn, mx = lo - 1e-9 * L, hi + 1e-9 * L
-        mn[ax], mx[ax] = lo[ax] + a * L - 1e-9 * L, lo[ax] + b * L + 1e-9 * L
-        return {"box": {"min": mn.tolist(), "max": mx.tolist()}}
-
-    spec = {"selections": {"fix": box(0, 0.1), "hand": box(0.9, 1.0)}, "fixed": ["fix"],
-            "handles": {"h": "hand"}, "thin_walls": False}
-    d = precompute(mesh, spec)
+    spec, ax, diag = slab_spec(mesh)
+    d = precompute(mesh, {**spec, "thin_walls": False})
     axis = np.eye(3)[(ax + 1) % 3]
     print("| move | inverted | safe fraction | bisection solves | bisection ms | inverted after clamp | "
           "repair: inverted after | moved vertices | repair ms | repair note |")

@@ -583,19 +583,17 @@ $("api-key").value = localStorage.getItem("tetmorph-api-key") || "";
 $("api-key").addEventListener("change", () => { localStorage.setItem("tetmorph-api-key", $("api-key").value); listMeshes(); });
 listMeshes();
 
+/** Page coordinates of a point in normalized device coordinates. */
+function toPage(v) {
+  const rect = canvas.getBoundingClientRect();
+  return { x: rect.left + (v.x + 1) / 2 * rect.width, y: rect.top + (1 - v.y) / 2 * rect.height };
+}
+
 // Automation hooks for the browser tests (read-only views of the state, plus where the
 // gizmo is on screen so a test can drag it with the real mouse).
 window.tetmorph = {
   state,
-  pivotScreen() {
-    const rect = canvas.getBoundingClientRect();
-    const v = pivot.position.clone().project(camera);
-    return { x: rect.left + (v.x + 1) / 2 * rect.width, y: rect.top + (1 - v.y) / 2 * rect.height };
-  },
-  screenOf(i) {
-    const rect = canvas.getBoundingClientRect();
-    const v = screenOf(i, new THREE.Vector3());
-    return { x: rect.left + (v.x + 1) / 2 * rect.width, y: rect.top + (1 - v.y) / 2 * rect.height };
-  },
+  pivotScreen: () => toPage(pivot.position.clone().project(camera)),
+  screenOf: (i) => toPage(screenOf(i, new THREE.Vector3())),
   positions: () => Array.from(state.V),
 };

@@ -128,6 +128,14 @@ def _check_finite(M: sp.spmatrix, what: str) -> None:
         raise FactorizationError(f"{what}: the matrix has non-finite entries", code="non_finite_matrix")
 
 
+def _prepared(M: sp.spmatrix, what: str) -> sp.csc_matrix:
+    """``M`` as CSC, checked finite, and counted in :data:`STATS` as one factorization."""
+    M = sp.csc_matrix(M)
+    _check_finite(M, what)
+    STATS["factorizations"] += 1
+    return M
+
+
 class _CholmodFactor:
     name = "cholmod"
 
@@ -279,9 +287,7 @@ def cholesky(M: sp.spmatrix, what: str = "system") -> Factor:
     >>> np.round(f.solve(np.array([2.0, 2.0])), 12).tolist()
     [1.0, 0.5]
     """
-    M = sp.csc_matrix(M)
-    _check_finite(M, what)
-    STATS["factorizations"] += 1
+    M = _prepared(M, what)
     b = backend()
     if b == "cholmod":
         return _CholmodFactor(M, what)
@@ -315,9 +321,7 @@ def lu(A: sp.spmatrix, what: str = "system") -> Factor:
     >>> np.round(f.solve(np.array([3.0, 1.0])), 12).tolist()
     [1.0, 1.0]
     """
-    A = sp.csc_matrix(A)
-    _check_finite(A, what)
-    STATS["factorizations"] += 1
+    A = _prepared(A, what)
     if lu_backend() == "pardiso" and A.shape[0] > LU_SMALL:
         return _PardisoFactor(A, what, symmetric=False)
     return _SuperLUFactor(A, what, symmetric=False)
@@ -353,9 +357,7 @@ def ldl(K: sp.spmatrix, what: str = "system") -> Factor:
     >>> np.round(f.solve(np.array([3.0, 1.0])), 12).tolist()
     [1.0, 2.0]
     """
-    K = sp.csc_matrix(K)
-    _check_finite(K, what)
-    STATS["factorizations"] += 1
+    K = _prepared(K, what)
     if lu_backend() == "pardiso":
         return _PardisoFactor(K, what, symmetric=True, indefinite=True)
     return _SuperLUFactor(K, what, symmetric=True)

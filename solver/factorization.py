@@ -106,12 +106,12 @@ def backend() -> str:
 
 
 _LU_BACKEND: str | None = None
-#: Square systems up to this size use SuperLU even when PARDISO is there: PARDISO
-#: costs ~2 ms per solve however small the system (255 unknowns: 2.3 ms vs 0.03 ms;
-#: 2,588: 2.4 vs 0.41 ms), while SuperLU's factorization grows much faster with
-#: size (12,892 unknowns of the 107k-tet bracket: 0.33 s vs 0.17 s, for a 9.4 vs
-#: 14.9 ms solve; the 105k-tet cube's interior: set-up 1.80 s instead of 0.94 s;
-#: 48,651 unknowns: 19 s vs 1.1 s). Measured on interior mean-value systems.
+#: Square systems up to this size use SuperLU even when PARDISO is there: on small
+#: systems PARDISO's solve costs far more (255 unknowns: 0.24 vs 0.02 ms; 2,588: 2.96
+#: vs 0.32 ms), while SuperLU's factorization grows much faster with size (12,892
+#: unknowns of the 107k-tet bracket: 332 vs 101 ms; 48,651 unknowns: 19 s vs 1.1 s).
+#: Measured on interior mean-value systems: benchmarks/measure_choices.py --only
+#: small-lu, and benchmarks/bench_backends.py --n 40.
 LU_SMALL = 5_000
 
 
@@ -143,8 +143,8 @@ class _CholmodFactor:
         from sksparse.cholmod import CholmodNotPositiveDefiniteError, cholesky as chol
 
         try:
-            # METIS: "best" tries AMD, METIS and NESDIS on every factorization, 5x the
-            # cost of METIS alone for a few % less fill (measured on the boundary systems)
+            # METIS: "best" tries AMD, METIS and NESDIS on every factorization, 3-4x the
+            # cost of METIS alone for ~3% less fill (benchmarks/measure_choices.py)
             self._f = chol(M, mode="supernodal", ordering_method="metis")
         except CholmodNotPositiveDefiniteError as e:
             raise FactorizationError(

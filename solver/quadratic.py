@@ -11,7 +11,8 @@ motion (rigid ones included) moves the quadratic elements exactly.
 Carrying the offset with only the rotation and the edge's stretch (``s R`` from
 the polar decomposition of ``G``) folds more elements. Measured on
 kiefer_fea_bracket.vtu with the tests' bend (10°/15°/20°): 1/4/18 elements with
-a non-positive node Jacobian, against 0/0/2 with ``G``.
+a non-positive node Jacobian, against 0/0/2 with ``G``
+(benchmarks/measure_choices.py --only midside).
 
 Validity of a quadratic tet is checked with the Jacobian of its quadratic map
 ``x(xi) = sum_i x_i N_i(xi)`` at its ten nodes (a curved edge can fold an element

@@ -1,0 +1,241 @@
+"""The measurements behind tetmorph's design choices (quoted in the README and the code).
+
+Sections (all by default, or pick with --only):
+
+``orderings``  CHOLMOD ordering methods on the split solve's boundary system (plate with 16 holes,
+               bracket at gmsh size 0.95): factor and solve time, fill.
+``small-lu``   PARDISO vs SuperLU on interior mean-value systems of several sizes.
+``penalty``    the penalty weight beta: constraint residual and distance to the exact solution
+               (plate.inp, a rigid and a keep_direction hole, a 25° bend).
+``refine``     the set-up probe of the refinement step on the test meshes.
+``midside``    tetra10 mid-side placement: the polar rotation and edge stretch vs the averaged
+               deformation gradient, folded elements on kiefer_fea_bracket.vtu; how much the
+               offsets change in each edge's frame; the tractor wheel's elements folded at
+               rest and after the tests' bend.
+``constraints`` rigid holes of plate.inp per exact method, and null_space vs kkt on the plate
+               and on 3,000 random problems.
+
+    python benchmarks/measure_choices.py [--only orderings,small-lu,...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+SHARED = ROOT.parent / "shared" / "data" / "tet"
+DATA = ROOT / "tests" / "data"
+
+
+def deck(kind: str, size: float) -> Path:
+    path = Path(tempfile.gettempdir()) / f"tetmorph-{kind}-{size:g}.inp"
+    if not path.exists():
+        if kind == "plate16":
+            args = [str(DATA / "make_plate.py"), str(path), "--holes", "4", "--size", f"{size:g}"]
+        else:
+            args = [str(DATA / "make_bracket.py"), f"{size:g}", str(path)]
+        subprocess.run([sys.executable, *args], check=True)
+    return path
+
+
+def end_spec(mesh) -> dict:
+    return {"selections": {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}}, "fixed": ["fix"],
+            "handles": {"tip": "load"}}
+
+
+def orderings() -> None:
+    from sksparse.cholmod import cholesky
+
+    from solver import precompute, read_mesh
+
+    print("| mesh | unknowns | ordering | factor ms | solve ms (3 rhs) | nnz(L) |")
+    print("|---|---:|---|---:|---:|---:|")
+    for kind, size in (("plate16", 1.7), ("bracket", 0.95)):
+        mesh = read_mesh(deck(kind, size))
+        d = precompute(mesh, end_spec(mesh))
+        A = d._psys.A @ d._psys.ra.Z
+        M = (A.T @ A).tocsc()
+        b = np.random.default_rng(0).random((M.shape[0], 3))
+        for om in ("amd", "metis", "nesdis", "default", "best"):
+            t = time.perf_counter()
+            f = cholesky(M, mode="supernodal", ordering_method=om)
+            tf = time.perf_counter() - t
+            f(b)
+            t = time.perf_counter()
+            for _ in range(10):
+                f(b)
+            print(f"| {kind} {size:g} | {M.shape[0]:,} | {om} | {1e3 * tf:.1f} | {1e2 * (time.perf_counter() - t):.2f} "
+                  f"| {f.L().nnz:,} |", flush=True)
+
+
+def small_lu() -> None:
+    from solver import factorization as fz
+    from solver import precompute, read_mesh
+
+    print("| mesh | interior unknowns | backend | factor ms | solve ms (3 rhs) |")
+    print("|---|---:|---|---:|---:|")
+    cases = [("bracket.inp", DATA / "bracket.inp"), ("bracket 2.1", deck("bracket", 2.1)),
+             ("plate16 1.7", deck("plate16", 1.7)), ("bracket 0.95", deck("bracket", 0.95))]
+    for name, path in cases:
+        mesh = read_mesh(path)
+        d = precompute(mesh, end_spec(mesh))
+        M = d._Mfi[:, d._fi].tocsc()
+        b = np.random.default_rng(0).random((M.shape[0], 3))
+        for label, make in (("PARDISO", lambda: fz._PardisoFactor(M, "x", symmetric=False)),
+                            ("SuperLU", lambda: fz._SuperLUFactor(M, "x", symmetric=False))):
+            t = time.perf_counter()
+            f = make()
+            tf = time.perf_counter() - t
+            f.solve(b)
+            t = time.perf_counter()
+            for _ in range(20):
+                f.solve(b)
+            print(f"| {name} | {M.shape[0]:,} | {label} | {1e3 * tf:.1f} | {5e1 * (time.perf_counter() - t):.2f} |",
+                  flush=True)
+
+
+def penalty() -> None:
+    from solver import precompute, read_mesh
+
+    plate = read_mesh(DATA / "plate.inp")
+    sels = {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}, "h1": {"set": "HOLE1"}, "h4": {"set": "HOLE4"}}
+    spec = {"selections": sels, "fixed": ["fix"], "handles": {"tip": "load"}, "solve": "joint",
+            "features": [{"selection": "h1", "mode": "rigid", "name": "H1"},
+                         {"selection": "h4", "mode": "keep_direction", "name": "H4"}]}
+    mv = {"handles": {"tip": {"translation": [0, 0, 20], "rotation": {"axis": [0, 1, 0], "angle_deg": -25}}},
+          "features": {"H1": {"scale": 0.9}}}
+    exact = precompute(plate, spec).solve(mv).V
+    print("| beta | constraint residual mm | distance to the exact solution mm |")
+    print("|---:|---:|---:|")
+    for beta in (1e2, 1e3, 1e4, 1e5, 1e6):
+        r = precompute(plate, {**spec, "constraints": {"method": "penalty", "penalty_weight": beta}}).solve(mv)
+        print(f"| {beta:g} | {r.report['constraint_residual_max']:.2g} | {np.abs(r.V - exact).max():.2g} |",
+              flush=True)
+
+
+def refine() -> None:
+    from solver import precompute
+    from tests.conftest import bend_spec, load
+
+    print("| mesh | refinement probe / diagonal | refine_steps |")
+    print("|---|---:|---:|")
+    for name in ("screw.msh", "Armadillo13K.msh", "beam.node", "plate.inp", "bracket.inp"):
+        m = load(name)
+        d = precompute(m, bend_spec(m))
+        print(f"| {name} | {d.refine_probe / d._diag:.2g} | {d.refine_steps} |", flush=True)
+
+
+def midside() -> None:
+    from solver import precompute, read_mesh
+    from solver.quadratic import node_jacobians
+    from tests.conftest import bend_move, bend_spec
+
+    print("| mesh | bend | folded: rotation x stretch | folded: averaged gradient G |")
+    print("|---|---|---:|---:|")
+    m = read_mesh(SHARED / "kiefer_fea_bracket.vtu")
+    d = precompute(m, bend_spec(m))
+    mid = d._mid
+    for ang, fr in ((10, 0.03), (15, 0.05), (20, 0.1)):
+        P = d.solve_positions(d.parse_move(bend_move(m, ang, fr)))[0]
+        R = mid.rotations(P)
+        s = np.linalg.norm(P[mid.a] - P[mid.b], axis=1) / np.linalg.norm(m.V[mid.a] - m.V[mid.b], axis=1)
+        Rs = P.copy()
+        Rs[mid.ids] = 0.5 * (P[mid.a] + P[mid.b]) + s[:, None] * np.einsum("kab,kb->ka", R, mid.rest_offsets)
+        folded = [int((node_jacobians(X, m.T10).min(axis=1) <= 0).sum()) for X in (Rs, P)]
+        print(f"| kiefer_fea_bracket.vtu | {ang}° + {fr:.0%} | {folded[0]} | {folded[1]} |", flush=True)
+    print("\n| mesh | offset change in the edge's rotated, stretched frame / edge length: p99 | max |")
+    print("|---|---:|---:|")
+    for name in ("kiefer_fea_bracket.vtu", "segmenttet.inp"):
+        q = read_mesh(SHARED / name)
+        dq = precompute(q, bend_spec(q))
+        P = dq.solve(bend_move(q, 15, 0.05)).V
+        mq = dq._mid
+        L0 = np.linalg.norm(q.V[mq.a] - q.V[mq.b], axis=1)
+        s = np.linalg.norm(P[mq.a] - P[mq.b], axis=1) / L0
+        back = np.einsum("kba,kb->ka", mq.rotations(P), P[mq.ids] - 0.5 * (P[mq.a] + P[mq.b])) / s[:, None]
+        dev = np.linalg.norm(back - mq.rest_offsets, axis=1) / L0
+        print(f"| {name} | {np.percentile(dev, 99):.2%} | {dev.max():.2%} |", flush=True)
+    t = read_mesh(SHARED / "tractor_wheel_coarse.INP")
+    dt = precompute(t, bend_spec(t))
+    r = dt.solve(bend_move(t, 15, 0.05))
+    dj0 = node_jacobians(t.V, t.T10)
+    ratio0 = dj0.min(axis=1) / np.abs(dj0).max(axis=1)
+    dj = node_jacobians(r.V, t.T10)
+    new = np.flatnonzero((dj.min(axis=1) <= 0) & (dj0.min(axis=1) > 0))
+    bad0 = set(t.T10[dj0.min(axis=1) <= 0].ravel())
+    print(f"\ntractor_wheel_coarse.INP: {int((dj0.min(axis=1) <= 0).sum())} elements folded at rest; the 15° + 5% "
+          f"bend folds {new.size} more, with rest Jacobian ratios {np.round(ratio0[new], 4).tolist()} (0.1th "
+          f"percentile of the valid elements: {np.percentile(ratio0[ratio0 > 0], 0.1):.4f}); "
+          f"{sum(bool(set(t.T10[e]) & bad0) for e in new)} of them share a node with an element folded at rest")
+
+
+def constraints() -> None:
+    import scipy.sparse as sp
+
+    from solver import precompute, read_mesh
+    from solver.constrained_solver import ConstrainedSolver
+
+    plate = read_mesh(DATA / "plate.inp")
+    diag = float(np.linalg.norm(plate.V.max(0) - plate.V.min(0)))
+    sels = {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}, **{f"h{k}": {"set": f"HOLE{k}"} for k in range(1, 5)}}
+    mv = {"handles": {"tip": {"translation": [0, 0, 20], "rotation": {"axis": [0, 1, 0], "angle_deg": -25}}},
+          "features": {"H4": {"scale": 1.25}}}
+    print("| method | solve | largest rigid-hole residual mm (Procrustes, radius 6) | vs null_space split / diagonal |")
+    print("|---|---|---:|---:|")
+    ref = None
+    for method, solve in (("null_space", "auto"), ("null_space", "joint"), ("kkt", "auto"), ("kkt", "joint")):
+        spec = {"selections": sels, "fixed": ["fix"], "handles": {"tip": "load"}, "solve": solve,
+                "constraints": {"method": method},
+                "features": [{"selection": f"h{k}", "mode": "rigid", "name": f"H{k}"} for k in (1, 2, 4)]}
+        d = precompute(plate, spec)
+        P = d.solve(mv).V
+        ref = P if ref is None else ref
+        worst = 0.0
+        for k in (1, 2, 4):
+            ids = plate.sets[f"HOLE{k}"]
+            a, b = plate.V[ids] - plate.V[ids].mean(0), P[ids] - P[ids].mean(0)
+            U, S, Vt = np.linalg.svd(a.T @ b)
+            sc = S.sum() / (a ** 2).sum()
+            worst = max(worst, float(np.abs(b - sc * a @ (U @ Vt)).max()))
+        print(f"| {method} | {d.solve_mode} | {worst:.1e} | {np.abs(P - ref).max() / diag:.1e} |", flush=True)
+    worst = 0.0
+    for seed in range(3000):  # the property test's random problems, many more of them
+        rng = np.random.default_rng(seed)
+        N = int(rng.integers(2, 13))
+        m = int(rng.integers(1, N + 1))
+        C = rng.standard_normal((m, N)) * (rng.random((m, N)) < 0.4)
+        C[np.arange(m), rng.integers(0, N, m)] += 1.0
+        extra = [C[i] * rng.uniform(0.5, 2) for i in rng.integers(0, m, rng.integers(0, 4))]
+        if m >= 2 and rng.random() < 0.5:
+            extra.append(C[0] - 2 * C[1])
+        C = np.vstack([C, *extra]) if extra else C
+        A = sp.csr_matrix(np.vstack([np.eye(N), rng.standard_normal((N, N))]))
+        c, d = rng.standard_normal((2 * N, 2)), C @ rng.standard_normal((N, 2))
+        x = [ConstrainedSolver(sp.csr_matrix(C), A=A, method=meth).solve(np.zeros((N, 2)), d, c)
+             for meth in ("null_space", "kkt")]
+        worst = max(worst, float(np.abs(x[0] - x[1]).max() / max(1.0, np.abs(x[1]).max())))
+    print(f"\nnull_space vs kkt over 3,000 random problems: largest relative difference {worst:.1e}")
+
+
+SECTIONS = {"orderings": orderings, "small-lu": small_lu, "penalty": penalty, "refine": refine, "midside": midside,
+            "constraints": constraints}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", default=",".join(SECTIONS))
+    for name in ap.parse_args().only.split(","):
+        print(f"\n## {name}\n", flush=True)
+        SECTIONS[name]()
+
+
+if __name__ == "__main__":
+    main()

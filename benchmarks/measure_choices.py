@@ -89,8 +89,8 @@ def small_lu() -> None:
         d = precompute(mesh, end_spec(mesh))
         M = d._Mfi[:, d._fi].tocsc()
         b = np.random.default_rng(0).random((M.shape[0], 3))
-        for label, make in (("PARDISO", lambda: fz._PardisoFactor(M, "x", symmetric=False)),
-                            ("SuperLU", lambda: fz._SuperLUFactor(M, "x", symmetric=False))):
+        for label, make in (("PARDISO", lambda M=M: fz._PardisoFactor(M, "x", symmetric=False)),
+                            ("SuperLU", lambda M=M: fz._SuperLUFactor(M, "x", symmetric=False))):
             t = time.perf_counter()
             f = make()
             tf = time.perf_counter() - t

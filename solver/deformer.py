@@ -259,11 +259,11 @@ class Deformer:
         t_pos = time.perf_counter() - t2
         report("positions", 0.95)
 
-        self._Tt = np.ascontiguousarray(mesh.T.T)
+        self._T = np.ascontiguousarray(mesh.T)
         self._mid = MidsideNodes(V0, mesh.T10) if mesh.T10 is not None else None
         # quadratic elements already folded in the input (node Jacobian <= 0) are reported, not counted
         self._valid_rest = node_jacobians(V0, mesh.T10).min(axis=1) > 0 if mesh.T10 is not None else None
-        sj = tet_quality(V0, self._Tt)[1] if not mesh.is_surface else np.zeros(0)
+        sj = tet_quality(V0, self._T)[1] if not mesh.is_surface else np.zeros(0)
         self._sj_before = (float(sj.min()) if sj.size else None,
                            float(np.partition(sj, sj.size // 100)[sj.size // 100]) if sj.size else None)
         self.setup_timings = {
@@ -694,7 +694,7 @@ class Deformer:
         """(bad mask, scaled Jacobians of the corner tets, degenerate mask, node Jacobians
         (m, 10) of quadratic elements or None); quadratic elements are also bad when their
         Jacobian is <= 0 at any of their ten nodes."""
-        vol6, sj = tet_quality(P, self._Tt)
+        vol6, sj = tet_quality(P, self._T)
         degenerate = np.abs(sj) <= DEGENERATE_TOL
         bad = (vol6 <= 0) | degenerate
         dj = None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 __all__ = ["MVC_EPS", "mvc_triangle_weights"]
@@ -54,40 +55,72 @@ def mvc_triangle_weights(x: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.n
     >>> np.allclose(tot / tot.sum(), 0.25), bool(on.any())
     (True, False)
     """
-    D = Q - x[:, None, :]
-    d = np.linalg.norm(D, axis=2)  # (N, 3)
-    N = len(x)
-    w = np.zeros((N, 3))
-    on_face = np.zeros(N, dtype=bool)
-    at_vertex = d < MVC_EPS * np.maximum(d.max(axis=1, keepdims=True), 1e-300)
-    safe_d = np.where(at_vertex, 1.0, d)
-    U = D / safe_d[:, :, None]
-    # l_i = |u_{i+1} - u_{i-1}|, theta_i = 2 asin(l_i / 2)
-    idx1 = [1, 2, 0]
-    idx2 = [2, 0, 1]
-    ell = np.linalg.norm(U[:, idx1] - U[:, idx2], axis=2)
-    theta = 2.0 * np.arcsin(np.clip(ell / 2.0, 0.0, 1.0))
-    h = theta.sum(axis=1) / 2.0
-    planar_inside = (np.pi - h) < MVC_EPS
-    sin_t = np.sin(theta)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        c = 2.0 * np.sin(h)[:, None] * np.sin(h[:, None] - theta) / (sin_t[:, idx1] * sin_t[:, idx2]) - 1.0
-        c = np.clip(np.nan_to_num(c, nan=1.0, posinf=1.0, neginf=-1.0), -1.0, 1.0)
-        det = np.einsum("ij,ij->i", U[:, 0], np.cross(U[:, 1], U[:, 2]))
-        s = np.sign(det)[:, None] * np.sqrt(1.0 - c * c)
-        coplanar = np.any(np.abs(s) <= MVC_EPS, axis=1)
-        num = theta - c[:, idx1] * theta[:, idx2] - c[:, idx2] * theta[:, idx1]
-        general = num / (safe_d * sin_t[:, idx1] * s[:, idx2])
-    ok = ~(planar_inside | coplanar)
-    w[ok] = general[ok]
-    # near-face case: 2D barycentric weights sin(theta_i) d_{i-1} d_{i+1}
-    bary = sin_t * d[:, idx2] * d[:, idx1]
-    w[planar_inside] = bary[planar_inside]
-    on_face |= planar_inside
-    # a point at a corner: that corner alone
-    hit = at_vertex.any(axis=1)
-    if hit.any():
-        w[hit] = at_vertex[hit].astype(float)
-        on_face |= hit
-    w = np.nan_to_num(w, nan=0.0, posinf=0.0, neginf=0.0)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    Q = np.ascontiguousarray(Q, dtype=np.float64)
+    w = np.empty((len(x), 3))
+    on_face = np.empty(len(x), dtype=np.bool_)
+    if len(x):
+        _mvc_kernel(x, Q, MVC_EPS, w, on_face)
     return w, on_face
+
+
+@numba.njit(parallel=True, cache=True, error_model="numpy")
+def _mvc_kernel(x, Q, eps, w, on_face):  # pragma: no cover - compiled
+    """Per (point, triangle) pair: the weights of Ju et al., Fig. 4, with the
+    corner, near-face and coplanar cases; non-finite weights become 0."""
+    for k in numba.prange(x.shape[0]):
+        D = np.empty((3, 3))
+        d = np.empty(3)
+        for c in range(3):
+            for j in range(3):
+                D[c, j] = Q[k, c, j] - x[k, j]
+            d[c] = np.sqrt(D[c, 0] ** 2 + D[c, 1] ** 2 + D[c, 2] ** 2)
+        tol = eps * max(max(d[0], d[1]), max(d[2], 1e-300))
+        if d[0] < tol or d[1] < tol or d[2] < tol:  # at a corner: that corner alone
+            for c in range(3):
+                w[k, c] = 1.0 if d[c] < tol else 0.0
+            on_face[k] = True
+            continue
+        U = np.empty((3, 3))
+        for c in range(3):
+            for j in range(3):
+                U[c, j] = D[c, j] / d[c]
+        theta = np.empty(3)
+        sin_t = np.empty(3)
+        for i in range(3):  # l_i = |u_{i+1} - u_{i-1}|, theta_i = 2 asin(l_i / 2)
+            a, b = (i + 1) % 3, (i + 2) % 3
+            ell = np.sqrt((U[a, 0] - U[b, 0]) ** 2 + (U[a, 1] - U[b, 1]) ** 2 + (U[a, 2] - U[b, 2]) ** 2)
+            theta[i] = 2.0 * np.arcsin(min(max(ell / 2.0, 0.0), 1.0))
+            sin_t[i] = np.sin(theta[i])
+        h = 0.5 * (theta[0] + theta[1] + theta[2])
+        if np.pi - h < eps:  # on the triangle: 2D barycentric weights sin(theta_i) d_{i-1} d_{i+1}
+            for i in range(3):
+                w[k, i] = sin_t[i] * d[(i + 1) % 3] * d[(i + 2) % 3]
+            on_face[k] = True
+            continue
+        on_face[k] = False
+        det = (U[0, 0] * (U[1, 1] * U[2, 2] - U[1, 2] * U[2, 1])
+               + U[0, 1] * (U[1, 2] * U[2, 0] - U[1, 0] * U[2, 2])
+               + U[0, 2] * (U[1, 0] * U[2, 1] - U[1, 1] * U[2, 0]))
+        sgn = 1.0 if det > 0 else (-1.0 if det < 0 else 0.0)
+        cc = np.empty(3)
+        ss = np.empty(3)
+        coplanar = False
+        for i in range(3):
+            ci = 2.0 * np.sin(h) * np.sin(h - theta[i]) / (sin_t[(i + 1) % 3] * sin_t[(i + 2) % 3]) - 1.0
+            if np.isnan(ci) or ci > 1.0:
+                ci = 1.0
+            elif ci < -1.0:
+                ci = -1.0
+            cc[i] = ci
+            ss[i] = sgn * np.sqrt(1.0 - ci * ci)
+            if abs(ss[i]) <= eps:
+                coplanar = True
+        for i in range(3):  # x in the triangle's plane, outside it: no contribution
+            a, b = (i + 1) % 3, (i + 2) % 3
+            wi = 0.0
+            if not coplanar:
+                wi = (theta[i] - cc[a] * theta[b] - cc[b] * theta[a]) / (d[i] * sin_t[a] * ss[b])
+                if not np.isfinite(wi):
+                    wi = 0.0
+            w[k, i] = wi

@@ -58,8 +58,8 @@ class RepairResult:
     report: dict = field(default_factory=dict)
 
 
-def _bad(P: np.ndarray, Tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    vol6, sj = tet_quality(P, Tt)
+def _bad(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    vol6, sj = tet_quality(P, T)
     return (vol6 <= 0) | (np.abs(sj) <= DEGENERATE_TOL), sj
 
 
@@ -109,8 +109,7 @@ def repair_inverted(V0: np.ndarray, P: np.ndarray, T: np.ndarray, movable: np.nd
     RepairResult
     """
     t0 = time.perf_counter()
-    Tt = np.ascontiguousarray(T.T)
-    bad0, sj0 = _bad(P, Tt)
+    bad0, sj0 = _bad(P, T)
     rep = {"attempted": True, "inverted_before": int(bad0.sum()),
            "min_scaled_jacobian_before": float(sj0.min())}
     if not bad0.any():
@@ -141,14 +140,14 @@ def repair_inverted(V0: np.ndarray, P: np.ndarray, T: np.ndarray, movable: np.nd
             trial = cur.copy()
             trial[idx] = res.x.reshape(-1, 3)
             if np.isfinite(trial).all():
-                tbad, _ = _bad(trial, Tt)
+                tbad, _ = _bad(trial, T)
                 if tbad.sum() < bad.sum():
                     cur, bad = trial, tbad
                     moved[idx] = True
         if not bad.any():
             break
         tets = (inc.T @ (inc @ (tets | bad)) > 0)
-    _, sj = _bad(cur, Tt)
+    _, sj = _bad(cur, T)
     success = not bad.any()
     accepted = bool(bad.sum() < bad0.sum())
     out = cur if accepted else P

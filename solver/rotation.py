@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 __all__ = ["rotate_by_log", "log_to_matrix"]
@@ -27,15 +28,28 @@ def rotate_by_log(v: np.ndarray, r: np.ndarray) -> np.ndarray:
     >>> rotate_by_log(np.array([[1., 0, 0]]), np.array([[0, 0, np.pi / 4]])).round(12).tolist()
     [[0.0, 1.0, 0.0]]
     """
-    half = np.linalg.norm(r, axis=1)
-    theta = 2.0 * half
-    a = np.zeros_like(r)
-    nz = half > 0
-    a[nz] = r[nz] / half[nz, None]
-    c = np.cos(theta)[:, None]
-    s = np.sin(theta)[:, None]
-    adv = np.einsum("ij,ij->i", a, v)[:, None]
-    return v * c + np.cross(a, v) * s + a * adv * (1.0 - c)
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    r = np.ascontiguousarray(r, dtype=np.float64)
+    out = np.empty_like(v)
+    if len(v):
+        _rotate_kernel(v, r, out)
+    return out
+
+
+@numba.njit(parallel=True, cache=True)
+def _rotate_kernel(v, r, out):  # pragma: no cover - compiled
+    for i in numba.prange(v.shape[0]):
+        half = np.sqrt(r[i, 0] ** 2 + r[i, 1] ** 2 + r[i, 2] ** 2)
+        if half == 0.0:
+            out[i, 0], out[i, 1], out[i, 2] = v[i, 0], v[i, 1], v[i, 2]
+            continue
+        ax, ay, az = r[i, 0] / half, r[i, 1] / half, r[i, 2] / half
+        c, s = np.cos(2.0 * half), np.sin(2.0 * half)
+        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
+        k = (ax * vx + ay * vy + az * vz) * (1.0 - c)
+        out[i, 0] = vx * c + (ay * vz - az * vy) * s + ax * k
+        out[i, 1] = vy * c + (az * vx - ax * vz) * s + ay * k
+        out[i, 2] = vz * c + (ax * vy - ay * vx) * s + az * k
 
 
 def log_to_matrix(r: np.ndarray) -> np.ndarray:

@@ -102,7 +102,7 @@ def targets(mesh, ax: int, diag: float, handle: np.ndarray, kind: str, mag: floa
 def quality(V: np.ndarray, T: np.ndarray) -> tuple[int, float, float, np.ndarray]:
     from solver.quality import DEGENERATE_TOL, tet_quality
 
-    vol6, sj = tet_quality(V, np.ascontiguousarray(T.T))
+    vol6, sj = tet_quality(V, T)
     bad = int(np.count_nonzero((vol6 <= 0) | (np.abs(sj) <= DEGENERATE_TOL)))
     k = sj.size // 100
     return bad, float(sj.min()), float(np.partition(sj, k)[k]), sj

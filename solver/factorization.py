@@ -136,11 +136,44 @@ def _prepared(M: sp.spmatrix, what: str) -> sp.csc_matrix:
     return M
 
 
+_BLAS_QUIETED = False
+
+
+def _quiet_system_blas() -> None:
+    """One thread for the system OpenBLAS that CHOLMOD links (Debian's openblas-pthread).
+
+    OpenBLAS threads busy-wait after every call. On two cores they took cycles
+    from PARDISO's and numba's threads in the next step of the update: median
+    per-update solve of the 107k-tet bracket 17.5 ms with the default, 11.3 ms
+    with one thread, five runs each (``OPENBLAS_NUM_THREADS=1 python
+    benchmarks/bench_solver.py --case bracket:0.95:split --updates 60``), and
+    no measurable change in the 1M-tet set-up. Only libraries outside the
+    Python prefix are touched, so numpy's and scipy's own BLAS keep their
+    threads.
+    """
+    global _BLAS_QUIETED
+    if _BLAS_QUIETED:
+        return
+    _BLAS_QUIETED = True
+    try:
+        import sys
+
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - a dependency; only speed is at stake
+        return
+    prefix = os.path.realpath(sys.prefix)
+    for lib in ThreadpoolController().lib_controllers:
+        if lib.internal_api == "openblas" and not os.path.realpath(lib.filepath).startswith(prefix):
+            lib.set_num_threads(1)
+
+
 class _CholmodFactor:
     name = "cholmod"
 
     def __init__(self, M: sp.csc_matrix, what: str) -> None:
         from sksparse.cholmod import CholmodNotPositiveDefiniteError, cholesky as chol
+
+        _quiet_system_blas()
 
         try:
             # METIS: "best" tries AMD, METIS and NESDIS on every factorization, 3-4x the
@@ -202,7 +235,9 @@ def _locate_mkl() -> None:
     import glob
     import sys
 
-    found = sorted(glob.glob(f"{sys.prefix}/[Ll]ib*/**/*mkl_rt*", recursive=True), key=len)
+    # pip's mkl wheel puts it in <prefix>/lib; the recursive search (0.3 s) is the fallback
+    found = sorted(glob.glob(f"{sys.prefix}/lib/libmkl_rt.so*"), key=len) or \
+        sorted(glob.glob(f"{sys.prefix}/[Ll]ib*/**/*mkl_rt*", recursive=True), key=len)
     if found:
         _MKL_RT = found[0]
         os.environ["PYPARDISO_MKL_RT"] = _MKL_RT
@@ -230,11 +265,11 @@ class _PardisoFactor:
         # and those include two steps of iterative refinement on every solve: 18 ms instead of
         # 5-8 ms for the 107k-tet bracket's interior system (measured; the residual is 2e-15
         # relative without them, and every system here is solved in residual form). So every
-        # iparm is set: METIS ordering (2), no refinement (8), pivot perturbation 1e-13 (10),
+        # iparm is set: parallel METIS ordering (2), no refinement (8), pivot perturbation 1e-13 (10),
         # scaling and weighted matching (11, 13; MKL's defaults for non-symmetric and the advice
         # for highly indefinite matrices), report the factor's size (18). Saddle-point (KKT)
         # systems keep two refinement steps and Bunch-Kaufman pivoting (21).
-        iparms = {1: 1, 2: 2, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1}
+        iparms = {1: 1, 2: 3, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1}
         if indefinite:
             iparms.update({8: 2, 21: 1})
         elif symmetric:  # positive definite: no pivoting, scaling or matching

@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 
 from .boundary_facets import TET_FACES
-from .mean_value_coordinates import mvc_triangle_weights
+from .mean_value_coordinates import MVC_EPS, mvc_pair
 
-__all__ = ["mvc_matrix"]
-
-#: (point, triangle) pairs evaluated per vectorised chunk; bounds peak memory.
-CHUNK_PAIRS = 400_000
+__all__ = ["mvc_matrix", "vertex_tets"]
 
 
 def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
@@ -57,49 +55,114 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray) -> tuple[sp.c
     True
     """
     n = len(V)
-    T = np.asarray(T, dtype=np.int64)
-    rows_l, cols_l, vals_l, onf_l, pair_l = [], [], [], [], []
+    V = np.ascontiguousarray(V, dtype=np.float64)
+    T = np.ascontiguousarray(T, dtype=np.int64)
+    ptr, inc = vertex_tets(T, n)
+    rows = np.flatnonzero(interior).astype(np.int64)
+    counts = _row_sizes(T, ptr, inc, rows)
+    indptr = np.zeros(n + 1, np.int64)
+    np.add.at(indptr, rows + 1, counts)  # rows are unique: one add per row
+    indptr = np.cumsum(indptr)
+    indices = np.empty(indptr[-1], np.int64)
+    data = np.empty(indptr[-1])
     S = np.zeros(n)
-    pair_base = 0
-    for k in range(4):
-        sel = np.flatnonzero(interior[T[:, k]])
-        for start in range(0, sel.size, CHUNK_PAIRS):
-            tets = sel[start:start + CHUNK_PAIRS]
-            i = T[tets, k]
-            face = T[tets][:, TET_FACES[k]]
-            Q = V[face]
-            w, on = mvc_triangle_weights(V[i], Q)
-            area = 0.5 * np.linalg.norm(np.cross(Q[:, 1] - Q[:, 0], Q[:, 2] - Q[:, 0]), axis=1)
-            S += np.bincount(i, weights=area, minlength=n)
-            rows_l.append(np.repeat(i, 3))
-            cols_l.append(face.ravel())
-            vals_l.append(w.ravel())
-            onf_l.append(on)
-            pair_l.append(i)
-            pair_base += len(i)
-    if not rows_l:
-        return sp.csr_matrix((n, n)), S
-    rows = np.concatenate(rows_l)
-    cols = np.concatenate(cols_l)
-    vals = np.concatenate(vals_l)
-    on_face = np.concatenate(onf_l)
-    owner = np.concatenate(pair_l)
-    if on_face.any():
-        # near-face case: a point on one of its faces takes that face's weights alone
-        first = {}
-        for p in np.flatnonzero(on_face):
-            first.setdefault(int(owner[p]), p)
-        special = np.zeros(n, bool)
-        special[list(first)] = True
-        keep = np.ones(len(owner), bool)
-        keep[special[owner]] = False
-        keep[list(first.values())] = True
-        vals = (vals.reshape(-1, 3) * keep[:, None]).ravel()
-    W = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
-    W.sum_duplicates()
-    tot = np.asarray(W.sum(axis=1)).ravel()
-    scale = np.zeros(n)
-    np.divide(1.0, tot, out=scale, where=tot != 0)
-    W = sp.diags(scale) @ W
+    _fill_rows(V, T, ptr, inc, rows, indptr, indices, data, S, TET_FACES, MVC_EPS)
+    W = sp.csr_matrix((data, indices, indptr), shape=(n, n))
     W.eliminate_zeros()
-    return W.tocsr(), S
+    return W, S
+
+
+def vertex_tets(T: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Incident (tet, corner) pairs of every vertex, in tet order.
+
+    Parameters
+    ----------
+    T : (m, 4) int array
+    n : int
+        Number of vertices.
+
+    Returns
+    -------
+    ptr : (n + 1,) int array
+    inc : (4 m,) int array
+        ``inc[ptr[v]:ptr[v + 1]]`` are the flat indices ``4 t + k`` with ``T[t, k] == v``.
+
+    Examples
+    --------
+    >>> ptr, inc = vertex_tets(np.array([[0, 1, 2, 3], [1, 2, 3, 4]]), 5)
+    >>> inc[ptr[1]:ptr[2]].tolist()
+    [1, 4]
+    """
+    flat = np.ascontiguousarray(T, dtype=np.int64).ravel()
+    ptr = np.zeros(n + 1, np.int64)
+    ptr[1:] = np.cumsum(np.bincount(flat, minlength=n))
+    return ptr, _counting_sort(flat, ptr)
+
+
+@numba.njit(cache=True)
+def _counting_sort(flat, ptr):  # pragma: no cover - compiled
+    nxt = ptr[:-1].copy()
+    out = np.empty(flat.size, np.int64)
+    for p in range(flat.size):
+        v = flat[p]
+        out[nxt[v]] = p
+        nxt[v] += 1
+    return out
+
+
+@numba.njit(cache=True)
+def _neighbours(T, ptr, inc, i):  # pragma: no cover - compiled
+    """Sorted distinct vertices of the faces opposite ``i`` (its one ring)."""
+    deg = ptr[i + 1] - ptr[i]
+    nb = np.empty(3 * deg, np.int64)
+    for a in range(deg):
+        p = inc[ptr[i] + a]
+        t, k = p // 4, p % 4
+        c = 0
+        for j in range(4):
+            if j != k:
+                nb[3 * a + c] = T[t, j]
+                c += 1
+    return np.unique(nb)
+
+
+@numba.njit(parallel=True, cache=True)
+def _row_sizes(T, ptr, inc, rows):  # pragma: no cover - compiled
+    out = np.empty(rows.size, np.int64)
+    for r in numba.prange(rows.size):
+        out[r] = _neighbours(T, ptr, inc, rows[r]).size
+    return out
+
+
+@numba.njit(parallel=True, cache=True, error_model="numpy")
+def _fill_rows(V, T, ptr, inc, rows, indptr, indices, data, S, faces, eps):  # pragma: no cover
+    for r in numba.prange(rows.size):
+        i = rows[r]
+        cols = _neighbours(T, ptr, inc, i)
+        lo = indptr[i]
+        acc = np.zeros(cols.size)
+        w = np.empty(3)
+        wk = np.empty((8, 3))
+        area = 0.0
+        special = False
+        for a in range(ptr[i + 1] - ptr[i]):
+            p = inc[ptr[i] + a]
+            t, k = p // 4, p % 4
+            f0, f1, f2 = T[t, faces[k, 0]], T[t, faces[k, 1]], T[t, faces[k, 2]]
+            ux, uy, uz = V[f1, 0] - V[f0, 0], V[f1, 1] - V[f0, 1], V[f1, 2] - V[f0, 2]
+            vx, vy, vz = V[f2, 0] - V[f0, 0], V[f2, 1] - V[f0, 1], V[f2, 2] - V[f0, 2]
+            area += 0.5 * np.sqrt((uy * vz - uz * vy) ** 2 + (uz * vx - ux * vz) ** 2
+                                  + (ux * vy - uy * vx) ** 2)
+            if special:
+                continue
+            on = mvc_pair(V[i], V[f0], V[f1], V[f2], eps, w, wk)
+            if on:  # near-face case: this face's weights alone
+                acc[:] = 0.0
+                special = True
+            for c, f in enumerate((f0, f1, f2)):
+                acc[np.searchsorted(cols, f)] += w[c]
+        tot = acc.sum()
+        for c in range(cols.size):
+            indices[lo + c] = cols[c]
+            data[lo + c] = acc[c] / tot if tot != 0.0 else 0.0
+        S[i] = area

@@ -62,6 +62,8 @@ BACKENDS = ("cholmod", "pardiso", "scipy")
 
 
 def _importable(module: str) -> bool:
+    if module == "pypardiso":
+        _locate_mkl()  # importing pypardiso builds a solver, which searches for MKL
     try:
         __import__(module)
     except ImportError:
@@ -249,9 +251,8 @@ class _PardisoFactor:
     name = "pardiso"
 
     def __init__(self, M: sp.spmatrix, what: str, symmetric: bool, indefinite: bool = False) -> None:
-        import pypardiso
-
         _locate_mkl()
+        import pypardiso
         if indefinite:  # PARDISO needs every diagonal entry stored, zero or not
             M = sp.coo_matrix(M)
             i = np.arange(M.shape[0])

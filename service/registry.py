@@ -155,9 +155,9 @@ class Registry:
         return m
 
     def _check_size(self, mesh: Mesh) -> None:
-        m = int(mesh.T.shape[0])
+        m = mesh.elements
         if m > self.settings.max_elements:
-            raise ServiceError(422, f"the mesh has {m} tetrahedra; this service accepts at most "
+            raise ServiceError(422, f"the mesh has {m} volume elements; this service accepts at most "
                                f"{self.settings.max_elements}", code="too_many_elements",
                                elements=m, limit=self.settings.max_elements)
 

@@ -39,7 +39,7 @@ class Settings(BaseSettings):
         default_factory=list,
         description="Accepted API keys (comma separated). Empty: no authentication, one tenant.")
     max_upload_mb: float = Field(200.0, gt=0, description="Largest request body (413 above).")
-    max_elements: int = Field(5_000_000, gt=0, description="Most tetrahedra per mesh (422 above).")
+    max_elements: int = Field(5_000_000, gt=0, description="Most volume elements per mesh (422 above).")
     max_sessions: int = Field(64, gt=0, description="Most live sessions per API key (429 above).")
     rate_limit_per_s: float = Field(200.0, ge=0,
                                     description="Sustained requests per second per key; 0 disables.")

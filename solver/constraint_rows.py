@@ -126,9 +126,12 @@ def _tree(ids: np.ndarray, mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     n = mesh.n
     inside = np.zeros(n, bool)
     inside[ids] = True
-    T = mesh.T
-    T = T[inside[T].sum(axis=1) >= 2]
-    E = simplex_edges(T, unique=False)  # repeats sum in G: the tree is as before
+    if mesh.cells:  # mixed elements: their edges
+        E = mesh.edges
+    else:
+        T = mesh.T
+        T = T[inside[T].sum(axis=1) >= 2]
+        E = simplex_edges(T, unique=False)  # repeats sum in G: the tree is as before
     E = E[inside[E].all(axis=1)]
     loc = np.full(n, -1, np.int64)
     loc[ids] = np.arange(ids.size)

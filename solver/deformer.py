@@ -37,6 +37,7 @@ from .constrained_solver import ConstrainedSolver, rank_analysis
 from .constraint_rows import assemble, block_targets, describe, position_blocks, \
     rotation_blocks, tie_pairs
 from .boundary_facets import simplex_edges
+from .elements import CORNERS, corner_jacobians, element_edges
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from .errors import ConstraintError, InversionError, SpecError, format_ids
 from .mesh import Mesh
@@ -227,7 +228,7 @@ class Deformer:
         self._delta = Lb @ V0  # original mean curvature normals delta_i
         self._wall_rows(Lb)
         if I.any():
-            W, S = mvc_matrix(V0, mesh.T, I)
+            W, S = mvc_matrix(V0, mesh.T, I, mesh.cells)
             wi = np.zeros(n)
             wi[I] = 1.0 / S[I]  # eq. (2.5)
             Mi = _csr(sp.diags(I.astype(float)) - W)  # p_i - sum w_ij p_j on interior rows
@@ -263,7 +264,7 @@ class Deformer:
         self._mid = MidsideNodes(V0, mesh.T10) if mesh.T10 is not None else None
         # quadratic elements already folded in the input (node Jacobian <= 0) are reported, not counted
         self._valid_rest = node_jacobians(V0, mesh.T10).min(axis=1) > 0 if mesh.T10 is not None else None
-        sj = tet_quality(V0, self._T)[1] if not mesh.is_surface else np.zeros(0)
+        sj = self._bad_elements(V0)[1] if not mesh.is_surface else np.zeros(0)
         self._sj_before = (float(sj.min()) if sj.size else None,
                            float(np.partition(sj, sj.size // 100)[sj.size // 100]) if sj.size else None)
         self.setup_timings = {
@@ -433,7 +434,7 @@ class Deformer:
         ``known``), so a void turns with the volume around it."""
         mesh = self.mesh
         n = mesh.n
-        Lv = uniform_matrix(mesh.T, n)
+        Lv = uniform_matrix(mesh.edges if mesh.cells else mesh.T, n)
         isknown = np.zeros(n, bool)
         isknown[known] = True
         u = np.flatnonzero(mesh.referenced & ~isknown)
@@ -472,10 +473,14 @@ class Deformer:
         self._wall = None
         if self.spec.thin_walls <= 0 or mesh.is_surface:
             return
-        T = mesh.T[mesh.boundary[mesh.T].all(axis=1)]
-        if not T.size:
+        parts = []
+        for kind, B in mesh.blocks:  # elements with every node on the boundary
+            B = B[mesh.boundary[B].all(axis=1)]
+            if len(B):
+                parts.append(simplex_edges(B) if kind == "tetra" else element_edges(B, kind))
+        if not parts:
             return
-        E = simplex_edges(T)
+        E = np.unique(np.sort(np.concatenate(parts), axis=1), axis=0)
         FE = simplex_edges(mesh.F)
         n = mesh.n
         key = E[:, 0] * n + E[:, 1]
@@ -695,6 +700,10 @@ class Deformer:
         (m, 10) of quadratic elements or None); quadratic elements are also bad when their
         Jacobian is <= 0 at any of their ten nodes."""
         vol6, sj = tet_quality(P, self._T)
+        if self.mesh.cells:  # other elements: the smallest corner Jacobian
+            parts = [corner_jacobians(P, B, kind) for kind, B in self.mesh.blocks if kind != "tetra"]
+            vol6 = np.concatenate([vol6, *[p[0] for p in parts]])
+            sj = np.concatenate([sj, *[p[1] for p in parts]])
         degenerate = np.abs(sj) <= DEGENERATE_TOL
         bad = (vol6 <= 0) | degenerate
         dj = None
@@ -754,8 +763,15 @@ class Deformer:
     def quality_before(self) -> dict[str, Any]:
         """Summary of every quality metric of the rest mesh (computed once)."""
         if getattr(self, "_quality_before", None) is None:
-            self._quality_before = summarize_quality(element_quality(self.mesh.V, self.mesh.T))
+            self._quality_before = summarize_quality(element_quality(self.mesh.V, self.mesh.T, self.mesh.cells))
         return self._quality_before
+
+    @property
+    def _repair_tets(self) -> np.ndarray:
+        """Tets whose orientation repair restores: the tets, and the corner tets of other elements."""
+        parts = [self.mesh.T] + [B[:, CORNERS[kind]].reshape(-1, 4) for kind, B in self.mesh.blocks
+                                 if kind != "tetra"]
+        return np.concatenate(parts) if len(parts) > 1 else self.mesh.T
 
     @property
     def movable(self) -> np.ndarray:
@@ -826,7 +842,7 @@ class Deformer:
         do_repair = self.spec.repair if repair is None else repair
         repair_rep = None
         if do_repair and report["inverted_elements"] > 0 and not self.mesh.is_surface:
-            rr = repair_inverted(self.mesh.V, P, self.mesh.T, self.movable)
+            rr = repair_inverted(self.mesh.V, P, self._repair_tets, self.movable)
             repair_rep = rr.report
             if rr.report["accepted"]:
                 P = rr.V
@@ -853,7 +869,7 @@ class Deformer:
             report["repair"] = repair_rep
         cell_q = None
         if quality == "full" and not self.mesh.is_surface:
-            cell_q = element_quality(P, self.mesh.T)
+            cell_q = element_quality(P, self.mesh.T, self.mesh.cells)
             report["quality"] = {"before": self.quality_before, "after": summarize_quality(cell_q)}
         t4 = time.perf_counter()
         report["timings"] = {

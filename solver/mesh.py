@@ -1,4 +1,5 @@
-"""Tetrahedral (or triangle-surface) meshes: reading, validation, named sets, writing.
+"""Volume meshes (tetrahedra, and hexahedra, wedges and pyramids next to them) or triangle
+surfaces: reading, validation, named sets, writing.
 
 A :class:`Mesh` keeps the :class:`meshio.Mesh` it was read from, so that
 :func:`write_mesh` changes nothing but point coordinates: other cell blocks,
@@ -19,22 +20,26 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from .boundary_facets import boundary_facets
+from .elements import LINEAR_TYPES, boundary_faces, corner_jacobians, element_edges, oriented
 from .errors import InvalidMeshError, UnsupportedElementError, format_ids
-from .quality import degenerate_mask, scaled_jacobians, signed_volumes
+from .quality import degenerate_mask, signed_volumes
 
-__all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_from_arrays", "VOLUME_TYPES", "IGNORED_TYPES"]
+__all__ = ["Mesh", "read_mesh", "write_mesh", "mesh_from_arrays", "VOLUME_TYPES", "MIXED_TYPES",
+           "IGNORED_TYPES"]
 
 #: Cell types that carry no volume and are kept untouched (boundary
 #: annotations, beams, point masses).
 IGNORED_TYPES = {"vertex", "line", "line3", "triangle", "quad", "triangle6", "quad8", "quad9"}
-#: Volume and higher-order cell types that a later release deforms; refused now.
-VOLUME_TYPES = {"tetra10", "tetra4", "hexahedron", "hexahedron20", "hexahedron27", "wedge",
-                "wedge15", "pyramid", "pyramid13", "triangle6", "quad8", "quad9"}
+#: Linear volume types deformed next to tetrahedra (:mod:`solver.elements`).
+MIXED_TYPES = set(LINEAR_TYPES[1:])
+#: Higher-order cell types other than tetra10; refused.
+VOLUME_TYPES = {"tetra4", "hexahedron20", "hexahedron27", "wedge15", "pyramid13"}
 
 
 @dataclass(eq=False)
 class Mesh:
-    """A linear tetrahedral mesh, or a triangle surface, with its source file.
+    """A volume mesh (tetrahedra, optionally with other linear elements), or a triangle
+    surface, with its source file.
 
     Parameters
     ----------
@@ -57,6 +62,10 @@ class Mesh:
         VTK order (four corners, then the mid-side nodes of edges 01, 12, 02,
         03, 13, 23). ``T`` is then its first four columns; the mid-side nodes
         are placed after each solve (:mod:`solver.quadratic`).
+    cells : dict of str to (m, c) int array
+        Linear hexahedra, wedges and pyramids (meshio/VTK node order), per type
+        in file order. Elements are numbered tets first, then these in
+        :data:`solver.elements.LINEAR_TYPES` order (report ids, cell data).
     """
 
     V: np.ndarray
@@ -67,6 +76,7 @@ class Mesh:
     path: str | None = None
     T10: np.ndarray | None = None
     raw: bytes | None = field(default=None, repr=False)
+    cells: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -76,20 +86,44 @@ class Mesh:
     @property
     def is_surface(self) -> bool:
         """True for a triangle-only mesh (deformed by the boundary method alone)."""
-        return self.T.shape[0] == 0
+        return self.T.shape[0] == 0 and not self.cells
+
+    @property
+    def blocks(self) -> list[tuple[str, np.ndarray]]:
+        """Volume element blocks ``(type, connectivity)`` in element-numbering order."""
+        out = [("tetra", self.T)] if self.T.shape[0] else []
+        return out + [(k, self.cells[k]) for k in LINEAR_TYPES[1:] if k in self.cells]
+
+    @property
+    def elements(self) -> int:
+        """Number of volume elements."""
+        return int(sum(len(b) for _, b in self.blocks))
 
     @cached_property
     def F(self) -> np.ndarray:
-        """(k, 3) boundary faces, outward oriented."""
+        """(k, 3) boundary faces, outward oriented (boundary quads as two triangles)."""
         if self.is_surface:
             return self.surface
+        if self.cells:
+            return boundary_faces(self.blocks, self.n)[0]
         return boundary_facets(self.T, self.n)[0]
+
+    @cached_property
+    def edges(self) -> np.ndarray:
+        """(k, 2) vertex pairs of every element edge (repeats kept; tet edges first)."""
+        from .boundary_facets import simplex_edges
+
+        parts = [simplex_edges(self.T if self.T.shape[0] else self.surface, unique=False)]
+        parts += [element_edges(b, k) for k, b in self.blocks if k != "tetra"]
+        return np.concatenate(parts)
 
     @cached_property
     def referenced(self) -> np.ndarray:
         """(n,) bool: vertices used by an element."""
         used = np.zeros(self.n, bool)
         used[(self.surface if self.is_surface else self.T).ravel()] = True
+        for _, b in self.cells.items():
+            used[b.ravel()] = True
         return used
 
     @cached_property
@@ -107,7 +141,7 @@ class Mesh:
     @cached_property
     def body_labels(self) -> np.ndarray:
         """(n,) int: connected component (body) of each vertex, -1 if unreferenced."""
-        E = self.surface if self.is_surface else self.T
+        E = self.surface if self.is_surface else (self.edges if self.cells else self.T)
         return _component_labels(E, self.n, self.referenced)
 
     @cached_property
@@ -120,6 +154,7 @@ class Mesh:
         out: dict[str, Any] = {
             "vertices": self.n,
             "tetrahedra": int(self.T.shape[0]),
+            "elements": self.elements,
             "boundary_faces": int(self.F.shape[0]),
             "boundary_vertices": int(self.boundary.sum()),
             "interior_vertices": int(self.interior.sum()),
@@ -133,8 +168,10 @@ class Mesh:
             "sets": {k: int(len(v)) for k, v in sorted(self.sets.items())},
         }
         if not self.is_surface:
-            sj = scaled_jacobians(self.V, self.T)
-            vol = signed_volumes(self.V, self.T)
+            from .quality import element_quality
+
+            q = element_quality(self.V, self.T, self.cells)
+            sj, vol = q["scaled_jacobian"], q["volume"]
             out["quality"] = {
                 "min_scaled_jacobian": float(sj.min()),
                 "p01_scaled_jacobian": float(np.percentile(sj, 1)),
@@ -164,12 +201,14 @@ def _component_labels(E: np.ndarray, n: int, mask: np.ndarray) -> np.ndarray:
     return labels
 
 
-def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None) -> None:
+def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None,
+             cells: dict[str, np.ndarray] | None = None) -> None:
     """Raise :class:`InvalidMeshError` naming the first defect of ``(V, T)``.
 
     Checks, in order: shapes, non-finite coordinates of used vertices, element
     indices out of range, repeated indices within an element, no elements,
-    inverted and zero-volume tets, non-manifold faces and boundary edges.
+    inverted and zero-volume tets, inverted or flat hexahedra, wedges and
+    pyramids (a corner Jacobian <= 0), non-manifold faces and boundary edges.
 
     Parameters
     ----------
@@ -177,6 +216,8 @@ def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None) ->
     T : (m, 4) int array
     surface : (k, 3) int array, optional
         Triangles, for a surface-only mesh (``T`` empty).
+    cells : dict, optional
+        Other linear volume elements (:attr:`Mesh.cells`).
 
     Raises
     ------
@@ -188,29 +229,15 @@ def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None) ->
     k = 4 if T.shape[0] else 3
     if E.ndim != 2 or E.shape[1] != k:
         raise InvalidMeshError(f"elements must have shape (m, {k}), got {E.shape}", code="bad_shape")
-    if E.shape[0] == 0:
+    cells = {k: v for k, v in (cells or {}).items() if len(v)}
+    for kind, C in cells.items():
+        _check_indices(V, C, f"{kind} elements")
+    if E.shape[0] == 0 and cells:
+        E = np.zeros((0, 4), np.int64)
+    elif E.shape[0] == 0:
         raise InvalidMeshError("the mesh has no tetrahedra (and no triangles)", code="no_elements")
     n = V.shape[0]
-    bad = np.flatnonzero((E < 0).any(1) | (E >= n).any(1))
-    if bad.size:
-        raise InvalidMeshError(
-            f"{bad.size} elements reference vertices outside 0..{n - 1}; first elements "
-            f"{format_ids(bad)}, e.g. element {bad[0]} = {E[bad[0]].tolist()}",
-            code="index_out_of_range", elements=bad[:100].tolist(), vertices=n)
-    used = np.zeros(n, bool)
-    used[E.ravel()] = True
-    nonfinite = np.flatnonzero(used & ~np.isfinite(V).all(1))
-    if nonfinite.size:
-        raise InvalidMeshError(
-            f"{nonfinite.size} vertices have non-finite coordinates; first vertices "
-            f"{format_ids(nonfinite)}", code="non_finite_coordinates", vertices=nonfinite[:100].tolist())
-    S = np.sort(E, axis=1)
-    rep = np.flatnonzero((S[:, 1:] == S[:, :-1]).any(1))
-    if rep.size:
-        raise InvalidMeshError(
-            f"{rep.size} elements repeat a vertex index; first elements {format_ids(rep)}, "
-            f"e.g. element {rep[0]} = {E[rep[0]].tolist()}",
-            code="repeated_index", elements=rep[:100].tolist())
+    _check_indices(V, E, "elements")
     if T.shape[0]:
         vol = signed_volumes(V, T)
         degen = degenerate_mask(V, T, vol)
@@ -225,10 +252,52 @@ def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None) ->
             raise InvalidMeshError(
                 f"{zero.size} input tetrahedra have zero volume; first tets {format_ids(zero)}",
                 code="degenerate_input", tets=zero[:100].tolist(), count=int(zero.size))
+    base = int(T.shape[0])
+    for kind in LINEAR_TYPES[1:]:
+        if kind not in cells:
+            continue
+        det, _ = corner_jacobians(V, cells[kind], kind)
+        bad = np.flatnonzero(det <= 0)
+        if bad.size:
+            raise InvalidMeshError(
+                f"{bad.size} of {len(det)} input {kind} elements are inverted or flat (a corner "
+                f"Jacobian <= 0); first elements {format_ids(bad + base)} (tets first, then "
+                f"{', '.join(LINEAR_TYPES[1:])}), e.g. {kind} {bad[0]} = {cells[kind][bad[0]].tolist()}",
+                code="inverted_input", elements=(bad[:100] + base).tolist(), count=int(bad.size))
+        base += len(det)
+    if cells:
+        blocks = ([("tetra", T)] if T.shape[0] else []) + [(k, cells[k]) for k in LINEAR_TYPES[1:] if k in cells]
+        F, _ = boundary_faces(blocks, n)
+    elif T.shape[0]:
         F, _ = boundary_facets(T, n)
     else:
         F = surface
     _check_manifold_edges(F, n)
+
+
+def _check_indices(V: np.ndarray, C: np.ndarray, what: str) -> None:
+    """Index range, repeated nodes and finite coordinates of one block of elements."""
+    n = V.shape[0]
+    bad = np.flatnonzero((C < 0).any(1) | (C >= n).any(1))
+    if bad.size:
+        raise InvalidMeshError(
+            f"{bad.size} {what} reference vertices outside 0..{n - 1}; first elements "
+            f"{format_ids(bad)}, e.g. element {bad[0]} = {C[bad[0]].tolist()}",
+            code="index_out_of_range", elements=bad[:100].tolist(), vertices=n)
+    used = np.zeros(n, bool)
+    used[C.ravel()] = True
+    nonfinite = np.flatnonzero(used & ~np.isfinite(V).all(1))
+    if nonfinite.size:
+        raise InvalidMeshError(
+            f"{nonfinite.size} vertices have non-finite coordinates; first vertices "
+            f"{format_ids(nonfinite)}", code="non_finite_coordinates", vertices=nonfinite[:100].tolist())
+    S = np.sort(C, axis=1)
+    rep = np.flatnonzero((S[:, 1:] == S[:, :-1]).any(1))
+    if rep.size:
+        raise InvalidMeshError(
+            f"{rep.size} {what} repeat a vertex index; first elements {format_ids(rep)}, "
+            f"e.g. element {rep[0]} = {C[rep[0]].tolist()}",
+            code="repeated_index", elements=rep[:100].tolist())
 
 
 def _check_manifold_edges(F: np.ndarray, n: int) -> None:
@@ -382,21 +451,28 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
     types = [c.type for c in m.cells]
     if "tetra10" in types and "tetra" not in types:
         return _quadratic_from_meshio(m)
-    unsupported = sorted({t for t in types if t != "tetra" and t not in IGNORED_TYPES})
+    unsupported = sorted({t for t in types if t != "tetra" and t not in MIXED_TYPES
+                          and t not in IGNORED_TYPES})
     if unsupported:
         counts = {t: int(sum(len(c.data) for c in m.cells if c.type == t)) for t in unsupported}
         raise UnsupportedElementError(
-            f"element types {counts} are not supported yet: tetmorph deforms linear "
-            "tetrahedra ('tetra') or triangle surfaces; quadratic and mixed elements are refused "
-            "rather than silently mangled",
+            f"element types {counts} are not supported: tetmorph deforms linear tetrahedra, "
+            "hexahedra, wedges and pyramids, quadratic tetrahedra (tetra10) alone, and triangle "
+            "surfaces; other elements are refused rather than silently mangled",
             types=counts)
     tets = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "tetra"]
     T = np.concatenate(tets) if tets else np.zeros((0, 4), np.int64)
-    tris = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "triangle"]
-    surface = np.concatenate(tris) if (tris and not len(T)) else np.zeros((0, 3), np.int64)
     V = _points(m)
-    validate(V, T, surface)
-    return Mesh(V=V, T=T, surface=surface, sets=_named_sets(m), source=m)
+    cells = {k: np.concatenate([np.asarray(c.data, np.int64) for c in m.cells if c.type == k])
+             for k in LINEAR_TYPES[1:] if k in types}
+    try:  # either winding in the file; tetmorph keeps its own copy (:func:`solver.elements.oriented`)
+        cells = {k: oriented(V, E, k) for k, E in cells.items()}
+    except IndexError:
+        pass  # out-of-range indices: validate() names them
+    tris = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "triangle"]
+    surface = np.concatenate(tris) if (tris and not len(T) and not cells) else np.zeros((0, 3), np.int64)
+    validate(V, T, surface, cells)
+    return Mesh(V=V, T=T, surface=surface, sets=_named_sets(m), source=m, cells=cells)
 
 
 def _points(m: meshio.Mesh) -> np.ndarray:
@@ -478,13 +554,17 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         out.points = pts
         out.point_data = dict(mesh.source.point_data)
         out.cell_data = dict(mesh.source.cell_data)
+        if not target.lower().endswith(".msh") and file_format not in ("gmsh", "gmsh22"):
+            # meshio keeps Gmsh 4.1 entity relations as a cell set, which other writers
+            # cannot convert (VTU: "index out of bounds"); the physical groups stay
+            out.cell_sets = {k: v for k, v in mesh.source.cell_sets.items() if not k.startswith("gmsh:")}
     else:
         cells = [("tetra", mesh.T)] if not mesh.is_surface else [("triangle", mesh.surface)]
         out = meshio.Mesh(V, cells, point_sets={k: v for k, v in mesh.sets.items()})
     if quality and not mesh.is_surface:
         from .quality import element_quality
 
-        q = element_quality(V, mesh.T)
+        q = element_quality(V, mesh.T, mesh.cells)
         cell_data = {**(cell_data or {}),
                      **{f"quality:{k}": tet_cell_data(mesh, v, out) for k, v in q.items()}}
     if point_sets:
@@ -522,19 +602,25 @@ def _patched_original(mesh: Mesh, V: np.ndarray, target: str, file_format: str |
 
 
 def tet_cell_data(mesh: Mesh, values: np.ndarray, out: meshio.Mesh | None = None) -> list[np.ndarray]:
-    """Per-tet ``values`` (m,) spread over the cell blocks of the written mesh (NaN elsewhere).
+    """Per-element ``values`` spread over the cell blocks of the written mesh (NaN elsewhere).
 
-    Tets are numbered as :attr:`Mesh.T`: the file's tetra blocks in order.
+    Elements are numbered as :attr:`Mesh.blocks`: the file's tetra blocks in
+    order, then its hexahedron, wedge and pyramid blocks, each type in order.
     """
     blocks = out.cells if out is not None else (mesh.source.cells if mesh.source is not None else None)
     if blocks is None:
         return [np.asarray(values, float)]
-    parts, k = [], 0
+    start, k = {}, 0
+    for kind, b in mesh.blocks:
+        start[kind] = k
+        k += len(b)
+    parts = []
     for c in blocks:
         nc = len(c.data)
-        if c.type == "tetra":
-            parts.append(np.asarray(values[k:k + nc], float))
-            k += nc
+        kind = "tetra" if c.type == "tetra10" and mesh.T10 is not None else c.type
+        if kind in start:
+            parts.append(np.asarray(values[start[kind]:start[kind] + nc], float))
+            start[kind] += nc
         else:
             parts.append(np.full(nc, np.nan))
     return parts

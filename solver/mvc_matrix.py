@@ -6,19 +6,21 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-from .boundary_facets import TET_FACES
+from .elements import LINEAR_TYPES, element_tables
 from .mean_value_coordinates import MVC_EPS, mvc_pair
 
 __all__ = ["mvc_matrix", "vertex_tets"]
 
 
-def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray,
+               cells: dict[str, np.ndarray] | None = None) -> tuple[sp.csr_matrix, np.ndarray]:
     """Mean value coordinates ``W`` and local-volume areas ``S`` of interior vertices.
 
     The local volume of interior vertex ``i`` is the union of its incident
-    tetrahedra; its closed boundary is made of the faces opposite ``i``. Row
-    ``i`` of ``W`` holds the 3D mean value coordinates of ``p_i`` with respect
-    to that boundary, so that ``p_i = sum_j W_ij p_j`` (eq. 2.4).
+    elements; its closed boundary is made of their faces that do not contain
+    ``i`` (for a tet, the face opposite ``i``; quads split into two triangles).
+    Row ``i`` of ``W`` holds the 3D mean value coordinates of ``p_i`` with
+    respect to that boundary, so that ``p_i = sum_j W_ij p_j`` (eq. 2.4).
 
     Parameters
     ----------
@@ -27,6 +29,9 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray) -> tuple[sp.c
         Positively oriented tetrahedra.
     interior : (n,) bool array
         Which vertices get a row.
+    cells : dict, optional
+        Other linear volume elements by type (``"hexahedron"``, ``"wedge"``,
+        ``"pyramid"``; :mod:`solver.elements`).
 
     Returns
     -------
@@ -39,7 +44,11 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray) -> tuple[sp.c
     Notes
     -----
     Interactive deformation of 3D mesh models, eq. (2.4)-(2.5); the weights
-    come from :func:`solver.mean_value_coordinates.mvc_triangle_weights`.
+    come from :func:`solver.mean_value_coordinates.mvc_pair`. One compiled pass,
+    parallel over the interior vertices, builds each row from the vertex's
+    incident elements. A vertex on one of its faces (within ``MVC_EPS``) takes
+    that face's barycentric weights alone, the first such face in element order
+    (the near-face case of Ju et al.).
 
     Examples
     --------
@@ -56,36 +65,59 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray) -> tuple[sp.c
     """
     n = len(V)
     V = np.ascontiguousarray(V, dtype=np.float64)
-    T = np.ascontiguousarray(T, dtype=np.int64)
-    ptr, inc = vertex_tets(T, n)
+    E, kind = _padded_elements(T, cells or {})
+    ptr, inc = vertex_tets(E, n)
     rows = np.flatnonzero(interior).astype(np.int64)
-    counts = _row_sizes(T, ptr, inc, rows)
+    opp = _OPPOSITE
+    counts = _row_sizes(E, kind, opp, ptr, inc, rows)
     indptr = np.zeros(n + 1, np.int64)
-    np.add.at(indptr, rows + 1, counts)  # rows are unique: one add per row
+    indptr[rows + 1] = counts
     indptr = np.cumsum(indptr)
     indices = np.empty(indptr[-1], np.int64)
     data = np.empty(indptr[-1])
     S = np.zeros(n)
-    _fill_rows(V, T, ptr, inc, rows, indptr, indices, data, S, TET_FACES, MVC_EPS)
+    _fill_rows(V, E, kind, opp, ptr, inc, rows, indptr, indices, data, S, MVC_EPS)
     W = sp.csr_matrix((data, indices, indptr), shape=(n, n))
     W.eliminate_zeros()
     return W, S
 
 
-def vertex_tets(T: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Incident (tet, corner) pairs of every vertex, in tet order.
+_OPPOSITE, _ = element_tables()
+
+
+def _padded_elements(T: np.ndarray, cells: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """All elements in one (M, w) array padded with -1, and their type codes (LINEAR_TYPES)."""
+    blocks = [("tetra", np.asarray(T, np.int64).reshape(-1, 4))]
+    blocks += [(k, np.asarray(cells[k], np.int64)) for k in LINEAR_TYPES[1:] if k in cells]
+    blocks = [(k, b) for k, b in blocks if len(b)]
+    if not blocks:
+        return np.zeros((0, 4), np.int64), np.zeros(0, np.int64)
+    w = max(b.shape[1] for _, b in blocks)
+    E = np.full((sum(len(b) for _, b in blocks), w), -1, np.int64)
+    kind = np.empty(len(E), np.int64)
+    at = 0
+    for k, b in blocks:
+        E[at:at + len(b), :b.shape[1]] = b
+        kind[at:at + len(b)] = LINEAR_TYPES.index(k)
+        at += len(b)
+    return E, kind
+
+
+def vertex_tets(E: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Incident (element, corner) pairs of every vertex, in element order.
 
     Parameters
     ----------
-    T : (m, 4) int array
+    E : (m, w) int array
+        Elements; -1 entries (padding) are skipped.
     n : int
         Number of vertices.
 
     Returns
     -------
     ptr : (n + 1,) int array
-    inc : (4 m,) int array
-        ``inc[ptr[v]:ptr[v + 1]]`` are the flat indices ``4 t + k`` with ``T[t, k] == v``.
+    inc : (k,) int array
+        ``inc[ptr[v]:ptr[v + 1]]`` are the flat indices ``w e + c`` with ``E[e, c] == v``.
 
     Examples
     --------
@@ -93,52 +125,58 @@ def vertex_tets(T: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     >>> inc[ptr[1]:ptr[2]].tolist()
     [1, 4]
     """
-    flat = np.ascontiguousarray(T, dtype=np.int64).ravel()
+    flat = np.ascontiguousarray(E, dtype=np.int64).ravel()
     ptr = np.zeros(n + 1, np.int64)
-    ptr[1:] = np.cumsum(np.bincount(flat, minlength=n))
+    ptr[1:] = np.cumsum(np.bincount(flat[flat >= 0], minlength=n))
     return ptr, _counting_sort(flat, ptr)
 
 
 @numba.njit(cache=True)
 def _counting_sort(flat, ptr):  # pragma: no cover - compiled
     nxt = ptr[:-1].copy()
-    out = np.empty(flat.size, np.int64)
+    out = np.empty(ptr[-1], np.int64)
     for p in range(flat.size):
         v = flat[p]
-        out[nxt[v]] = p
-        nxt[v] += 1
+        if v >= 0:
+            out[nxt[v]] = p
+            nxt[v] += 1
     return out
 
 
 @numba.njit(cache=True)
-def _neighbours(T, ptr, inc, i):  # pragma: no cover - compiled
-    """Sorted distinct vertices of the faces opposite ``i`` (its one ring)."""
+def _neighbours(E, kind, opp, ptr, inc, i):  # pragma: no cover - compiled
+    """Sorted distinct vertices of the faces around ``i`` that do not contain it."""
+    w = E.shape[1]
     deg = ptr[i + 1] - ptr[i]
-    nb = np.empty(3 * deg, np.int64)
+    nb = np.empty(18 * deg, np.int64)
+    c = 0
     for a in range(deg):
         p = inc[ptr[i] + a]
-        t, k = p // 4, p % 4
-        c = 0
-        for j in range(4):
-            if j != k:
-                nb[3 * a + c] = T[t, j]
+        e, k = p // w, p % w
+        tri = opp[kind[e], k]
+        for t in range(tri.shape[0]):
+            if tri[t, 0] < 0:
+                break
+            for j in range(3):
+                nb[c] = E[e, tri[t, j]]
                 c += 1
-    return np.unique(nb)
+    return np.unique(nb[:c])
 
 
 @numba.njit(parallel=True, cache=True)
-def _row_sizes(T, ptr, inc, rows):  # pragma: no cover - compiled
+def _row_sizes(E, kind, opp, ptr, inc, rows):  # pragma: no cover - compiled
     out = np.empty(rows.size, np.int64)
     for r in numba.prange(rows.size):
-        out[r] = _neighbours(T, ptr, inc, rows[r]).size
+        out[r] = _neighbours(E, kind, opp, ptr, inc, rows[r]).size
     return out
 
 
 @numba.njit(parallel=True, cache=True, error_model="numpy")
-def _fill_rows(V, T, ptr, inc, rows, indptr, indices, data, S, faces, eps):  # pragma: no cover
+def _fill_rows(V, E, kind, opp, ptr, inc, rows, indptr, indices, data, S, eps):  # pragma: no cover
+    w_ = E.shape[1]
     for r in numba.prange(rows.size):
         i = rows[r]
-        cols = _neighbours(T, ptr, inc, i)
+        cols = _neighbours(E, kind, opp, ptr, inc, i)
         lo = indptr[i]
         acc = np.zeros(cols.size)
         w = np.empty(3)
@@ -147,20 +185,25 @@ def _fill_rows(V, T, ptr, inc, rows, indptr, indices, data, S, faces, eps):  # p
         special = False
         for a in range(ptr[i + 1] - ptr[i]):
             p = inc[ptr[i] + a]
-            t, k = p // 4, p % 4
-            f0, f1, f2 = T[t, faces[k, 0]], T[t, faces[k, 1]], T[t, faces[k, 2]]
-            ux, uy, uz = V[f1, 0] - V[f0, 0], V[f1, 1] - V[f0, 1], V[f1, 2] - V[f0, 2]
-            vx, vy, vz = V[f2, 0] - V[f0, 0], V[f2, 1] - V[f0, 1], V[f2, 2] - V[f0, 2]
-            area += 0.5 * np.sqrt((uy * vz - uz * vy) ** 2 + (uz * vx - ux * vz) ** 2
-                                  + (ux * vy - uy * vx) ** 2)
-            if special:
-                continue
-            on = mvc_pair(V[i], V[f0], V[f1], V[f2], eps, w, wk)
-            if on:  # near-face case: this face's weights alone
-                acc[:] = 0.0
-                special = True
-            for c, f in enumerate((f0, f1, f2)):
-                acc[np.searchsorted(cols, f)] += w[c]
+            e, k = p // w_, p % w_
+            tri = opp[kind[e], k]
+            for t in range(tri.shape[0]):
+                if tri[t, 0] < 0:
+                    break
+                f0, f1, f2 = E[e, tri[t, 0]], E[e, tri[t, 1]], E[e, tri[t, 2]]
+                ux, uy, uz = V[f1, 0] - V[f0, 0], V[f1, 1] - V[f0, 1], V[f1, 2] - V[f0, 2]
+                vx, vy, vz = V[f2, 0] - V[f0, 0], V[f2, 1] - V[f0, 1], V[f2, 2] - V[f0, 2]
+                area += 0.5 * np.sqrt((uy * vz - uz * vy) ** 2 + (uz * vx - ux * vz) ** 2
+                                      + (ux * vy - uy * vx) ** 2)
+                if special:
+                    continue
+                on = mvc_pair(V[i], V[f0], V[f1], V[f2], eps, w, wk)
+                if on:  # near-face case: this face's weights alone
+                    acc[:] = 0.0
+                    special = True
+                acc[np.searchsorted(cols, f0)] += w[0]
+                acc[np.searchsorted(cols, f1)] += w[1]
+                acc[np.searchsorted(cols, f2)] += w[2]
         tot = acc.sum()
         for c in range(cols.size):
             indices[lo + c] = cols[c]

@@ -253,24 +253,44 @@ def aspect_ratios(V: np.ndarray, T: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(ar), np.minimum(ar, ASPECT_CAP), ASPECT_CAP)
 
 
-def element_quality(V: np.ndarray, T: np.ndarray) -> dict[str, np.ndarray]:
+def element_quality(V: np.ndarray, T: np.ndarray,
+                    cells: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Every per-element metric of :data:`METRICS`.
 
     Parameters
     ----------
     V : (n, 3) float array
     T : (m, 4) int array
+    cells : dict, optional
+        Hexahedra, wedges and pyramids (:attr:`solver.mesh.Mesh.cells`). Their
+        volume comes from their faces and their scaled Jacobian from their
+        corners (:func:`solver.elements.corner_jacobians`); the dihedral
+        angles and aspect ratio are tetrahedron metrics and are NaN there.
 
     Returns
     -------
-    dict of str to (m,) float array
+    dict of str to (M,) float array
         ``volume`` (signed), ``scaled_jacobian``, ``min_dihedral_deg``,
-        ``max_dihedral_deg``, ``aspect_ratio``.
+        ``max_dihedral_deg``, ``aspect_ratio``; tets first, then the other
+        types in :data:`solver.elements.LINEAR_TYPES` order.
     """
     vol6, sj = tet_quality(V, np.asarray(T))
-    dih = dihedral_angles(V, T)
-    return {"volume": vol6 / 6.0, "scaled_jacobian": sj, "min_dihedral_deg": dih.min(axis=1),
-            "max_dihedral_deg": dih.max(axis=1), "aspect_ratio": aspect_ratios(V, T)}
+    dih = dihedral_angles(V, T) if len(T) else np.zeros((0, 6))
+    out = {"volume": vol6 / 6.0, "scaled_jacobian": sj, "min_dihedral_deg": dih.min(axis=1, initial=np.inf),
+           "max_dihedral_deg": dih.max(axis=1, initial=-np.inf),
+           "aspect_ratio": aspect_ratios(V, T) if len(T) else np.zeros(0)}
+    if cells:
+        from .elements import LINEAR_TYPES, corner_jacobians, element_volumes
+
+        for kind in LINEAR_TYPES[1:]:
+            if kind not in cells:
+                continue
+            E = cells[kind]
+            nan = np.full(len(E), np.nan)
+            extra = {"volume": element_volumes(V, E, kind), "scaled_jacobian": corner_jacobians(V, E, kind)[1],
+                     "min_dihedral_deg": nan, "max_dihedral_deg": nan, "aspect_ratio": nan}
+            out = {k: np.concatenate([out[k], extra[k]]) for k in out}
+    return out
 
 
 #: Histogram bin edges per metric in :func:`summarize_quality`.
@@ -297,6 +317,7 @@ def summarize_quality(q: dict[str, np.ndarray]) -> dict[str, dict]:
     """
     out: dict[str, dict] = {}
     for k, v in q.items():
+        v = v[~np.isnan(v)]  # tet-only metrics are NaN on other elements
         if not v.size:
             continue
         p = np.percentile(v, [0, 1, 5, 50, 95, 99, 100])

@@ -74,11 +74,15 @@ def test_quadratic_and_mixed_elements_are_refused(tmp_path):
     mixed = meshio.Mesh(V, [("tetra", T), ("tetra10", np.c_[T, T[:, :2], T[:, :2], T[:, :2]][:1])])
     with pytest.raises(UnsupportedElementError, match="tetra10"):
         mesh_from_meshio(mixed)
-    hexm = meshio.Mesh(V, [("hexahedron", np.arange(8)[None])])
-    p = tmp_path / "hex.vtu"
+    # linear hexahedra are read (tests/test_mixed.py); quadratic ones are refused
+    hexm = meshio.Mesh(np.vstack([V, V[:8] + 3, V[:4] + 7]), [("hexahedron20", np.arange(20)[None])])
+    p = tmp_path / "hex20.vtu"
     meshio.write(p, hexm)
-    with pytest.raises(UnsupportedElementError, match="hexahedron"):
+    with pytest.raises(UnsupportedElementError, match="hexahedron20"):
         read_mesh(p)
+    with pytest.raises(UnsupportedElementError, match="hexahedron"):
+        mesh_from_meshio(meshio.Mesh(np.vstack([V, V[:2] + 5]), [
+            ("tetra10", np.array([[0, 1, 2, 4, 8, 9, 3, 5, 6, 7]])), ("hexahedron", np.arange(8)[None])]))
 
 
 def test_unreadable_and_missing_files(tmp_path):

@@ -148,7 +148,8 @@ async def current_quality(
                                          f"{list(METRICS)}; default all")] = None,
     owner: str = Owner, reg: Registry = Reg,
 ) -> dict[str, Any]:
-    """Per-element metrics at the last MOVE (one list per metric, tet order of the file) and summaries."""
+    """Per-element metrics at the last MOVE (one list per metric; tets in file order, then hexahedra,
+    wedges and pyramids; NaN where a metric is for tets only) and summaries."""
     s = reg.session(owner, session_id)
     names = list(METRICS) if metrics is None else [m.strip() for m in metrics.split(",") if m.strip()]
     bad = sorted(set(names) - set(METRICS))
@@ -157,9 +158,16 @@ async def current_quality(
                            code="unknown_metric", unknown=bad)
     V = await reg.positions(s)
     mesh = await reg.session_mesh(s)
-    q = await reg.run(element_quality, V, mesh.T)
-    return {"elements": int(mesh.T.shape[0]), "summary": summarize_quality({k: q[k] for k in names}),
-            "per_element": {k: q[k].tolist() for k in names}}
+    q = await reg.run(element_quality, V, mesh.T, mesh.cells)
+    return {"elements": mesh.elements, "summary": summarize_quality({k: q[k] for k in names}),
+            "per_element": {k: _json_floats(q[k]) for k in names}}
+
+
+def _json_floats(x: np.ndarray) -> list[float | None]:
+    """A float array as a JSON list, NaN (tet-only metrics on other elements) as null."""
+    out = x.astype(object)
+    out[np.isnan(x)] = None
+    return out.tolist()
 
 
 @router.get("/sessions/{session_id}/positions", summary="Current positions as JSON or binary",

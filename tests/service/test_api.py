@@ -8,7 +8,7 @@ import meshio
 import numpy as np
 import pytest
 
-from service.binary import decode_frame
+from service.binary import decode_bundle, decode_frame
 from service.client import TetmorphError
 from solver import read_mesh
 from solver.deformer import precompute
@@ -187,9 +187,11 @@ TET = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
     ("nan.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, float("nan")]]),
                            [[0, 1, 2, 3]]), "non_finite_coordinates"),
     ("badindex.inp", _inp_bytes(TET, [[0, 1, 2, 7]]), None),
-    ("hexahedron.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1],
-                                            [1, 1, 1], [0, 1, 1.0]]), [list(range(8))], kind="C3D8"),
+    ("hexahedron20.inp", _inp_bytes(np.random.default_rng(0).random((20, 3)), [list(range(20))], kind="C3D20"),
      "unsupported_element"),
+    ("twisted_hex.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1],
+                                             [0.2, 0.2, 1], [0, 1, 1.0]]), [list(range(8))], kind="C3D8"),
+     "inverted_input"),
     ("surface.xyz", b"1 2 3\n", "unknown_format"),
 ])
 def test_malformed_uploads_are_typed_422(tc, name, data, code):
@@ -553,3 +555,27 @@ def test_quality_summaries_cell_data_and_per_element_arrays(client, tc, tmp_path
     np.testing.assert_allclose(per["per_element"]["scaled_jacobian"], tets)
     r = tc.get(f"/v1/sessions/{s['id']}/quality?metrics=beauty")
     assert r.status_code == 422 and err(r)["code"] == "unknown_metric"
+
+
+def test_mixed_element_deck_over_rest(client, tc, tmp_path):
+    """Hexahedra, wedges and pyramids: upload, morph, per-element quality (null for tet-only
+    metrics), geometry for the viewer, and the Gmsh file back with only node lines changed."""
+    mesh = client.upload_mesh(DATA / "mixed.msh")
+    assert mesh["info"]["elements"] == 1113 and mesh["info"]["cell_types"]["wedge"] == 172
+    spec = {"selections": {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}}, "fixed": ["fix"],
+            "handles": {"tip": "load"}}
+    s = client.create_session(mesh["id"], spec)
+    move = {"handles": {"tip": {"translation": [0, 0, 4], "rotation": {"axis": [0, 1, 0], "angle_deg": -15}}}}
+    rep = tc.post(f"/v1/sessions/{s['id']}/deform?result=report&quality=full", json=move).json()["report"]
+    assert rep["inverted_elements"] == 0 and rep["constraint_residual_max"] <= 1e-9
+    assert sum(rep["quality"]["after"]["scaled_jacobian"]["histogram"]["counts"]) == 1113
+    per = tc.get(f"/v1/sessions/{s['id']}/quality?metrics=scaled_jacobian,min_dihedral_deg").json()
+    assert per["elements"] == 1113
+    assert per["per_element"]["min_dihedral_deg"][797:] == [None] * (1113 - 797)
+    assert all(v is not None for v in per["per_element"]["scaled_jacobian"])
+    geo = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)[0]
+    assert geo["T"].shape == (797 + 128 * 8 + 172 * 6 + 16 * 4, 4)
+    body = tc.get(f"/v1/sessions/{s['id']}/mesh?format=msh").content
+    src = (DATA / "mixed.msh").read_bytes()
+    assert body.split(b"$Nodes")[0] == src.split(b"$Nodes")[0]
+    assert body.split(b"$EndNodes")[1] == src.split(b"$EndNodes")[1]

@@ -78,6 +78,7 @@ $(STAMP): pyproject.toml | sysdeps
 	$(BIN)/python -m pip install -q -e ".[dev,cholmod]" \
 	  || { echo "WARNING: CHOLMOD extra failed to build; installing without it"; \
 	       $(BIN)/python -m pip install -q -e ".[dev]"; }
+	$(BIN)/python -m solver.kernels
 	touch $(STAMP)
 
 install: sysdeps $(STAMP)

@@ -1,0 +1,45 @@
+"""Compile (and cache on disk) every numba kernel of tetmorph once, ahead of use.
+
+numba compiles a kernel on its first call and keeps the machine code in
+``__pycache__`` next to the module (``cache=True``); later processes load it
+in milliseconds. The first compilation of all kernels takes about 10 s on the
+reference machine (two cores), so ``make install`` and the Docker image run
+``python -m solver.kernels`` once instead of leaving it to the first request.
+
+    python -m solver.kernels        # prints the seconds it took
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+__all__ = ["compile_all"]
+
+
+def compile_all() -> float:
+    """Run every kernel on a tiny mesh; returns the seconds taken."""
+    from .elements import corner_jacobians, oriented
+    from .mean_value_coordinates import mvc_triangle_weights
+    from .mvc_matrix import mvc_matrix
+    from .quality import tet_quality
+    from .rotation import rotate_by_log
+    from .testing import cube_mesh
+
+    t0 = time.perf_counter()
+    V, T = cube_mesh(3)
+    interior = np.zeros(len(V), bool)
+    interior[np.flatnonzero((V > 0).all(axis=1) & (V < 1).all(axis=1))] = True
+    mvc_matrix(V, T, interior)
+    tet_quality(V, T)
+    rotate_by_log(V, 0.1 * V)
+    mvc_triangle_weights(V[:3], V[T[:3, :3]])
+    H = np.array([[0, 1, 2, 3, 4, 5, 6, 7]])
+    X = np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
+    corner_jacobians(X, oriented(X, H, "hexahedron"), "hexahedron")
+    return time.perf_counter() - t0
+
+
+if __name__ == "__main__":
+    print(f"tetmorph kernels ready ({compile_all():.1f} s)")

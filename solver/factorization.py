@@ -109,11 +109,11 @@ def backend() -> str:
 
 _LU_BACKEND: str | None = None
 #: Square systems up to this size use SuperLU even when PARDISO is there: on small
-#: systems PARDISO's solve costs far more (255 unknowns: 0.24 vs 0.02 ms; 2,588: 2.96
-#: vs 0.32 ms), while SuperLU's factorization grows much faster with size (12,892
-#: unknowns of the 107k-tet bracket: 332 vs 101 ms; 48,651 unknowns: 19 s vs 1.1 s).
-#: Measured on interior mean-value systems: benchmarks/measure_choices.py --only
-#: small-lu, and benchmarks/bench_backends.py --n 40.
+#: systems PARDISO's solve costs more (255 unknowns: 0.22 vs 0.03 ms; 2,588: 1.24 vs
+#: 0.32 ms), while SuperLU's factorization grows much faster with size (12,892
+#: unknowns of the 107k-tet bracket: 290 vs 97 ms, for about the same solve, 8.8 vs
+#: 8.2 ms). Measured on interior mean-value systems: benchmarks/measure_choices.py
+#: --only small-lu.
 LU_SMALL = 5_000
 
 

@@ -625,7 +625,7 @@ class Deformer:
         if self._fi.size:
             P[self._fi] -= self._finter.solve(self._Mfi @ P)
         if getattr(self, "_mid", None) is not None:
-            P = self._mid.place(P)  # quadratic elements: mid-side nodes follow their edges
+            P = self._mid.place(P, self._valid_rest)  # quadratic: mid-side nodes follow their edges
         return P, U, d
 
     def constraint_report(self, solved: tuple[np.ndarray, np.ndarray, np.ndarray | None],
@@ -708,7 +708,8 @@ class Deformer:
         bad = (vol6 <= 0) | degenerate
         dj = None
         if self.mesh.T10 is not None:
-            dj = node_jacobians(P, self.mesh.T10)
+            known = self._mid.jacobians if getattr(self, "_mid", None) is not None else None
+            dj = known[1] if known is not None and known[0] is P else node_jacobians(P, self.mesh.T10)
             bad |= (dj.min(axis=1) <= 0) & self._valid_rest
         return bad, sj, degenerate, dj
 
@@ -923,6 +924,8 @@ class Deformer:
                 rep["min_jacobian_ratio"] = float(ratio[self._valid_rest].min()) if self._valid_rest.any() \
                     else float(ratio.min())
                 rep["invalid_at_rest_elements"] = int((~self._valid_rest).sum())
+                placed = self._mid.jacobians is not None and self._mid.jacobians[0] is P
+                rep["midside_relaxed"] = self._mid.relaxed if placed else None
             rep.update({
                 "inverted_elements": int(bad.size),
                 "inverted_ids": bad[:REPORT_IDS].tolist(),

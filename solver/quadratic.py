@@ -91,6 +91,12 @@ def node_jacobians(V: np.ndarray, T10: np.ndarray) -> np.ndarray:
             + a[..., 2] * (b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0]))
 
 
+def node_jacobians_linear(V: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Six times the signed volume of each corner tet (the straight-sided element's Jacobian)."""
+    a = V[T[:, 0]]
+    return np.einsum("ij,ij->i", V[T[:, 1]] - a, np.cross(V[T[:, 2]] - a, V[T[:, 3]] - a))
+
+
 class MidsideNodes:
     """Placement of the mid-side nodes of a tetra10 mesh (set up once, applied per solve).
 
@@ -112,7 +118,12 @@ class MidsideNodes:
         tets = np.repeat(np.arange(m), 6)
         A = sp.csr_matrix((np.ones(ids.size), (rows, tets)), shape=(self.ids.size, m))
         self._avg = sp.diags(1.0 / np.asarray(A.sum(axis=1)).ravel()) @ A
+        self._node_tets = A.tocsr()
+        self._slot = np.searchsorted(self.ids, T10[:, 4:])  # (m, 6) mid-side node of each slot
+        self.T10 = T10
         self.T = T10[:, :4]
+        self.relaxed: dict | None = None
+        self.jacobians: tuple[np.ndarray, np.ndarray] | None = None
         P = V0[self.T]
         D0 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0], P[:, 3] - P[:, 0]], axis=2)  # columns
         self._D0inv = np.linalg.inv(D0)
@@ -139,9 +150,51 @@ class MidsideNodes:
         U[:, :, 2] *= d[:, None]
         return U @ Vt
 
-    def place(self, P: np.ndarray) -> np.ndarray:
-        """Positions with every mid-side node placed from its corners (a copy)."""
+    def place(self, P: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+        """Positions with every mid-side node placed from its corners (a copy).
+
+        Parameters
+        ----------
+        P : (n, 3) array
+            Positions whose corner nodes are final.
+        valid : (m,) bool array, optional
+            Elements valid at rest. When given, an element of them that the
+            placement folds (a node Jacobian <= 0) while its corner tet is
+            still positive gets its mid-side nodes' curvature offsets halved,
+            up to five times and then removed, until no such element is left:
+            a curved edge is flattened only as far as needed to keep its
+            elements valid. :attr:`relaxed` says how many nodes and elements
+            this touched and the smallest factor (None when nothing was
+            needed); :attr:`jacobians` keeps ``(positions, node Jacobians)``
+            of the result for the caller's check.
+        """
         out = P.copy()
         G = self.gradients(P)
-        out[self.ids] = 0.5 * (P[self.a] + P[self.b]) + np.einsum("kab,kb->ka", G, self._off0)
+        mid = 0.5 * (P[self.a] + P[self.b])
+        curv = np.einsum("kab,kb->ka", G, self._off0)
+        out[self.ids] = mid + curv
+        self.relaxed, self.jacobians = None, None
+        if valid is None:
+            return out
+        dj = node_jacobians(out, self.T10)
+        corner_ok = node_jacobians_linear(out, self.T) > 0
+        bad = (dj.min(axis=1) <= 0) & valid & corner_ok
+        if bad.any():
+            alpha = np.ones(self.ids.size)
+            touched = np.zeros(len(dj), bool)
+            for step in range(6):
+                nodes = np.unique(self._slot[bad])
+                alpha[nodes] = 0.0 if step == 5 else alpha[nodes] / 2
+                out[self.ids[nodes]] = mid[nodes] + alpha[nodes, None] * curv[nodes]
+                elems = np.unique(self._node_tets[nodes].indices)
+                touched[elems] = True
+                dj[elems] = node_jacobians(out, self.T10[elems])
+                bad = np.zeros(len(dj), bool)
+                bad[elems] = (dj[elems].min(axis=1) <= 0) & valid[elems] & corner_ok[elems]
+                if not bad.any():
+                    break
+            changed = alpha < 1
+            self.relaxed = {"midside_nodes": int(changed.sum()), "elements": int(touched.sum()),
+                            "min_factor": float(alpha[changed].min())}
+        self.jacobians = (out, dj)
         return out

@@ -388,7 +388,28 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
                 groups.setdefault(label, []).append(np.asarray(block.data)[tags == tag].ravel())
         for label, parts in groups.items():
             sets.setdefault(label, np.unique(np.concatenate(parts)))
+    # material regions of volume elements as integer cell data (Medit references,
+    # VTK/Exodus-style block ids): a node set per value, e.g. "medit:ref=2"
+    for key in ("medit:ref", "CellEntityIds", "MaterialIds"):
+        data = m.cell_data.get(key)
+        if data is None:
+            continue
+        regions: dict[int, list[np.ndarray]] = {}
+        for block, vals in zip(m.cells, data, strict=False):
+            vals = np.asarray(vals).ravel()
+            if block.type not in VOLUME_CELLS or vals.shape[0] != len(block.data) \
+                    or not np.issubdtype(vals.dtype, np.integer):
+                continue
+            for v in np.unique(vals):
+                regions.setdefault(int(v), []).append(np.asarray(block.data)[vals == v].ravel())
+        if len(regions) > 1:  # one value everywhere is no region
+            for v, parts in regions.items():
+                sets.setdefault(f"{key}={v}", np.unique(np.concatenate(parts)))
     return sets
+
+
+#: Cell types whose integer cell data can name material regions.
+VOLUME_CELLS = {"tetra", "tetra10", "hexahedron", "wedge", "pyramid"}
 
 
 def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> Mesh:

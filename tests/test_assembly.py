@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solver import ConstraintError, SpecError, mesh_from_arrays, precompute, read_mesh
-from tests.conftest import DATA
+from solver import ConstraintError, SpecError, mesh_from_arrays, precompute, read_mesh, write_mesh
+from tests.conftest import DATA, shared_file
 
 
 @pytest.fixture(scope="module")
@@ -81,3 +81,29 @@ def test_explicit_ties_and_bad_ones(assembly):
         precompute(mesh, _spec(ties=[[0, 10 ** 9]]))
     with pytest.raises(SpecError, match="ties"):
         precompute(mesh, _spec(ties="sometimes"))
+
+
+def test_material_regions_are_sets_and_stay_conforming(tmp_path):
+    """cube_cylinder.mesh: a cylinder region (medit:ref 2) through a cube (ref 1), one conforming
+    mesh. Regions become node sets, usable as selections; a bend moves the interface nodes once
+    for both regions, and the written Medit file keeps the regions."""
+    from solver.quality import signed_volumes
+
+    mesh = read_mesh(shared_file("tet/cube_cylinder.mesh"))
+    a, b = mesh.sets["medit:ref=1"], mesh.sets["medit:ref=2"]
+    assert a.size == 8816 and b.size == 2442 and np.intersect1d(a, b).size == 768
+    spec = {"selections": {"bottom": {"plane": {"point": [0, 0, 0], "normal": [0, 0, 1], "tolerance": 1e-9}},
+                           "core": {"set": "medit:ref=2", "boundary_only": True},
+                           "top": {"plane": {"point": [0, 0, 1], "normal": [0, 0, 1], "tolerance": 1e-9}}},
+            "fixed": ["bottom"], "handles": {"top": "top"}}
+    with pytest.raises(SpecError):  # the core's boundary overlaps both end faces
+        precompute(mesh, {**spec, "handles": {"top": "top", "core": "core"}})
+    d = precompute(mesh, spec)
+    r = d.solve({"handles": {"top": {"translation": [0.1, 0, 0], "rotation": {"axis": [0, 1, 0], "angle_deg": 15}}}})
+    assert r.report["inverted_elements"] == 0 == int((signed_volumes(r.V, mesh.T) <= 0).sum())
+    out = tmp_path / "out.mesh"
+    write_mesh(mesh, r.V, out)
+    back = read_mesh(out)
+    assert np.abs(back.V - r.V).max() <= 1e-12
+    for k in ("medit:ref=1", "medit:ref=2"):
+        assert np.array_equal(back.sets[k], mesh.sets[k])

@@ -143,6 +143,7 @@ async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -
             arrays[f"set:{name}"] = np.asarray(ids, np.uint32)
         lo, hi = mesh.V[mesh.referenced].min(0), mesh.V[mesh.referenced].max(0)
         return encode_bundle(arrays, {"mesh_id": meta["id"], "name": meta.get("name"), "n": mesh.n,
+                                      "elements": mesh.elements,
                                       "sets": sorted(mesh.sets), "bbox": [lo.tolist(), hi.tolist()]})
 
     return Response(await reg.run(pack), media_type="application/octet-stream")

@@ -573,8 +573,8 @@ def test_mixed_element_deck_over_rest(client, tc, tmp_path):
     assert per["elements"] == 1113
     assert per["per_element"]["min_dihedral_deg"][797:] == [None] * (1113 - 797)
     assert all(v is not None for v in per["per_element"]["scaled_jacobian"])
-    geo = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)[0]
-    assert geo["T"].shape == (797 + 128 * 8 + 172 * 6 + 16 * 4, 4)
+    geo, head = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    assert geo["T"].shape == (797 + 128 * 8 + 172 * 6 + 16 * 4, 4) and head["elements"] == 1113
     body = tc.get(f"/v1/sessions/{s['id']}/mesh?format=msh").content
     src = (DATA / "mixed.msh").read_bytes()
     assert body.split(b"$Nodes")[0] == src.split(b"$Nodes")[0]

@@ -146,7 +146,9 @@ async function openMesh(id) {
   state.role = new Uint8Array(state.V.length / 3);
   const lo = header.bbox[0], hi = header.bbox[1];
   state.diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
-  $("mesh-name").textContent = `${state.meshName} · ${state.V.length / 3} vertices · ${state.T.length / 4} tets`;
+  // mixed meshes: T also carries the corner tets of hexahedra, wedges and pyramids
+  state.elements = header.elements ?? state.T.length / 4;
+  $("mesh-name").textContent = `${state.meshName} · ${state.V.length / 3} vertices · ${state.elements} elements`;
   $("sets").innerHTML = '<option value="">— named sets —</option>' +
     header.sets.map((s) => `<option>${s}</option>`).join("");
   surfGeom.setAttribute("position", new THREE.BufferAttribute(state.V, 3));
@@ -164,7 +166,7 @@ async function openMesh(id) {
   recolor();
   refreshDerived();
   fit();
-  showReport({ mesh: state.meshName, tets: state.T.length / 4, vertices: state.V.length / 3 });
+  showReport({ mesh: state.meshName, elements: state.elements, vertices: state.V.length / 3 });
 }
 
 /** Unique surface edges as an index into the shared position buffer (no copies per frame). */
@@ -542,7 +544,7 @@ function drawHistogram() {
 
 function showReport(rep) {
   state.report = rep;
-  const keys = ["mesh", "tets", "vertices", "seq", "dropped", "inverted_elements", "degenerate_elements",
+  const keys = ["mesh", "elements", "vertices", "seq", "dropped", "inverted_elements", "degenerate_elements",
     "min_scaled_jacobian", "safe_fraction", "clamped", "applied_fraction", "inverted_elements_unclamped",
     "constraint_residual_max", "max_displacement", "solve_ms", "round_trip_ms", "apply_ms", "reset"];
   const rows = [];

@@ -39,7 +39,7 @@ def make_mixed(path: str, size: float = 4.0) -> None:
         for d, t in gmsh.model.getBoundary([(3, hexa)], combined=False, oriented=False, recursive=True):
             if d == 1:
                 gmsh.model.mesh.setTransfiniteCurve(t, 2 * n + 1 if _along_x(t) else n + 1)
-        for d, t in gmsh.model.getBoundary([(3, hexa)], combined=False, oriented=False):
+        for _, t in gmsh.model.getBoundary([(3, hexa)], combined=False, oriented=False):
             gmsh.model.mesh.setTransfiniteSurface(t)
             gmsh.model.mesh.setRecombine(2, t)
         gmsh.model.mesh.setTransfiniteVolume(hexa)

@@ -26,7 +26,7 @@ import numpy as np
 from solver.deformer import Deformer, DeformResult
 from solver.errors import InvalidMeshError, SolverError
 from solver.mesh import Mesh
-from solver.spec import parse_move, parse_spec
+from solver.spec import parse_spec
 
 from .errors import NotFound, ServiceError
 from .settings import Settings

@@ -25,26 +25,32 @@ Two position solves are offered:
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
 from . import factorization as fz
-from .constrained_solver import ConstrainedSolver, rank_analysis
-from .constraint_rows import assemble, block_targets, describe, position_blocks, \
-    rotation_blocks, tie_pairs
 from .boundary_facets import simplex_edges
-from .elements import CORNERS, corner_jacobians, element_edges
+from .constrained_solver import ConstrainedSolver, rank_analysis
+from .constraint_rows import (
+    assemble,
+    block_targets,
+    describe,
+    position_blocks,
+    rotation_blocks,
+    tie_pairs,
+)
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
+from .elements import check_tets, element_edges
 from .errors import ConstraintError, InversionError, SpecError, format_ids
 from .mesh import Mesh
 from .mvc_matrix import mvc_matrix
 from .quadratic import MidsideNodes, node_jacobians
+from .quality import DEGENERATE_TOL, element_jacobians, element_quality, summarize_quality
 from .repair import repair_inverted
-from .quality import DEGENERATE_TOL, element_quality, summarize_quality, tet_quality
 from .rotation import rotate_by_log
 from .selection import select
 from .spec import INVERSION_POLICIES, HandleMove, Move, Spec, parse_move, parse_spec
@@ -696,14 +702,10 @@ class Deformer:
         return Move(handles, points, relative, features, motion)
 
     def _bad_elements(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-        """(bad mask, scaled Jacobians of the corner tets, degenerate mask, node Jacobians
-        (m, 10) of quadratic elements or None); quadratic elements are also bad when their
-        Jacobian is <= 0 at any of their ten nodes."""
-        vol6, sj = tet_quality(P, self._T)
-        if self.mesh.cells:  # other elements: the smallest corner Jacobian
-            parts = [corner_jacobians(P, B, kind) for kind, B in self.mesh.blocks if kind != "tetra"]
-            vol6 = np.concatenate([vol6, *[p[0] for p in parts]])
-            sj = np.concatenate([sj, *[p[1] for p in parts]])
+        """(bad mask, scaled Jacobian of every element (:func:`element_jacobians`), degenerate
+        mask, node Jacobians (m, 10) of quadratic elements or None); quadratic elements are
+        also bad when their Jacobian is <= 0 at any of their ten nodes."""
+        vol6, sj = element_jacobians(P, self._T, self.mesh.cells)
         degenerate = np.abs(sj) <= DEGENERATE_TOL
         bad = (vol6 <= 0) | degenerate
         dj = None
@@ -766,13 +768,6 @@ class Deformer:
         if getattr(self, "_quality_before", None) is None:
             self._quality_before = summarize_quality(element_quality(self.mesh.V, self.mesh.T, self.mesh.cells))
         return self._quality_before
-
-    @property
-    def _repair_tets(self) -> np.ndarray:
-        """Tets whose orientation repair restores: the tets, and the corner tets of other elements."""
-        parts = [self.mesh.T] + [B[:, CORNERS[kind]].reshape(-1, 4) for kind, B in self.mesh.blocks
-                                 if kind != "tetra"]
-        return np.concatenate(parts) if len(parts) > 1 else self.mesh.T
 
     @property
     def movable(self) -> np.ndarray:
@@ -843,7 +838,7 @@ class Deformer:
         do_repair = self.spec.repair if repair is None else repair
         repair_rep = None
         if do_repair and report["inverted_elements"] > 0 and not self.mesh.is_surface:
-            rr = repair_inverted(self.mesh.V, P, self._repair_tets, self.movable)
+            rr = repair_inverted(self.mesh.V, P, check_tets(self.mesh.T, self.mesh.cells), self.movable)
             repair_rep = rr.report
             if rr.report["accepted"]:
                 P = rr.V

@@ -33,7 +33,7 @@ import numpy as np
 
 __all__ = ["LINEAR_TYPES", "FACES", "CORNERS", "EDGES", "SJ_SCALE", "opposite_triangles",
            "triangulate", "element_tables", "corner_jacobians", "element_volumes", "element_edges",
-           "boundary_faces", "oriented", "MIRROR"]
+           "boundary_faces", "oriented", "MIRROR", "element_blocks", "check_tets"]
 
 #: Linear volume types tetmorph deforms, in its element numbering order.
 LINEAR_TYPES = ("tetra", "hexahedron", "wedge", "pyramid")
@@ -217,6 +217,24 @@ def element_volumes(V: np.ndarray, E: np.ndarray, kind: str) -> np.ndarray:
             pa, pb, pc = V[E[:, a]], V[E[:, b]], V[E[:, c]]
             vol += np.einsum("ij,ij->i", pa, np.cross(pb, pc))
     return vol / 6.0
+
+
+def element_blocks(T: np.ndarray, cells: dict[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    """Non-empty volume element blocks ``(type, connectivity)`` in element-numbering order:
+    the tets, then the other types in :data:`LINEAR_TYPES` order."""
+    out = [("tetra", T)] if len(T) else []
+    return out + [(k, cells[k]) for k in LINEAR_TYPES[1:] if k in cells and len(cells[k])]
+
+
+def check_tets(T: np.ndarray, cells: dict[str, np.ndarray]) -> np.ndarray:
+    """(k, 4) the tets, then the corner tets of every other element.
+
+    A corner tet inverts exactly when its element's Jacobian at that corner
+    does, so this is what tet-based tools (repair, the viewer) work on.
+    """
+    parts = [np.asarray(T).reshape(-1, 4)]
+    parts += [E[:, CORNERS[k]].reshape(-1, 4) for k, E in element_blocks(parts[0], cells) if k != "tetra"]
+    return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
 
 def element_edges(E: np.ndarray, kind: str) -> np.ndarray:

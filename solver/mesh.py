@@ -20,7 +20,14 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from .boundary_facets import boundary_facets
-from .elements import LINEAR_TYPES, boundary_faces, corner_jacobians, element_edges, oriented
+from .elements import (
+    LINEAR_TYPES,
+    boundary_faces,
+    corner_jacobians,
+    element_blocks,
+    element_edges,
+    oriented,
+)
 from .errors import InvalidMeshError, UnsupportedElementError, format_ids
 from .quality import degenerate_mask, signed_volumes
 
@@ -91,8 +98,7 @@ class Mesh:
     @property
     def blocks(self) -> list[tuple[str, np.ndarray]]:
         """Volume element blocks ``(type, connectivity)`` in element-numbering order."""
-        out = [("tetra", self.T)] if self.T.shape[0] else []
-        return out + [(k, self.cells[k]) for k in LINEAR_TYPES[1:] if k in self.cells]
+        return element_blocks(self.T, self.cells)
 
     @property
     def elements(self) -> int:
@@ -266,8 +272,7 @@ def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None,
                 code="inverted_input", elements=(bad[:100] + base).tolist(), count=int(bad.size))
         base += len(det)
     if cells:
-        blocks = ([("tetra", T)] if T.shape[0] else []) + [(k, cells[k]) for k in LINEAR_TYPES[1:] if k in cells]
-        F, _ = boundary_faces(blocks, n)
+        F, _ = boundary_faces(element_blocks(T, cells), n)
     elif T.shape[0]:
         F, _ = boundary_facets(T, n)
     else:

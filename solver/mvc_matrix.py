@@ -6,7 +6,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-from .elements import LINEAR_TYPES, element_tables
+from .elements import LINEAR_TYPES, element_blocks, element_tables
 from .mean_value_coordinates import MVC_EPS, mvc_pair
 
 __all__ = ["mvc_matrix", "vertex_tets"]
@@ -87,9 +87,7 @@ _OPPOSITE, _ = element_tables()
 
 def _padded_elements(T: np.ndarray, cells: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """All elements in one (M, w) array padded with -1, and their type codes (LINEAR_TYPES)."""
-    blocks = [("tetra", np.asarray(T, np.int64).reshape(-1, 4))]
-    blocks += [(k, np.asarray(cells[k], np.int64)) for k in LINEAR_TYPES[1:] if k in cells]
-    blocks = [(k, b) for k, b in blocks if len(b)]
+    blocks = [(k, np.asarray(b, np.int64)) for k, b in element_blocks(np.asarray(T).reshape(-1, 4), cells)]
     if not blocks:
         return np.zeros((0, 4), np.int64), np.zeros(0, np.int64)
     w = max(b.shape[1] for _, b in blocks)

@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .quality import tet_quality
+
 __all__ = ["EDGES", "MidsideNodes", "node_jacobians"]
 
 #: Corner pairs of the mid-side nodes 4..9.
@@ -89,12 +91,6 @@ def node_jacobians(V: np.ndarray, T10: np.ndarray) -> np.ndarray:
     return (a[..., 0] * (b[..., 1] * c[..., 2] - b[..., 2] * c[..., 1])
             - a[..., 1] * (b[..., 0] * c[..., 2] - b[..., 2] * c[..., 0])
             + a[..., 2] * (b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0]))
-
-
-def node_jacobians_linear(V: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Six times the signed volume of each corner tet (the straight-sided element's Jacobian)."""
-    a = V[T[:, 0]]
-    return np.einsum("ij,ij->i", V[T[:, 1]] - a, np.cross(V[T[:, 2]] - a, V[T[:, 3]] - a))
 
 
 class MidsideNodes:
@@ -177,7 +173,7 @@ class MidsideNodes:
         if valid is None:
             return out
         dj = node_jacobians(out, self.T10)
-        corner_ok = node_jacobians_linear(out, self.T) > 0
+        corner_ok = tet_quality(out, self.T)[0] > 0  # the straight-sided element
         bad = (dj.min(axis=1) <= 0) & valid & corner_ok
         if bad.any():
             alpha = np.ones(self.ids.size)

@@ -5,9 +5,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .elements import corner_jacobians, element_blocks, element_volumes
+
 __all__ = ["DEGENERATE_TOL", "signed_volumes", "scaled_jacobians", "degenerate_mask", "quality_summary",
            "dihedral_angles", "aspect_ratios", "element_quality", "summarize_quality", "METRICS",
-           "tet_quality"]
+           "tet_quality", "element_jacobians"]
 
 #: A tet is degenerate when ``6 |vol| <= DEGENERATE_TOL * l_max**3`` (scale-free).
 DEGENERATE_TOL = 1.0e-12
@@ -274,23 +276,43 @@ def element_quality(V: np.ndarray, T: np.ndarray,
         ``max_dihedral_deg``, ``aspect_ratio``; tets first, then the other
         types in :data:`solver.elements.LINEAR_TYPES` order.
     """
-    vol6, sj = tet_quality(V, np.asarray(T))
-    dih = dihedral_angles(V, T) if len(T) else np.zeros((0, 6))
-    out = {"volume": vol6 / 6.0, "scaled_jacobian": sj, "min_dihedral_deg": dih.min(axis=1, initial=np.inf),
-           "max_dihedral_deg": dih.max(axis=1, initial=-np.inf),
-           "aspect_ratio": aspect_ratios(V, T) if len(T) else np.zeros(0)}
-    if cells:
-        from .elements import LINEAR_TYPES, corner_jacobians, element_volumes
+    m = len(T)
+    det, sj = element_jacobians(V, T, cells)
+    dih = dihedral_angles(V, T) if m else np.zeros((0, 6))
+    others = [(k, E) for k, E in element_blocks(np.asarray(T), cells or {}) if k != "tetra"]
+    nan = np.full(len(sj) - m, np.nan)  # tet-only metrics on the other elements
+    return {"volume": np.concatenate([det[:m] / 6.0, *[element_volumes(V, E, k) for k, E in others]]),
+            "scaled_jacobian": sj,
+            "min_dihedral_deg": np.concatenate([dih.min(axis=1, initial=np.inf), nan]),
+            "max_dihedral_deg": np.concatenate([dih.max(axis=1, initial=-np.inf), nan]),
+            "aspect_ratio": np.concatenate([aspect_ratios(V, T) if m else np.zeros(0), nan])}
 
-        for kind in LINEAR_TYPES[1:]:
-            if kind not in cells:
-                continue
-            E = cells[kind]
-            nan = np.full(len(E), np.nan)
-            extra = {"volume": element_volumes(V, E, kind), "scaled_jacobian": corner_jacobians(V, E, kind)[1],
-                     "min_dihedral_deg": nan, "max_dihedral_deg": nan, "aspect_ratio": nan}
-            out = {k: np.concatenate([out[k], extra[k]]) for k in out}
-    return out
+
+def element_jacobians(V: np.ndarray, T: np.ndarray,
+                      cells: dict[str, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobian and scaled Jacobian of every element, in element-numbering order.
+
+    Parameters
+    ----------
+    V : (n, 3) float array
+    T : (m, 4) int array
+    cells : dict, optional
+        Hexahedra, wedges and pyramids (:attr:`solver.mesh.Mesh.cells`).
+
+    Returns
+    -------
+    det : (M,) float array
+        Tets: six times the signed volume (:func:`tet_quality`); other elements:
+        the smallest corner Jacobian (:func:`solver.elements.corner_jacobians`).
+        Positive for a valid element.
+    sj : (M,) float array in [-1, 1]
+        The matching scaled Jacobians.
+    """
+    det, sj = tet_quality(V, np.asarray(T))
+    others = [corner_jacobians(V, E, k) for k, E in element_blocks(np.asarray(T), cells or {}) if k != "tetra"]
+    if not others:
+        return det, sj
+    return np.concatenate([det, *[o[0] for o in others]]), np.concatenate([sj, *[o[1] for o in others]])
 
 
 #: Histogram bin edges per metric in :func:`summarize_quality`.

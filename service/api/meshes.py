@@ -8,11 +8,12 @@ import numpy as np
 from fastapi import APIRouter, File, Form, Query, Response, UploadFile
 from pydantic import BaseModel, Field
 
+from solver.elements import check_tets
 from solver.errors import InvalidMeshError
 from solver.features import feature_candidates, feature_region
+from solver.mesh import mesh_from_arrays
 from solver.selection import select
 from solver.spec import parse_spec
-from solver.mesh import mesh_from_arrays
 
 from ..binary import encode_bundle
 from ..errors import ServiceError
@@ -130,7 +131,7 @@ async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -
     boundary faces, ``T`` uint32 (m, 4) tetrahedra, ``boundary`` uint8 (n,),
     and ``set:NAME`` uint32 vertex ids for every named set of the file. For
     hexahedra, wedges and pyramids ``T`` also holds their corner tetrahedra
-    (:data:`solver.elements.CORNERS`): one of them inverts exactly when its
+    (:func:`solver.elements.check_tets`): one of them inverts exactly when its
     element does, which is what the viewer shows.
     """
     meta = reg.mesh_meta(owner, mesh_id)
@@ -138,7 +139,7 @@ async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -
 
     def pack() -> bytes:
         arrays = {"V": mesh.V.astype(np.float32), "F": mesh.F.astype(np.uint32),
-                  "T": _viewer_tets(mesh).astype(np.uint32), "boundary": mesh.boundary.astype(np.uint8)}
+                  "T": check_tets(mesh.T, mesh.cells).astype(np.uint32), "boundary": mesh.boundary.astype(np.uint8)}
         for name, ids in mesh.sets.items():
             arrays[f"set:{name}"] = np.asarray(ids, np.uint32)
         lo, hi = mesh.V[mesh.referenced].min(0), mesh.V[mesh.referenced].max(0)
@@ -202,10 +203,3 @@ def delete_mesh(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -> Respon
 def _file(data: bytes, filename: str, media: str) -> Response:
     return Response(data, media_type=media,
                     headers={"Content-Disposition": f'attachment; filename="{filename}"'})
-
-
-def _viewer_tets(mesh) -> np.ndarray:
-    """The tets, then the corner tets of every other element."""
-    from solver.elements import CORNERS
-
-    return np.concatenate([mesh.T] + [B[:, CORNERS[k]].reshape(-1, 4) for k, B in mesh.blocks if k != "tetra"])

@@ -263,9 +263,10 @@ class _PardisoFactor:
         mtype = (-2 if indefinite else 2) if symmetric else 11
         self._ps = pypardiso.PyPardisoSolver(mtype=mtype)
         # pypardiso leaves iparm(1) = 0, which makes PARDISO use its defaults for every iparm,
-        # and those include two steps of iterative refinement on every solve: 18 ms instead of
-        # 5-8 ms for the 107k-tet bracket's interior system (measured; the residual is 2e-15
-        # relative without them, and every system here is solved in residual form). So every
+        # and those include two steps of iterative refinement on every solve: 14.5-19.6 ms
+        # instead of 5.5-6.9 ms for the 107k-tet bracket's interior system (benchmarks/
+        # measure_choices.py --only pardiso; the residual is 2.2e-15 relative without them, and
+        # every system here is solved in residual form). So every
         # iparm is set: parallel METIS ordering (2), no refinement (8), pivot perturbation 1e-13 (10),
         # scaling and weighted matching (11, 13; MKL's defaults for non-symmetric and the advice
         # for highly indefinite matrices), report the factor's size (18). Saddle-point (KKT)

@@ -75,10 +75,10 @@ sysdeps:
 $(STAMP): pyproject.toml | sysdeps
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e ".[dev,cholmod]" \
+	$(BIN)/python -m pip install -q -e ".[dev,service,cholmod]" \
 	  || { echo "WARNING: CHOLMOD extra failed to build; installing without it"; \
-	       $(BIN)/python -m pip install -q -e ".[dev]"; }
-	$(BIN)/python -m solver.kernels
+	       $(BIN)/python -m pip install -q -e ".[dev,service]"; }
+	$(BIN)/python -m solver.ops.kernels
 	touch $(STAMP)
 
 install: sysdeps $(STAMP)

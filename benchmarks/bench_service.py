@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT))
 from service.client import Client  # noqa: E402
 from service.process import serve_process  # noqa: E402
 from solver import read_mesh  # noqa: E402
-from solver.deformer import precompute  # noqa: E402
+from solver.deform.deformer import precompute  # noqa: E402
 from tests.data.make_bracket import make_bracket  # noqa: E402
 
 SPEC = {"selections": {"root": {"set": "FIXED"}, "tip": {"set": "LOAD"}},

@@ -85,8 +85,8 @@ def orderings() -> None:
 
 
 def small_lu() -> None:
-    from solver import factorization as fz
     from solver import precompute, read_mesh
+    from solver.linalg import factorization as fz
 
     print("| mesh | interior unknowns | backend | factor ms | solve ms (3 rhs) |")
     print("|---|---:|---|---:|---:|")
@@ -143,7 +143,7 @@ def refine() -> None:
 
 def midside() -> None:
     from solver import precompute, read_mesh
-    from solver.quadratic import node_jacobians
+    from solver.validity.midside import node_jacobians
     from tests.conftest import bend_move, bend_spec
 
     print("| mesh | bend | folded: rotation x stretch | folded: averaged gradient G |")
@@ -197,7 +197,7 @@ def constraints() -> None:
     import scipy.sparse as sp
 
     from solver import precompute, read_mesh
-    from solver.constrained_solver import ConstrainedSolver
+    from solver.linalg.constrained import ConstrainedSolver
 
     plate = read_mesh(DATA / "plate.inp")
     diag = float(np.linalg.norm(plate.V.max(0) - plate.V.min(0)))
@@ -245,8 +245,8 @@ def pardiso() -> None:
     import pypardiso
     import scipy.sparse as sp
 
-    from solver import factorization as fz
     from solver import precompute, read_mesh
+    from solver.linalg import factorization as fz
 
     fz._locate_mkl()
     print("| mesh | interior unknowns | iparm | factor ms | solve ms (3 rhs) | relative residual |")
@@ -260,7 +260,6 @@ def pardiso() -> None:
         # a floor for any direct solve with this sparsity: CHOLMOD on the symmetrised pattern
         # (|A| + |A^T| plus a diagonal shift, SPD; solves a different system of the same fill)
         from sksparse.cholmod import cholesky
-
         from threadpoolctl import threadpool_limits
 
         S = abs(A) + abs(A.T)
@@ -298,7 +297,7 @@ def pardiso() -> None:
 
 
 def _numpy_tet_quality(V, T):
-    from solver.quality import _edges2
+    from solver.validity.quality import _edges2
 
     jac, e2 = _edges2(V, T)
     corner = np.stack([e2[:, 0] * e2[:, 2] * e2[:, 3], e2[:, 0] * e2[:, 1] * e2[:, 4],
@@ -315,9 +314,9 @@ def _numpy_rotate(v, r):
 
 def kernels() -> None:
     from solver import precompute, read_mesh
-    from solver.mvc_matrix import mvc_matrix
-    from solver.quality import tet_quality
-    from solver.rotation import rotate_by_log
+    from solver.ops.mvc_matrix import mvc_matrix
+    from solver.ops.rotation import rotate_by_log
+    from solver.validity.quality import tet_quality
 
     mesh = read_mesh(deck("bracket", 0.95))
     V, T = mesh.V, np.ascontiguousarray(mesh.T)

@@ -15,9 +15,8 @@ import contextlib
 import json
 import logging
 from collections.abc import AsyncIterator
-from typing import Any
-
 from pathlib import Path
+from typing import Any
 
 from fastapi import FastAPI
 from fastapi.responses import FileResponse, HTMLResponse, Response

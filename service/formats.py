@@ -19,7 +19,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from solver.mesh import Mesh, write_mesh
+from solver.io import write_mesh
+from solver.mesh import Mesh
 
 from .errors import ServiceError
 

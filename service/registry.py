@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from solver.deformer import Deformer, DeformResult
+from solver.constraints.spec import parse_spec
+from solver.deform.deformer import Deformer, DeformResult
 from solver.errors import InvalidMeshError, SolverError
 from solver.mesh import Mesh
-from solver.spec import parse_spec
 
 from .errors import NotFound, ServiceError
 from .settings import Settings

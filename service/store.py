@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 
 from solver.errors import InvalidMeshError
-from solver.mesh import Mesh, mesh_from_arrays, read_mesh
+from solver.io import read_mesh
+from solver.mesh import Mesh, mesh_from_arrays
 
 __all__ = ["Store", "new_id", "valid_id"]
 

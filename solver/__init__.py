@@ -14,7 +14,8 @@ Examples
 0
 """
 
-from .deformer import Deformer, DeformResult, precompute
+from .constraints import Move, Spec, parse_move, parse_spec
+from .deform import Deformer, DeformResult, precompute
 from .errors import (
     ConstraintError,
     FactorizationError,
@@ -24,8 +25,8 @@ from .errors import (
     SpecError,
     UnsupportedElementError,
 )
-from .mesh import Mesh, mesh_from_arrays, mesh_from_meshio, read_mesh, write_mesh
-from .spec import Move, Spec, parse_move, parse_spec
+from .io import mesh_from_meshio, read_mesh, write_mesh
+from .mesh import Mesh, mesh_from_arrays
 
 __all__ = [
     "Deformer", "DeformResult", "precompute", "Mesh", "mesh_from_arrays", "mesh_from_meshio",

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from .deformer import precompute
+from .deform.deformer import precompute
 from .errors import InversionError, SolverError
-from .mesh import read_mesh, write_mesh
+from .io import read_mesh, write_mesh
 
 __all__ = ["main"]
 
@@ -93,9 +93,9 @@ def cmd_morph(args: argparse.Namespace) -> int:
 
 
 def cmd_features(args: argparse.Namespace) -> int:
-    from .features import feature_candidates, feature_region
-    from .selection import select
-    from .spec import parse_spec
+    from .constraints.features import feature_candidates, feature_region
+    from .constraints.selection import select
+    from .constraints.spec import parse_spec
 
     mesh = read_mesh(args.mesh, args.format)
     out: dict[str, Any] = {}

@@ -87,7 +87,7 @@ def test_material_regions_are_sets_and_stay_conforming(tmp_path):
     """cube_cylinder.mesh: a cylinder region (medit:ref 2) through a cube (ref 1), one conforming
     mesh. Regions become node sets, usable as selections; a bend moves the interface nodes once
     for both regions, and the written Medit file keeps the regions."""
-    from solver.quality import signed_volumes
+    from solver.validity.quality import signed_volumes
 
     mesh = read_mesh(shared_file("tet/cube_cylinder.mesh"))
     a, b = mesh.sets["medit:ref=1"], mesh.sets["medit:ref=2"]

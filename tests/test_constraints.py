@@ -16,8 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from solver import ConstraintError, SpecError, precompute, read_mesh
-from solver import factorization as fz
-from solver.constrained_solver import ConstrainedSolver, rank_analysis
+from solver.linalg import factorization as fz
+from solver.linalg.constrained import ConstrainedSolver, rank_analysis
 
 DATA = Path(__file__).parent / "data"
 RADIUS = 6.0

@@ -7,11 +7,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from solver import (ConstraintError, InversionError, SpecError, mesh_from_arrays, precompute, read_mesh)
-from solver import factorization as fz
-from solver.quality import signed_volumes
-from solver.spec import axis_angle_matrix
+from solver import (
+    ConstraintError,
+    InversionError,
+    SpecError,
+    mesh_from_arrays,
+    precompute,
+    read_mesh,
+)
+from solver.constraints.spec import axis_angle_matrix
+from solver.linalg import factorization as fz
 from solver.testing import cube_mesh, sphere_surface
+from solver.validity.quality import signed_volumes
 
 from .conftest import DATA, bend_move, bend_spec, load, longest_axis, slab
 

@@ -10,7 +10,7 @@ import pytest
 
 from solver import SpecError, precompute, read_mesh
 from solver.cli import main
-from solver.features import feature_candidates, feature_region
+from solver.constraints.features import feature_candidates, feature_region
 
 DATA = Path(__file__).parent / "data"
 PLATE_HOLES = {1: (160 / 3, 80 / 3), 2: (320 / 3, 80 / 3), 3: (160 / 3, 160 / 3), 4: (320 / 3, 160 / 3)}

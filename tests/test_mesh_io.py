@@ -6,7 +6,13 @@ import meshio
 import numpy as np
 import pytest
 
-from solver import InvalidMeshError, UnsupportedElementError, mesh_from_arrays, read_mesh, write_mesh
+from solver import (
+    InvalidMeshError,
+    UnsupportedElementError,
+    mesh_from_arrays,
+    read_mesh,
+    write_mesh,
+)
 from solver.testing import cube_mesh
 
 from .conftest import DATA, load
@@ -64,7 +70,7 @@ def test_tetgen_and_vtk_data_are_read():
 
 def test_quadratic_and_mixed_elements_are_refused(tmp_path):
     V, T = cube_mesh(1)
-    from solver.mesh import mesh_from_meshio
+    from solver.io import mesh_from_meshio
 
     # tetra10 is read (tests/test_quadratic.py); one whose mid-side nodes are corners is refused
     m10 = meshio.Mesh(np.vstack([V, V[:2] + 5]), [("tetra10", np.c_[T, np.zeros((len(T), 6), int)][:1])])

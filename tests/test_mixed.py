@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from solver import precompute, read_mesh, write_mesh
-from solver.elements import CORNERS, FACES, MIRROR, corner_jacobians, element_volumes, oriented
 from solver.errors import InvalidMeshError
-from solver.mesh import mesh_from_meshio
-from solver.mvc_matrix import mvc_matrix
-from solver.quality import element_quality
+from solver.io import mesh_from_meshio
+from solver.ops.elements import CORNERS, FACES, MIRROR, corner_jacobians, element_volumes, oriented
+from solver.ops.mvc_matrix import mvc_matrix
+from solver.validity.quality import element_quality
 
 DATA = Path(__file__).parent / "data"
 MIXED = DATA / "mixed.msh"

@@ -7,11 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from solver.boundary_facets import boundary_facets
-from solver.cotmatrix import COT_MAX, cotmatrix, uniform_matrix, voronoi_areas
-from solver.mean_value_coordinates import mvc_triangle_weights
-from solver.mvc_matrix import mvc_matrix
-from solver.mesh import read_mesh
+from solver.io import read_mesh
+from solver.ops.boundary_facets import boundary_facets
+from solver.ops.cotmatrix import COT_MAX, cotmatrix, uniform_matrix, voronoi_areas
+from solver.ops.mean_value_coordinates import mvc_triangle_weights
+from solver.ops.mvc_matrix import mvc_matrix
 from solver.testing import cube_mesh, sphere_surface
 
 from .conftest import DATA, load, shared_file

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from solver import precompute, read_mesh, write_mesh
-from solver.quadratic import MidsideNodes, node_jacobians
-from solver.spec import axis_angle_matrix
+from solver.constraints.spec import axis_angle_matrix
+from solver.validity.midside import MidsideNodes, node_jacobians
 from tests.conftest import DATA, bend_move, bend_spec, longest_axis, shared_file
 
 
@@ -79,7 +79,7 @@ def test_abaqus_round_trip_changes_only_node_coordinates(path, tmp_path):
     write_mesh(mesh, P, out)
     a, b = src.read_bytes().splitlines(), out.read_bytes().splitlines()
     assert len(a) == len(b)
-    from solver.inp_patch import _node_lines
+    from solver.io.patch_inp import _node_lines
 
     node_lines = set(_node_lines(src.read_bytes().splitlines(keepends=True)))
     assert len(node_lines) == mesh.n

@@ -134,7 +134,7 @@ def test_singular_system_raises_factorization_error():
     import scipy.sparse as sp
 
     from solver import FactorizationError
-    from solver.factorization import cholesky, lu
+    from solver.linalg.factorization import cholesky, lu
 
     with pytest.raises(FactorizationError) as e:
         cholesky(sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 1.0]])), "test system")

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from solver import factorization as fz
 from solver import precompute
 from solver.cli import main
-from solver.quality import signed_volumes
+from solver.linalg import factorization as fz
+from solver.validity.quality import signed_volumes
 from tests.conftest import DATA, bend_move, bend_spec, load, longest_axis
 
 
@@ -93,7 +93,7 @@ def test_cli_clamp(tmp_path, capsys):
 
 
 def test_quality_metrics_of_the_regular_tet_and_a_sliver():
-    from solver.quality import aspect_ratios, dihedral_angles, element_quality
+    from solver.validity.quality import aspect_ratios, dihedral_angles, element_quality
 
     reg = np.array([[1.0, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]])
     T = np.array([[0, 2, 1, 3]])
@@ -115,7 +115,7 @@ def test_full_quality_report_and_cell_data(armadillo, tmp_path):
     import meshio
 
     from solver import write_mesh
-    from solver.quality import METRICS
+    from solver.validity.quality import METRICS
 
     m, d = armadillo
     r = d.solve(_move(m, 45, 0.1), quality="full")

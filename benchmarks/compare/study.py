@@ -88,7 +88,7 @@ def setup_case(mesh, name: str):
 
 
 def targets(mesh, ax: int, diag: float, handle: np.ndarray, kind: str, mag: float) -> np.ndarray:
-    from solver.spec import axis_angle_matrix
+    from solver.constraints.spec import axis_angle_matrix
 
     P = mesh.V[handle]
     c = P.mean(0)
@@ -100,7 +100,7 @@ def targets(mesh, ax: int, diag: float, handle: np.ndarray, kind: str, mag: floa
 
 
 def quality(V: np.ndarray, T: np.ndarray) -> tuple[int, float, float, np.ndarray]:
-    from solver.quality import DEGENERATE_TOL, tet_quality
+    from solver.validity.quality import DEGENERATE_TOL, tet_quality
 
     vol6, sj = tet_quality(V, T)
     bad = int(np.count_nonzero((vol6 <= 0) | (np.abs(sj) <= DEGENERATE_TOL)))

@@ -18,6 +18,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from cases import slab_spec  # noqa: E402
+
 SHARED = ROOT.parent / "shared" / "data" / "tet"
 MOVES = ((10, 0.05), (20, 0.1), (25, 0.15), (30, 0.2), (45, 0.1), (60, 0.3))
 

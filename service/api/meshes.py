@@ -8,12 +8,12 @@ import numpy as np
 from fastapi import APIRouter, File, Form, Query, Response, UploadFile
 from pydantic import BaseModel, Field
 
-from solver.elements import check_tets
+from solver.constraints.features import feature_candidates, feature_region
+from solver.constraints.selection import select
+from solver.constraints.spec import parse_spec
 from solver.errors import InvalidMeshError
-from solver.features import feature_candidates, feature_region
 from solver.mesh import mesh_from_arrays
-from solver.selection import select
-from solver.spec import parse_spec
+from solver.ops.elements import check_tets
 
 from ..binary import encode_bundle
 from ..errors import ServiceError
@@ -131,7 +131,7 @@ async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -
     boundary faces, ``T`` uint32 (m, 4) tetrahedra, ``boundary`` uint8 (n,),
     and ``set:NAME`` uint32 vertex ids for every named set of the file. For
     hexahedra, wedges and pyramids ``T`` also holds their corner tetrahedra
-    (:func:`solver.elements.check_tets`): one of them inverts exactly when its
+    (:func:`solver.ops.elements.check_tets`): one of them inverts exactly when its
     element does, which is what the viewer shows.
     """
     meta = reg.mesh_meta(owner, mesh_id)

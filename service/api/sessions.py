@@ -10,7 +10,7 @@ from fastapi import APIRouter, Body, Header, Query, Response
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
-from solver.quality import METRICS, element_quality, summarize_quality
+from solver.validity.quality import METRICS, element_quality, summarize_quality
 
 from ..binary import MEDIA_TYPE, encode_frame
 from ..errors import ServiceError

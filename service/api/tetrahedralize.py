@@ -11,7 +11,7 @@ import numpy as np
 from fastapi import APIRouter, File, Form, UploadFile
 
 from solver.errors import InvalidMeshError
-from solver.tetrahedralize import tetrahedralize as tetwild
+from solver.io.tetrahedralize import tetrahedralize as tetwild
 
 from ..formats import SURFACE_FORMATS, resolve_format
 from ..registry import Registry

@@ -11,7 +11,7 @@ import pytest
 from service.binary import decode_bundle, decode_frame
 from service.client import TetmorphError
 from solver import read_mesh
-from solver.deformer import precompute
+from solver.deform.deformer import precompute
 from solver.testing import cube_mesh, sphere_surface
 from tests.conftest import DATA
 
@@ -444,7 +444,7 @@ def test_concurrent_updates_serialize_per_session_and_run_across_sessions(tmp_pa
 
 
 def test_tetrahedralize_leaves_no_file_behind(tmp_path, monkeypatch):
-    from solver.tetrahedralize import TRACKED_SURFACE, tetrahedralize
+    from solver.io.tetrahedralize import TRACKED_SURFACE, tetrahedralize
 
     monkeypatch.chdir(tmp_path)
     V, F = sphere_surface(1, 1.0)

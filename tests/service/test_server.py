@@ -15,7 +15,7 @@ from service.binary import decode_frame
 from service.client import Client
 from service.process import free_port, serve_process
 from solver import read_mesh
-from solver.deformer import precompute
+from solver.deform.deformer import precompute
 
 from .conftest import BRACKET, BRACKET_SPEC
 

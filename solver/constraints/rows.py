@@ -29,10 +29,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
-from .boundary_facets import simplex_edges
-from .errors import SpecError, format_ids
-from .mesh import Mesh
-from .rotation import log_to_matrix, rotate_by_log
+from ..errors import SpecError, format_ids
+from ..mesh import Mesh
+from ..ops.boundary_facets import simplex_edges
+from ..ops.rotation import log_to_matrix, rotate_by_log
 from .spec import Move, Spec
 
 __all__ = ["Block", "position_blocks", "rotation_blocks", "assemble", "block_targets", "describe"]

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InvalidMeshError
-from .mesh import Mesh, mesh_from_arrays
-from .quality import signed_volumes
+from ..errors import InvalidMeshError
+from ..mesh import Mesh, mesh_from_arrays
+from ..validity.quality import signed_volumes
 
 __all__ = ["tetrahedralize", "open_edges"]
 

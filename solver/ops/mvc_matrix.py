@@ -31,7 +31,7 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray,
         Which vertices get a row.
     cells : dict, optional
         Other linear volume elements by type (``"hexahedron"``, ``"wedge"``,
-        ``"pyramid"``; :mod:`solver.elements`).
+        ``"pyramid"``; :mod:`solver.ops.elements`).
 
     Returns
     -------
@@ -44,7 +44,7 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray,
     Notes
     -----
     Interactive deformation of 3D mesh models, eq. (2.4)-(2.5); the weights
-    come from :func:`solver.mean_value_coordinates.mvc_pair`. One compiled pass,
+    come from :func:`solver.ops.mean_value_coordinates.mvc_pair`. One compiled pass,
     parallel over the interior vertices, builds each row from the vertex's
     incident elements. A vertex on one of its faces (within ``MVC_EPS``) takes
     that face's barycentric weights alone, the first such face in element order
@@ -56,7 +56,7 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray,
 
     >>> from solver.testing import cube_mesh
     >>> V, T = cube_mesh(2)
-    >>> from solver.boundary_facets import boundary_facets
+    >>> from solver.ops.boundary_facets import boundary_facets
     >>> F, _ = boundary_facets(T)
     >>> interior = np.ones(len(V), bool); interior[F.ravel()] = False
     >>> W, S = mvc_matrix(V, T, interior)

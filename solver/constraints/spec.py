@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SpecError
+from ..errors import SpecError
 
 __all__ = ["Spec", "HandleMove", "Move", "parse_spec", "parse_move", "axis_angle_matrix",
            "SOLVE_MODES", "METHODS", "LAPLACIANS", "ROTATIONS", "INVERSION_POLICIES",
@@ -42,7 +42,7 @@ class Spec:
     Attributes
     ----------
     selections : dict of str to dict
-        Named selections (see :mod:`solver.selection`).
+        Named selections (see :mod:`solver.constraints.selection`).
     fixed : tuple of str
         Selections that keep their rest positions.
     handles : dict of str to str
@@ -62,7 +62,7 @@ class Spec:
         (ECLS eq. 25-27) or the least-squares form of eq. (3.8)/(3.9).
     inversion : {"warn", "reject", "clamp"}
         What an inverting MOVE does: solved and reported, refused, or scaled
-        back to its safe fraction (see :meth:`solver.deformer.Deformer.safe_fraction`).
+        back to its safe fraction (see :meth:`solver.deform.deformer.Deformer.safe_fraction`).
     points, relative, features, motion, sliding : tuple of dict
         The further hard constraints, normalised (see :func:`parse_spec`).
     conflicts : {"report", "reject"}
@@ -70,7 +70,7 @@ class Spec:
         SPEC (and any MOVE) that makes constraints conflict is refused.
     repair : bool
         Untangle inverted elements after each solve by moving free interior
-        vertices near them (:mod:`solver.repair`).
+        vertices near them (:mod:`solver.validity.repair`).
     ties : "auto", False, {"tolerance": t} or list of [i, j]
         Hard ties ``p_i = p_j`` (and equal rotations) between coincident nodes of
         different bodies (assemblies); ``"auto"`` finds them within 1e-9 of the
@@ -83,7 +83,7 @@ class Spec:
     thin_walls : float
         Weight of the rows that tie the two faces of walls one tet thick
         (default ``THIN_WALL_WEIGHT``; 0 is the paper's method unchanged). See
-        :meth:`solver.deformer.Deformer._wall_rows` and the README.
+        :meth:`solver.deform.deformer.Deformer._wall_rows` and the README.
     """
 
     selections: dict[str, dict[str, Any]]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .elements import corner_jacobians, element_blocks, element_volumes
+from ..ops.elements import corner_jacobians, element_blocks, element_volumes
 
 __all__ = ["DEGENERATE_TOL", "signed_volumes", "scaled_jacobians", "degenerate_mask", "quality_summary",
            "dihedral_angles", "aspect_ratios", "element_quality", "summarize_quality", "METRICS",
@@ -266,7 +266,7 @@ def element_quality(V: np.ndarray, T: np.ndarray,
     cells : dict, optional
         Hexahedra, wedges and pyramids (:attr:`solver.mesh.Mesh.cells`). Their
         volume comes from their faces and their scaled Jacobian from their
-        corners (:func:`solver.elements.corner_jacobians`); the dihedral
+        corners (:func:`solver.ops.elements.corner_jacobians`); the dihedral
         angles and aspect ratio are tetrahedron metrics and are NaN there.
 
     Returns
@@ -274,7 +274,7 @@ def element_quality(V: np.ndarray, T: np.ndarray,
     dict of str to (M,) float array
         ``volume`` (signed), ``scaled_jacobian``, ``min_dihedral_deg``,
         ``max_dihedral_deg``, ``aspect_ratio``; tets first, then the other
-        types in :data:`solver.elements.LINEAR_TYPES` order.
+        types in :data:`solver.ops.elements.LINEAR_TYPES` order.
     """
     m = len(T)
     det, sj = element_jacobians(V, T, cells)
@@ -303,7 +303,7 @@ def element_jacobians(V: np.ndarray, T: np.ndarray,
     -------
     det : (M,) float array
         Tets: six times the signed volume (:func:`tet_quality`); other elements:
-        the smallest corner Jacobian (:func:`solver.elements.corner_jacobians`).
+        the smallest corner Jacobian (:func:`solver.ops.elements.corner_jacobians`).
         Positive for a valid element.
     sj : (M,) float array in [-1, 1]
         The matching scaled Jacobians.

@@ -22,7 +22,7 @@ mesh models, §2: "polyhedra that share an interior vertex"):
   Stimpson et al. SAND2007-1751). A pyramid's apex, where four edges meet, is
   covered by its four base corners.
 
-Tetrahedra keep their own fast path (:mod:`solver.quality`); their tables are
+Tetrahedra keep their own fast path (:mod:`solver.validity.quality`); their tables are
 here too so that :func:`element_tables` covers every volume type.
 """
 
@@ -264,7 +264,7 @@ def boundary_faces(blocks: list[tuple[str, np.ndarray]], n: int) -> tuple[np.nda
     InvalidMeshError
         A face is shared by more than two elements.
     """
-    from .errors import InvalidMeshError, format_ids
+    from ..errors import InvalidMeshError, format_ids
 
     tris, quads = [], []
     base = 0

@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .errors import FactorizationError
+from ..errors import FactorizationError
 
 __all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
@@ -173,7 +173,8 @@ class _CholmodFactor:
     name = "cholmod"
 
     def __init__(self, M: sp.csc_matrix, what: str) -> None:
-        from sksparse.cholmod import CholmodNotPositiveDefiniteError, cholesky as chol
+        from sksparse.cholmod import CholmodNotPositiveDefiniteError
+        from sksparse.cholmod import cholesky as chol
 
         _quiet_system_blas()
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import InvalidMeshError, format_ids
+from ..errors import InvalidMeshError, format_ids
 
 __all__ = ["TET_FACES", "boundary_facets", "face_keys", "simplex_edges"]
 

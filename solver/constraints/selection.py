@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SpecError, format_ids
-from .mesh import Mesh
+from ..errors import SpecError, format_ids
+from ..mesh import Mesh
 
 __all__ = ["select"]
 
@@ -22,7 +22,7 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
         ``{"ids": [...]}``, ``{"set": NAME}``, ``{"box": {"min", "max"}}``,
         ``{"sphere": {"center", "radius"}}`` or
         ``{"plane": {"point", "normal", "tolerance"}}`` (already checked by
-        :func:`solver.spec.parse_spec`). Geometric selections are closed sets
+        :func:`solver.constraints.spec.parse_spec`). Geometric selections are closed sets
         and only pick vertices used by an element. ``"boundary_only": true``
         keeps the boundary vertices of any selection.
     name : str

@@ -26,8 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, maximum_flow
 
-from .errors import SpecError, format_ids
-from .mesh import Mesh
+from ..errors import SpecError, format_ids
+from ..mesh import Mesh
 
 __all__ = ["FeatureCandidate", "feature_region", "feature_candidates", "face_adjacency"]
 

@@ -4,9 +4,9 @@ numba compiles a kernel on its first call and keeps the machine code in
 ``__pycache__`` next to the module (``cache=True``); later processes load it
 in milliseconds. The first compilation of all kernels takes about 10 s on the
 reference machine (two cores), so ``make install`` and the Docker image run
-``python -m solver.kernels`` once instead of leaving it to the first request.
+``python -m solver.ops.kernels`` once instead of leaving it to the first request.
 
-    python -m solver.kernels        # prints the seconds it took
+    python -m solver.ops.kernels        # prints the seconds it took
 """
 
 from __future__ import annotations
@@ -20,12 +20,12 @@ __all__ = ["compile_all"]
 
 def compile_all() -> float:
     """Run every kernel on a tiny mesh; returns the seconds taken."""
+    from ..testing import cube_mesh
+    from ..validity.quality import tet_quality
     from .elements import corner_jacobians, oriented
     from .mean_value_coordinates import mvc_triangle_weights
     from .mvc_matrix import mvc_matrix
-    from .quality import tet_quality
     from .rotation import rotate_by_log
-    from .testing import cube_mesh
 
     t0 = time.perf_counter()
     V, T = cube_mesh(3)

@@ -32,10 +32,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from . import factorization as fz
-from .boundary_facets import simplex_edges
-from .constrained_solver import ConstrainedSolver, rank_analysis
-from .constraint_rows import (
+from ..constraints.rows import (
     assemble,
     block_targets,
     describe,
@@ -43,17 +40,20 @@ from .constraint_rows import (
     rotation_blocks,
     tie_pairs,
 )
-from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
-from .elements import check_tets, element_edges
-from .errors import ConstraintError, InversionError, SpecError, format_ids
-from .mesh import Mesh
-from .mvc_matrix import mvc_matrix
-from .quadratic import MidsideNodes, node_jacobians
-from .quality import DEGENERATE_TOL, element_jacobians, element_quality, summarize_quality
-from .repair import repair_inverted
-from .rotation import rotate_by_log
-from .selection import select
-from .spec import INVERSION_POLICIES, HandleMove, Move, Spec, parse_move, parse_spec
+from ..constraints.selection import select
+from ..constraints.spec import INVERSION_POLICIES, HandleMove, Move, Spec, parse_move, parse_spec
+from ..errors import ConstraintError, InversionError, SpecError, format_ids
+from ..linalg import factorization as fz
+from ..linalg.constrained import ConstrainedSolver, rank_analysis
+from ..mesh import Mesh
+from ..ops.boundary_facets import simplex_edges
+from ..ops.cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
+from ..ops.elements import check_tets, element_edges
+from ..ops.mvc_matrix import mvc_matrix
+from ..ops.rotation import rotate_by_log
+from ..validity.midside import MidsideNodes, node_jacobians
+from ..validity.quality import DEGENERATE_TOL, element_jacobians, element_quality, summarize_quality
+from ..validity.repair import repair_inverted
 
 __all__ = ["Deformer", "DeformResult", "precompute"]
 
@@ -87,7 +87,7 @@ class DeformResult:
     move : Move
         The MOVE that was applied (the scaled one when the policy clamped it).
     cell_quality : dict of str to (m,) array, optional
-        Per-element metrics (``quality="full"``), see :func:`solver.quality.element_quality`.
+        Per-element metrics (``quality="full"``), see :func:`solver.validity.quality.element_quality`.
     """
 
     V: np.ndarray
@@ -795,7 +795,7 @@ class Deformer:
             ``inverted_elements_unclamped``).
         repair : bool, optional
             Overrides ``SPEC.repair``: untangle inverted elements by moving
-            free interior vertices near them (:func:`solver.repair.repair_inverted`);
+            free interior vertices near them (:func:`solver.validity.repair.repair_inverted`);
             ``report["repair"]`` says what happened. Never worse: a repair that
             does not reduce the inverted count is discarded.
         quality : {"basic", "full"}

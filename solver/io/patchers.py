@@ -1,0 +1,79 @@
+"""Registry of in-place patchers: formats whose files are written back byte for byte.
+
+A patcher takes the bytes of the file a mesh was read from and new positions,
+and returns the same file with only the coordinates changed, or ``None`` when
+it cannot (the caller then writes through meshio). Formats register here, as
+meshio registers its readers and writers, so :func:`solver.io.read.read_mesh`
+knows which files to keep and :func:`solver.io.write.write_mesh` which to
+patch.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .patch_inp import node_line_count, patch_inp
+from .patch_msh import patch_msh
+from .patch_vtu import patch_vtu
+
+__all__ = ["Patcher", "PATCHERS", "register", "patcher_for"]
+
+
+@dataclass(frozen=True)
+class Patcher:
+    """One format's in-place writer.
+
+    Attributes
+    ----------
+    name : str
+        meshio's format name.
+    aliases : tuple of str
+        Other names (``file_format`` values) of the format.
+    extensions : tuple of str
+        File extensions, lower case, without the dot.
+    accepts : callable
+        ``accepts(raw, n) -> bool``: whether the original bytes can be patched
+        for a mesh of ``n`` points (sniffs the header, counts node lines).
+    patch : callable
+        ``patch(raw, V) -> bytes | None``.
+    """
+
+    name: str
+    aliases: tuple[str, ...]
+    extensions: tuple[str, ...]
+    accepts: Callable[[bytes, int], bool]
+    patch: Callable[[bytes, np.ndarray], bytes | None]
+
+
+#: Patchers by meshio format name.
+PATCHERS: dict[str, Patcher] = {}
+
+
+def register(p: Patcher) -> Patcher:
+    """Add a patcher to :data:`PATCHERS`."""
+    PATCHERS[p.name] = p
+    return p
+
+
+register(Patcher("abaqus", ("inp",), ("inp",), lambda raw, n: node_line_count(raw) == n, patch_inp))
+register(Patcher("gmsh", ("msh",), ("msh",), lambda raw, n: raw.lstrip().startswith(b"$MeshFormat"),
+                 patch_msh))
+register(Patcher("vtu", (), ("vtu",), lambda raw, n: b"<VTKFile" in raw[:400], patch_vtu))
+
+
+def patcher_for(path: str, file_format: str | None = None) -> Patcher | None:
+    """The patcher for a file name or an explicit format name, or None.
+
+    Examples
+    --------
+    >>> patcher_for("deck.INP").name, patcher_for("x.bin", "gmsh").name, patcher_for("a.stl")
+    ('abaqus', 'gmsh', None)
+    """
+    if file_format is not None:
+        fmt = file_format.lower()
+        return next((p for p in PATCHERS.values() if fmt == p.name or fmt in p.aliases), None)
+    ext = path.lower().rsplit(".", 1)[-1] if "." in path else ""
+    return next((p for p in PATCHERS.values() if ext in p.extensions), None)

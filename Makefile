@@ -85,6 +85,7 @@ install: sysdeps $(STAMP)
 
 lint: install
 	$(BIN)/ruff check solver service tests benchmarks
+	$(BIN)/mypy solver service
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis

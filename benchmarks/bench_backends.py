@@ -100,9 +100,9 @@ def main() -> None:
                 "fixed": ["f"], "handles": {"h": "h"}, "solve": "split"}
         name = f"cube n={a.n}"
     d = precompute(mesh, spec)
-    Af = sp.csr_matrix(d._psys.A @ d._psys.ra.Z)  # boundary rows on the free boundary unknowns
+    Af = sp.csr_matrix(d.data.positions.system.A @ d.data.positions.system.ra.Z)  # boundary rows on the free boundary unknowns
     Mb = (Af.T @ Af).tocsc()
-    Mi = sp.csr_matrix(d._Mfi[:, d._fi])
+    Mi = sp.csr_matrix(d.data.positions.Mfi[:, d.data.positions.free_interior])
     rng = np.random.default_rng(1)
     print(f"mesh: {name}, {mesh.T.shape[0]:,} tets, {mesh.n:,} vertices\n")
     print("| system | unknowns | nnz | backend | factor s | solve ms (3 rhs) | rel. residual |")

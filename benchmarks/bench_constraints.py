@@ -98,17 +98,17 @@ def case(cfg: dict) -> dict:
     last = reps[-1]
     rig = max((_rigidity(mesh.V[mesh.sets[h]], last.V[mesh.sets[h]]) for h in holes), default=0.0)
     if cfg["deck"] == "bracket" and cfg["features"]:
-        ids = d._blocks[[b.kind for b in d._blocks].index("feature")].vertices
+        ids = d.data.constraints.blocks[[b.kind for b in d.data.constraints.blocks].index("feature")].vertices
         rig = _rigidity(mesh.V[ids], last.V[ids])
-    rows = 0 if d._pasm is None else int(d._pasm.C.shape[0])
-    rrows = 0 if d._rasm is None else int(d._rasm.C.shape[0])
-    feature_rows = sum(b.nrows for b in d._blocks if b.kind in ("feature", "motion"))
+    rows = 0 if d.data.constraints.pasm is None else int(d.data.constraints.pasm.C.shape[0])
+    rrows = 0 if d.data.constraints.rasm is None else int(d.data.constraints.rasm.C.shape[0])
+    feature_rows = sum(b.nrows for b in d.data.constraints.blocks if b.kind in ("feature", "motion"))
     return {
         "tets": int(mesh.T.shape[0]), "vertices": mesh.n, "method": cfg["method"], "mode": d.solve_mode,
         "features": len(spec.get("features", [])), "feature_rows": feature_rows,
         "position_rows": rows, "rotation_rows": rrows,
-        "components": 0 if d._pra is None else d._pra.components,
-        "largest": [] if d._pra is None else list(d._pra.largest),
+        "components": 0 if d.data.constraints.pra is None else d.data.constraints.pra.components,
+        "largest": [] if d.data.constraints.pra is None else list(d.data.constraints.pra.largest),
         "setup_s": setup, "solve_ms": float(np.median(solve_ms)), "total_ms": float(np.median(total_ms)),
         "residual": last.report["constraint_residual_max"], "rigidity": rig,
         "inverted": last.report["inverted_elements"],

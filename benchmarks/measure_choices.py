@@ -69,7 +69,7 @@ def orderings() -> None:
     for kind, size in (("plate16", 1.7), ("bracket", 0.95)):
         mesh = read_mesh(deck(kind, size))
         d = precompute(mesh, end_spec(mesh))
-        A = d._psys.A @ d._psys.ra.Z
+        A = d.data.positions.system.A @ d.data.positions.system.ra.Z
         M = (A.T @ A).tocsc()
         b = np.random.default_rng(0).random((M.shape[0], 3))
         for om in ("amd", "metis", "nesdis", "default", "best"):
@@ -95,7 +95,7 @@ def small_lu() -> None:
     for name, path in cases:
         mesh = read_mesh(path)
         d = precompute(mesh, end_spec(mesh))
-        M = d._Mfi[:, d._fi].tocsc()
+        M = d.data.positions.Mfi[:, d.data.positions.free_interior].tocsc()
         b = np.random.default_rng(0).random((M.shape[0], 3))
         for label, make in (("PARDISO", lambda M=M: fz._PardisoFactor(M, "x", symmetric=False)),
                             ("SuperLU", lambda M=M: fz._SuperLUFactor(M, "x", symmetric=False))):
@@ -138,7 +138,7 @@ def refine() -> None:
     for name in ("screw.msh", "Armadillo13K.msh", "beam.node", "plate.inp", "bracket.inp"):
         m = load(name)
         d = precompute(m, bend_spec(m))
-        print(f"| {name} | {d.refine_probe / d._diag:.2g} | {d.refine_steps} |", flush=True)
+        print(f"| {name} | {d.data.positions.refine_probe / d.data.constraints.diag:.2g} | {d.data.positions.refine_steps} |", flush=True)
 
 
 def midside() -> None:
@@ -150,9 +150,9 @@ def midside() -> None:
     print("|---|---|---:|---:|")
     m = read_mesh(SHARED / "kiefer_fea_bracket.vtu")
     d = precompute(m, bend_spec(m))
-    mid = d._mid
+    mid = d.data.midside
     for ang, fr in ((10, 0.03), (15, 0.05), (20, 0.1)):
-        P = mid.place(d.solve_positions(d.parse_move(bend_move(m, ang, fr)))[0])  # the rule alone, no relaxation
+        P = mid.place(d.solve_positions(d.parse_move(bend_move(m, ang, fr))).P).P  # the rule alone, no relaxation
         R = mid.rotations(P)
         s = np.linalg.norm(P[mid.a] - P[mid.b], axis=1) / np.linalg.norm(m.V[mid.a] - m.V[mid.b], axis=1)
         Rs = P.copy()
@@ -179,7 +179,7 @@ def midside() -> None:
     r = dt.solve(bend_move(t, 15, 0.05))
     dj0 = node_jacobians(t.V, t.T10)
     ratio0 = dj0.min(axis=1) / np.abs(dj0).max(axis=1)
-    dj = node_jacobians(dt._mid.place(r.V), t.T10)  # the placement rule alone, no relaxation
+    dj = node_jacobians(dt.data.midside.place(r.V).P, t.T10)  # the placement rule alone, no relaxation
     new = np.flatnonzero((dj.min(axis=1) <= 0) & (dj0.min(axis=1) > 0))
     bad0 = set(t.T10[dj0.min(axis=1) <= 0].ravel())
     print(f"\ntractor_wheel_coarse.INP: {int((dj0.min(axis=1) <= 0).sum())} elements folded at rest; without "
@@ -190,14 +190,14 @@ def midside() -> None:
     for angle in (15, 20):
         rep = dt.solve(bend_move(t, angle, 0.05)).report
         print(f"with relaxation, {angle}° + 5%: {rep['inverted_elements']} folded, midside_relaxed = "
-              f"{rep['midside_relaxed']} of {dt._mid.ids.size} mid-side nodes")
+              f"{rep['midside_relaxed']} of {dt.data.midside.ids.size} mid-side nodes")
 
 
 def constraints() -> None:
     import scipy.sparse as sp
 
     from solver import precompute, read_mesh
-    from solver.linalg.constrained import ConstrainedSolver
+    from solver.linalg.constrained import constrained_solver
 
     plate = read_mesh(DATA / "plate.inp")
     diag = float(np.linalg.norm(plate.V.max(0) - plate.V.min(0)))
@@ -235,7 +235,7 @@ def constraints() -> None:
         C = np.vstack([C, *extra]) if extra else C
         A = sp.csr_matrix(np.vstack([np.eye(N), rng.standard_normal((N, N))]))
         c, d = rng.standard_normal((2 * N, 2)), C @ rng.standard_normal((N, 2))
-        x = [ConstrainedSolver(sp.csr_matrix(C), A=A, method=meth).solve(np.zeros((N, 2)), d, c)
+        x = [constrained_solver(sp.csr_matrix(C), A=A, method=meth).solve(np.zeros((N, 2)), d, c)
              for meth in ("null_space", "kkt")]
         worst = max(worst, float(np.abs(x[0] - x[1]).max() / max(1.0, np.abs(x[1]).max())))
     print(f"\nnull_space vs kkt over 3,000 random problems: largest relative difference {worst:.1e}")
@@ -254,7 +254,7 @@ def pardiso() -> None:
     for size in (0.95, 0.44):
         mesh = read_mesh(deck("bracket", size))
         d = precompute(mesh, end_spec(mesh))
-        A = d._Mfi[:, d._fi].tocsr()
+        A = d.data.positions.Mfi[:, d.data.positions.free_interior].tocsr()
         b = np.asfortranarray(np.random.default_rng(0).standard_normal((A.shape[0], 3)))
         del d
         # a floor for any direct solve with this sparsity: CHOLMOD on the symmetrised pattern
@@ -321,7 +321,7 @@ def kernels() -> None:
     mesh = read_mesh(deck("bracket", 0.95))
     V, T = mesh.V, np.ascontiguousarray(mesh.T)
     d = precompute(mesh, end_spec(mesh))
-    delta = d._delta[d._bidx]
+    delta = d.data.delta[d.data.constraints.bidx]
     r = np.random.default_rng(0).normal(0, 0.2, delta.shape)
 
     def best(f, k=20):

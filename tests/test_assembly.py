@@ -35,7 +35,7 @@ def test_coincident_nodes_of_two_parts_are_found_and_move_together(assembly):
     mesh, n1 = assembly
     assert mesh.body_labels.max() == 1  # two parts
     d = precompute(mesh, _spec())
-    ties = d.ties
+    ties = d.data.constraints.ties
     load = read_mesh(DATA / "bracket.inp").sets["LOAD"]
     assert len(ties) == load.size  # every node of the shared face, once
     assert (ties[:, 0] < n1).all() and (ties[:, 1] >= n1).all()
@@ -48,7 +48,7 @@ def test_coincident_nodes_of_two_parts_are_found_and_move_together(assembly):
 
 def test_without_ties_the_parts_separate(assembly):
     mesh, _ = assembly
-    ties = precompute(mesh, _spec()).ties
+    ties = precompute(mesh, _spec()).data.constraints.ties
     P = precompute(mesh, _spec(ties=False)).solve(BEND).V
     assert np.abs(P[ties[:, 0]] - P[ties[:, 1]]).max() > 0.5  # the ties are what holds them
 
@@ -69,14 +69,14 @@ def test_a_part_held_only_by_ties_is_determined(assembly):
     assert e.value.code == "unconstrained_component"
     d = precompute(three, spec)
     r = d.solve(BEND)
-    assert np.abs(r.V[d.ties[:, 0]] - r.V[d.ties[:, 1]]).max() <= 1e-12 * 400
+    assert np.abs(r.V[d.data.constraints.ties[:, 0]] - r.V[d.data.constraints.ties[:, 1]]).max() <= 1e-12 * 400
 
 
 def test_explicit_ties_and_bad_ones(assembly):
     mesh, n1 = assembly
-    auto = precompute(mesh, _spec()).ties
+    auto = precompute(mesh, _spec()).data.constraints.ties
     d = precompute(mesh, _spec(ties=auto[:5].tolist()))
-    assert len(d.ties) == 5
+    assert len(d.data.constraints.ties) == 5
     with pytest.raises(SpecError):
         precompute(mesh, _spec(ties=[[0, 10 ** 9]]))
     with pytest.raises(SpecError, match="ties"):

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from solver import ConstraintError, SpecError, precompute, read_mesh
 from solver.linalg import factorization as fz
-from solver.linalg.constrained import ConstrainedSolver, rank_analysis
+from solver.linalg.constrained import constrained_solver, rank_analysis
 
 DATA = Path(__file__).parent / "data"
 RADIUS = 6.0
@@ -311,7 +311,7 @@ def test_null_space_and_kkt_agree_on_random_problems(case):
     A = sp.csr_matrix(np.vstack([np.eye(N), rng.standard_normal((N, N))]))
     c = rng.standard_normal((2 * N, 2))
     d = C @ rng.standard_normal((N, 2))
-    x = {m: ConstrainedSolver(sp.csr_matrix(C), A=A, method=m).solve(np.zeros((N, 2)), d, c)
+    x = {m: constrained_solver(sp.csr_matrix(C), A=A, method=m).solve(np.zeros((N, 2)), d, c)
          for m in EXACT}
     assert np.abs(x["null_space"] - x["kkt"]).max() < 1e-8 * max(1.0, np.abs(x["kkt"]).max())
     assert np.abs(C @ x["null_space"] - d).max() < 1e-9 * max(1.0, np.abs(d).max())
@@ -333,7 +333,7 @@ def test_feature_on_a_real_scan_mesh(mode):
                             "rotation": {"axis": axis, "angle_deg": 30}}}}
     d = precompute(m, spec)
     P = d.solve(mv).V
-    ids = d._blocks[[b.kind for b in d._blocks].index("feature")].vertices
+    ids = d.data.constraints.blocks[[b.kind for b in d.data.constraints.blocks].index("feature")].vertices
     err, s, R = _procrustes(m.V[ids], P[ids])
     assert err <= 1e-9 * diag and abs(s - 1) <= 1e-9
     turned = np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1)))

@@ -15,7 +15,7 @@ from solver import (
     precompute,
     read_mesh,
 )
-from solver.constraints.spec import axis_angle_matrix
+from solver.constraints.move import axis_angle_matrix
 from solver.linalg import factorization as fz
 from solver.testing import cube_mesh, sphere_surface
 from solver.validity.quality import signed_volumes
@@ -95,14 +95,14 @@ def test_hard_constraints_exact_on_real_meshes(name, solve):
     mv = _bend_move(m, angle=25.0)
     r = d.solve(mv)
     _, diag = longest_axis(m)
-    fixed = d.handle_ids  # handle targets, recomputed independently below
+    fixed = d.data.constraints.handle_ids  # handle targets, recomputed independently below
     ids = fixed["h"]
     c = m.V[ids].mean(0)
     h = mv["handles"]["h"]
     R = axis_angle_matrix(np.array(h["rotation"]["axis"]), np.radians(h["rotation"]["angle_deg"]))
     target = c + np.array(h["translation"]) + (m.V[ids] - c) @ R.T
     assert np.abs(r.V[ids] - target).max() <= 1e-10 * diag
-    fix = np.flatnonzero(d._owner == -2)
+    fix = np.flatnonzero(d.data.constraints.owner == -2)
     assert fix.size and np.abs(r.V[fix] - m.V[fix]).max() == 0.0
     assert r.report["constraint_residual_max"] <= 1e-10 * diag
     assert np.isfinite(r.V).all()
@@ -226,12 +226,12 @@ def test_internal_voids_move_with_the_volume_around_them():
     m = load("cones_with_cavities.inp")
     spec = bend_spec(m, boundary_only=True)
     d = precompute(m, spec)
-    assert d.solve_mode == "joint" and d._free_shell.sum() == 61 + 37
+    assert d.solve_mode == "joint" and d.data.constraints.free_shell.sum() == 61 + 37
     with pytest.raises(SpecError, match="split"):
         precompute(m, {**spec, "solve": "split"})
     r = d.solve(bend_move(m, 20, 0.1))
     assert r.report["inverted_elements"] == 0 and r.report["finite"]
-    void = np.flatnonzero(d._free_shell)
+    void = np.flatnonzero(d.data.constraints.free_shell)
     assert np.linalg.norm(r.V[void] - m.V[void], axis=1).min() > 0  # the cavities moved
     # with one handle and nothing fixed, a translation or a rotation moves everything rigidly,
     # the cavities included: the volume positions them (translation by the mean-value rows,
@@ -242,7 +242,7 @@ def test_internal_voids_move_with_the_volume_around_them():
     P = d1.solve({"handles": {"h": {"translation": t.tolist()}}}).V
     assert np.abs(P[void] - m.V[void] - t).max() <= 1e-12 * diag
     R = axis_angle_matrix(np.array([0.0, 0, 1]), np.radians(30))
-    c = m.V[d1.handle_ids["h"]].mean(0)
+    c = m.V[d1.data.constraints.handle_ids["h"]].mean(0)
     P = d1.solve({"handles": {"h": {"rotation": {"axis": [0, 0, 1], "angle_deg": 30}}}}).V
     assert np.abs(P[void] - (c + (m.V[void] - c) @ R.T)).max() <= 1e-10 * diag
 
@@ -268,7 +268,7 @@ def test_random_moves_keep_constraints_exact(t, angle, scale):
     r = d.solve(mv)
     assert np.isfinite(r.V).all()
     assert r.report["constraint_residual_max"] <= 1e-12
-    assert np.abs(r.V[d._owner == -2] - m.V[d._owner == -2]).max() == 0.0
+    assert np.abs(r.V[d.data.constraints.owner == -2] - m.V[d.data.constraints.owner == -2]).max() == 0.0
 
 
 _CACHE = {}

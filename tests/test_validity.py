@@ -149,7 +149,7 @@ def test_repair_untangles_a_few_elements_and_keeps_constraints_exact(armadillo):
     # only free interior vertices moved: boundary and constrained vertices are bit-identical
     moved = np.flatnonzero(np.any(r.V != plain.V, axis=1))
     assert moved.size == rep["moved_vertices"] > 0
-    assert d.movable[moved].all() and not m.boundary[moved].any()
+    assert d.data.constraints.movable[moved].all() and not m.boundary[moved].any()
     assert r.report["constraint_residual_max"] == plain.report["constraint_residual_max"]
     assert r.report["safe_fraction"] == 1.0  # the repaired result is valid
 
@@ -196,7 +196,7 @@ def test_thin_wall_rows_remove_the_inversions_of_one_tet_thick_walls():
     r1 = d.solve(mv).report
     assert r1["inverted_elements"] == 0 and r1["min_scaled_jacobian"] > 0.02
     # the rows only touch cross-wall edges of tets without an interior vertex
-    E, w, _ = d._wall
+    E, w = d.data.walls.E, d.data.walls.w
     allb = mesh.T[mesh.boundary[mesh.T].all(axis=1)]
     edges = {tuple(sorted(e)) for t in allb for e in ((t[0], t[1]), (t[0], t[2]), (t[0], t[3]),
                                                          (t[1], t[2]), (t[1], t[3]), (t[2], t[3]))}

@@ -88,7 +88,7 @@ def setup_case(mesh, name: str):
 
 
 def targets(mesh, ax: int, diag: float, handle: np.ndarray, kind: str, mag: float) -> np.ndarray:
-    from solver.constraints.spec import axis_angle_matrix
+    from solver.constraints.move import axis_angle_matrix
 
     P = mesh.V[handle]
     c = P.mean(0)

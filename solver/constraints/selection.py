@@ -8,8 +8,38 @@ import numpy as np
 
 from ..errors import SpecError, format_ids
 from ..mesh import Mesh
+from ..ops.boundary_facets import simplex_edges
+from ..ops.elements import midside_edges
 
-__all__ = ["select"]
+__all__ = ["select", "node_masks", "midside_mask"]
+
+
+def midside_mask(mesh: Mesh) -> np.ndarray:
+    """(n,) bool: the mid-side nodes of a quadratic (tetra10) mesh; all False otherwise."""
+    mid = np.zeros(mesh.n, bool)
+    if mesh.T10 is not None:
+        mid[mesh.T10[:, 4:].ravel()] = True
+        mid[mesh.T.ravel()] = False
+    return mid
+
+
+def node_masks(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes a selection may name, and those on the boundary: (used (n,) bool, boundary (n,) bool).
+
+    Every node of an element counts, mid-side nodes of quadratic elements
+    included; a mid-side node is on the boundary when its edge is an edge of a
+    boundary face.
+    """
+    used = mesh.referenced.copy()
+    boundary = mesh.boundary.copy()
+    if mesh.T10 is not None:
+        ids, a, b = midside_edges(mesh.T10)
+        used[ids] = True
+        n = mesh.n
+        FE = simplex_edges(mesh.F)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        boundary[ids] = np.isin(lo * n + hi, FE[:, 0] * n + FE[:, 1])
+    return used, boundary
 
 
 def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarray:
@@ -31,7 +61,8 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
     Returns
     -------
     ids : (k,) int64 array
-        Sorted, unique, non-empty.
+        Sorted, unique, non-empty. Every node of an element may be selected,
+        mid-side nodes of quadratic elements included (:func:`node_masks`).
 
     Raises
     ------
@@ -49,6 +80,7 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
     kind = next(k for k in sel if k != "boundary_only")
     val = sel[kind]
     V = mesh.V
+    used, on_boundary = node_masks(mesh)
     if kind == "ids":
         ids = np.unique(np.asarray(val, dtype=np.int64))
         if ids.size == 0:
@@ -58,7 +90,7 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
         if bad.size:
             raise SpecError(f"selection {name!r}: ids {format_ids(bad)} are outside 0..{mesh.n - 1}",
                             code="bad_selection", selection=name, ids=bad[:100].tolist())
-        unused = ids[~mesh.referenced[ids]]
+        unused = ids[~used[ids]]
         if unused.size:
             raise SpecError(f"selection {name!r}: vertices {format_ids(unused)} belong to no element",
                             code="bad_selection", selection=name, ids=unused[:100].tolist())
@@ -68,7 +100,7 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
                             f"{sorted(mesh.sets)}", code="unknown_set", selection=name, set=val)
         ids = mesh.sets[val]
         ids = ids[(ids >= 0) & (ids < mesh.n)]
-        ids = ids[mesh.referenced[ids]]
+        ids = ids[used[ids]]
     else:
         if kind == "box":
             lo, hi = np.asarray(val["min"], float), np.asarray(val["max"], float)
@@ -80,9 +112,9 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
             p, nrm = np.asarray(val["point"], float), np.asarray(val["normal"], float)
             nrm = nrm / np.linalg.norm(nrm)
             hit = np.abs((V - p) @ nrm) <= float(val.get("tolerance", 0.0))
-        ids = np.flatnonzero(hit & mesh.referenced)
+        ids = np.flatnonzero(hit & used)
     if sel.get("boundary_only", False):
-        ids = ids[mesh.boundary[ids]]
+        ids = ids[on_boundary[ids]]
     if ids.size == 0:
         raise SpecError(f"selection {name!r} ({kind}) selects no vertex", code="empty_selection",
                         selection=name)

@@ -18,13 +18,18 @@ Falling back from CHOLMOD emits a :class:`PerformanceWarning` once.
 ``TETMORPH_SOLVER=cholmod|pardiso|scipy`` forces the symmetric backend
 (``scipy`` also forces SuperLU for the non-symmetric one).
 
-Every factorization increments :data:`STATS` ``["factorizations"]`` so tests can
-prove that an update only back-substitutes.
+Process-wide counters (:data:`STATS`: ``"factorizations"``, ``"solves"``) are
+kept for tests and diagnostics only; no REPORT reads them (each precompute
+object counts its own factorizations). Factors are built once and never
+mutated. CHOLMOD and PARDISO keep work space inside the factor object, so
+their ``solve`` holds a per-factor lock: concurrent solves on one factor are
+serialized rather than corrupted.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import warnings
 from collections import Counter
 from typing import Protocol
@@ -37,8 +42,14 @@ from ..errors import FactorizationError
 
 __all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
-#: Counters of factorizations (``"factorizations"``) and solves (``"solves"``).
+#: Counters of factorizations (``"factorizations"``) and solves (``"solves"``), for tests.
 STATS: Counter[str] = Counter()
+_STATS_LOCK = threading.Lock()
+
+
+def _count(key: str) -> None:
+    with _STATS_LOCK:
+        STATS[key] += 1
 
 
 class PerformanceWarning(UserWarning):
@@ -134,7 +145,7 @@ def _prepared(M: sp.spmatrix, what: str) -> sp.csc_matrix:
     """``M`` as CSC, checked finite, and counted in :data:`STATS` as one factorization."""
     M = sp.csc_matrix(M)
     _check_finite(M, what)
-    STATS["factorizations"] += 1
+    _count("factorizations")
     return M
 
 
@@ -188,13 +199,15 @@ class _CholmodFactor:
                 f"definite ({e})",
                 code="singular_system",
             ) from e
+        self._lock = threading.Lock()
         L = self._f.L()
         self.nbytes = int(L.data.nbytes + L.indices.nbytes + L.indptr.nbytes)
         self.shape = M.shape
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        STATS["solves"] += 1
-        return self._f(b)
+        _count("solves")
+        with self._lock:
+            return self._f(b)
 
 
 class _SuperLUFactor:
@@ -218,7 +231,7 @@ class _SuperLUFactor:
         self.shape = M.shape
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        STATS["solves"] += 1
+        _count("solves")
         return self._f.solve(np.asarray(b, dtype=np.float64))
 
 
@@ -263,6 +276,7 @@ class _PardisoFactor:
         self._A.sort_indices()
         mtype = (-2 if indefinite else 2) if symmetric else 11
         self._ps = pypardiso.PyPardisoSolver(mtype=mtype)
+        self._lock = threading.Lock()
         # pypardiso leaves iparm(1) = 0, which makes PARDISO use its defaults for every iparm,
         # and those include two steps of iterative refinement on every solve: 14.5-19.6 ms
         # instead of 5.5-6.9 ms for the 107k-tet bracket's interior system (benchmarks/
@@ -296,8 +310,9 @@ class _PardisoFactor:
         self.shape = M.shape
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        STATS["solves"] += 1
-        x = self._ps.solve(self._A, np.asfortranarray(b, dtype=np.float64))
+        _count("solves")
+        with self._lock:  # PARDISO's handle and pypardiso's phase are shared state
+            x = self._ps.solve(self._A, np.asfortranarray(b, dtype=np.float64))
         return np.asarray(x).reshape(np.shape(b))
 
     def __del__(self) -> None:

@@ -1,5 +1,15 @@
 """Operators: pure functions of the rest mesh that build the method's matrices."""
 
+import os
+
+import numba
+
+# Solves run concurrently in threads (one precompute serves several requests), and numba's
+# "workqueue" layer aborts on concurrent parallel launches: require a thread-safe layer
+# (TBB or OpenMP, both installed with MKL) unless the user chose one.
+if "NUMBA_THREADING_LAYER" not in os.environ:
+    numba.config.THREADING_LAYER = "threadsafe"
+
 from .boundary_facets import boundary_facets, simplex_edges
 from .cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from .mvc_matrix import mvc_matrix

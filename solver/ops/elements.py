@@ -295,3 +295,32 @@ def boundary_faces(blocks: list[tuple[str, np.ndarray]], n: int) -> tuple[np.nda
     FE = np.concatenate(FE_out) if FE_out else np.zeros(0, np.int64)
     order = np.argsort(FE, kind="stable")
     return F[order], FE[order]
+
+
+#: Corner pairs of the six mid-side slots of a tetra10 element (VTK order: edges 01, 12, 02, 03, 13, 23).
+TET10_EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
+
+
+def midside_edges(T10: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mid-side nodes of tetra10 elements and the two corners of each one's edge.
+
+    Parameters
+    ----------
+    T10 : (m, 10) int array
+
+    Returns
+    -------
+    ids : (k,) int64 array
+        Sorted unique mid-side node ids.
+    a, b : (k,) int64 arrays
+        The corner nodes of each mid-side node's edge.
+
+    Examples
+    --------
+    >>> midside_edges(np.array([[0, 1, 2, 3, 4, 5, 6, 7, 8, 9]]))[1].tolist()
+    [0, 1, 0, 0, 1, 2]
+    """
+    ids = T10[:, 4:].ravel()
+    ends = T10[:, TET10_EDGES].reshape(-1, 2)
+    u, first = np.unique(ids, return_index=True)
+    return u, ends[first, 0], ends[first, 1]

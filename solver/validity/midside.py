@@ -22,15 +22,17 @@ then edges 01, 12, 02, 03, 13, 23.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import scipy.sparse as sp
 
+from ..ops.elements import TET10_EDGES as EDGES
+from ..ops.elements import midside_edges
 from .quality import tet_quality
 
-__all__ = ["EDGES", "MidsideNodes", "node_jacobians"]
-
-#: Corner pairs of the mid-side nodes 4..9.
-EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
+__all__ = ["EDGES", "MidsideNodes", "Placement", "node_jacobians"]
 
 
 def _reference_nodes() -> np.ndarray:
@@ -93,8 +95,28 @@ def node_jacobians(V: np.ndarray, T10: np.ndarray) -> np.ndarray:
             + a[..., 2] * (b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0]))
 
 
+@dataclass(frozen=True, eq=False)
+class Placement:
+    """Positions with the mid-side nodes placed, and what the placement did.
+
+    Attributes
+    ----------
+    P : (n, 3) float array
+        Every node's position.
+    jacobians : (m, 10) float array or None
+        Node Jacobians of every element at ``P`` (when validity was checked).
+    relaxed : dict or None
+        ``{"midside_nodes", "elements", "min_factor"}`` when curved edges were
+        flattened to keep elements valid, else None.
+    """
+
+    P: np.ndarray
+    jacobians: np.ndarray | None = None
+    relaxed: dict[str, Any] | None = None
+
+
 class MidsideNodes:
-    """Placement of the mid-side nodes of a tetra10 mesh (set up once, applied per solve).
+    """Placement of the mid-side nodes of a tetra10 mesh: set up once, immutable, applied per solve.
 
     Parameters
     ----------
@@ -106,9 +128,7 @@ class MidsideNodes:
     def __init__(self, V0: np.ndarray, T10: np.ndarray) -> None:
         m = T10.shape[0]
         ids = T10[:, 4:].ravel()
-        ends = T10[:, EDGES].reshape(-1, 2)  # (6m, 2) corner nodes of each mid-side slot
-        self.ids, first = np.unique(ids, return_index=True)
-        self.a, self.b = ends[first, 0], ends[first, 1]
+        self.ids, self.a, self.b = midside_edges(T10)
         # tets sharing each mid-side node: average their deformation gradients
         rows = np.searchsorted(self.ids, ids)
         tets = np.repeat(np.arange(m), 6)
@@ -117,14 +137,10 @@ class MidsideNodes:
         self._node_tets = A.tocsr()
         self._slot = np.searchsorted(self.ids, T10[:, 4:])  # (m, 6) mid-side node of each slot
         self.T10 = T10
-        self.T = T10[:, :4]
-        self.relaxed: dict | None = None
-        self.jacobians: tuple[np.ndarray, np.ndarray] | None = None
+        self.T = np.ascontiguousarray(T10[:, :4])
         P = V0[self.T]
         D0 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0], P[:, 3] - P[:, 0]], axis=2)  # columns
         self._D0inv = np.linalg.inv(D0)
-        chord = V0[self.a] - V0[self.b]
-        self._len0 = np.linalg.norm(chord, axis=1)
         self._off0 = V0[self.ids] - 0.5 * (V0[self.a] + V0[self.b])
 
     @property
@@ -146,8 +162,9 @@ class MidsideNodes:
         U[:, :, 2] *= d[:, None]
         return U @ Vt
 
-    def place(self, P: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
-        """Positions with every mid-side node placed from its corners (a copy).
+    def place(self, P: np.ndarray, valid: np.ndarray | None = None, pinned: np.ndarray | None = None,
+              pinned_at: np.ndarray | None = None) -> Placement:
+        """Positions with every mid-side node placed from its corners (a new array).
 
         Parameters
         ----------
@@ -159,27 +176,39 @@ class MidsideNodes:
             still positive gets its mid-side nodes' curvature offsets halved,
             up to five times and then removed, until no such element is left:
             a curved edge is flattened only as far as needed to keep its
-            elements valid. :attr:`relaxed` says how many nodes and elements
-            this touched and the smallest factor (None when nothing was
-            needed); :attr:`jacobians` keeps ``(positions, node Jacobians)``
-            of the result for the caller's check.
+            elements valid. Pinned nodes are never relaxed.
+        pinned : (p,) int array, optional
+            Mid-side nodes held by hard constraints (fixed or handle selections).
+        pinned_at : (p, 3) array, optional
+            Their exact positions.
+
+        Returns
+        -------
+        Placement
         """
         out = P.copy()
         G = self.gradients(P)
         mid = 0.5 * (P[self.a] + P[self.b])
         curv = np.einsum("kab,kb->ka", G, self._off0)
         out[self.ids] = mid + curv
-        self.relaxed, self.jacobians = None, None
+        free = np.ones(self.ids.size, bool)
+        if pinned is not None and pinned.size:
+            out[pinned] = pinned_at
+            free[np.searchsorted(self.ids, pinned)] = False
         if valid is None:
-            return out
+            return Placement(out)
         dj = node_jacobians(out, self.T10)
         corner_ok = tet_quality(out, self.T)[0] > 0  # the straight-sided element
         bad = (dj.min(axis=1) <= 0) & valid & corner_ok
+        relaxed = None
         if bad.any():
             alpha = np.ones(self.ids.size)
             touched = np.zeros(len(dj), bool)
             for step in range(6):
                 nodes = np.unique(self._slot[bad])
+                nodes = nodes[free[nodes]]
+                if not nodes.size:
+                    break
                 alpha[nodes] = 0.0 if step == 5 else alpha[nodes] / 2
                 out[self.ids[nodes]] = mid[nodes] + alpha[nodes, None] * curv[nodes]
                 elems = np.unique(self._node_tets[nodes].indices)
@@ -190,7 +219,7 @@ class MidsideNodes:
                 if not bad.any():
                     break
             changed = alpha < 1
-            self.relaxed = {"midside_nodes": int(changed.sum()), "elements": int(touched.sum()),
-                            "min_factor": float(alpha[changed].min())}
-        self.jacobians = (out, dj)
-        return out
+            if changed.any():
+                relaxed = {"midside_nodes": int(changed.sum()), "elements": int(touched.sum()),
+                           "min_factor": float(alpha[changed].min())}
+        return Placement(out, dj, relaxed)

@@ -1,0 +1,336 @@
+"""The MOVE document: where the handles go, and the targets of the other constraints.
+
+:func:`parse_move` is strict, as :func:`~solver.constraints.spec.parse_spec`:
+numbers must be JSON numbers (not booleans or strings), finite and in range.
+Angles are reduced modulo 360 degrees (keeping their sign, so a 350 degree
+twist stays a twist, not a -10 degree turn); scales lie in ``SCALE_RANGE``;
+translations, pivots and targets lie within ``MOVE_RANGE`` mesh diagonals of
+the mesh when the caller gives the mesh's extent (:class:`MoveBounds`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .spec import check_keys, expect, is_number, number, vec3
+
+__all__ = ["HandleMove", "Move", "MoveBounds", "RestTargets", "parse_move", "scaled_move", "axis_angle_matrix",
+           "SCALE_RANGE", "MOVE_RANGE"]
+
+#: Scales (handles, features, relative constraints) must lie in this range.
+SCALE_RANGE = (1.0e-3, 1.0e3)
+#: Translations, pivots and targets must lie within this many mesh diagonals of the mesh.
+MOVE_RANGE = 1.0e3
+
+
+def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix about a unit ``axis`` by ``angle`` radians (Rodrigues).
+
+    Parameters
+    ----------
+    axis : (3,) float array
+        Unit vector.
+    angle : float
+
+    Returns
+    -------
+    R : (3, 3) float array
+
+    Examples
+    --------
+    >>> np.round(axis_angle_matrix(np.array([0., 0, 1]), np.pi / 2) @ [1, 0, 0], 12).tolist()
+    [0.0, 1.0, 0.0]
+    """
+    x, y, z = axis
+    K = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * (K @ K)
+
+
+@dataclass(frozen=True)
+class HandleMove:
+    """Rigid motion with uniform scale of one handle: ``u = pivot + t + s R (p0 - pivot)``.
+
+    Attributes
+    ----------
+    translation : (3,) float array
+    log_rotation : (3,) float array
+        Quaternion logarithm ``(theta / 2) * axis`` (eq. 24 of the ECLS paper).
+    scale : float
+    pivot : (3,) float array or None
+        ``None`` means the handle's rest centroid (over all its nodes, mid-side nodes included).
+    """
+
+    translation: np.ndarray
+    log_rotation: np.ndarray
+    scale: float = 1.0
+    pivot: np.ndarray | None = None
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """(3, 3) rotation matrix."""
+        r = self.log_rotation
+        th = 2.0 * float(np.linalg.norm(r))
+        if th == 0.0:
+            return np.eye(3)
+        return axis_angle_matrix(r / np.linalg.norm(r), th)
+
+    def apply(self, P0: np.ndarray, centroid: np.ndarray) -> np.ndarray:
+        """Targets of rest positions ``P0`` (k, 3) under this move."""
+        c = centroid if self.pivot is None else self.pivot
+        return c + self.translation + self.scale * (P0 - c) @ self.matrix.T
+
+    def interpolate(self, f: float) -> HandleMove:
+        """The move scaled by ``f``: translation f, angle f, scale**f."""
+        return HandleMove(self.translation * f, self.log_rotation * f, self.scale ** f, self.pivot)
+
+
+@dataclass(frozen=True)
+class Move:
+    """A parsed MOVE: one :class:`HandleMove` per named handle (missing ones stay at rest).
+
+    Attributes
+    ----------
+    handles : dict of str to HandleMove
+    points : dict of str to (3,) array
+        Targets of SPEC ``points`` (missing: the SPEC's target, else rest).
+    relative : dict of str to dict
+        ``{"offset": (3,) array}`` or ``{"scale": s}`` per SPEC ``relative``.
+    features : dict of str to float
+        Scale factor ``s_f`` per SPEC ``features`` (missing: 1).
+    motion : dict of str to (3,) array
+        The point the plane or line of a SPEC ``motion`` passes through.
+    """
+
+    handles: dict[str, HandleMove]
+    points: dict[str, np.ndarray] = field(default_factory=dict)
+    relative: dict[str, dict[str, Any]] = field(default_factory=dict)
+    features: dict[str, float] = field(default_factory=dict)
+    motion: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the MOVE as a JSON-compatible dict (rotations as axis and angle)."""
+        out = {}
+        for k, h in self.handles.items():
+            th = 2 * float(np.linalg.norm(h.log_rotation))
+            axis = h.log_rotation / (th / 2) if th else np.array([0.0, 0.0, 1.0])
+            d: dict[str, Any] = {"translation": h.translation.tolist(),
+                                 "rotation": {"axis": axis.tolist(), "angle_deg": math.degrees(th)},
+                                 "scale": h.scale}
+            if h.pivot is not None:
+                d["pivot"] = h.pivot.tolist()
+            out[k] = d
+        doc: dict[str, Any] = {"handles": out}
+        if self.points:
+            doc["points"] = {k: v.tolist() for k, v in self.points.items()}
+        if self.relative:
+            doc["relative"] = {k: {a: (b.tolist() if isinstance(b, np.ndarray) else b) for a, b in v.items()}
+                               for k, v in self.relative.items()}
+        if self.features:
+            doc["features"] = {k: {"scale": v} for k, v in self.features.items()}
+        if self.motion:
+            doc["motion"] = {k: {"point": v.tolist()} for k, v in self.motion.items()}
+        return doc
+
+
+@dataclass(frozen=True)
+class MoveBounds:
+    """The mesh's extent, which bounds translations, pivots and targets.
+
+    Attributes
+    ----------
+    center : (3,) float array
+        Centre of the bounding box of the referenced vertices.
+    diagonal : float
+        Length of its diagonal.
+    """
+
+    center: np.ndarray
+    diagonal: float
+
+    @property
+    def translation(self) -> float:
+        """Largest translation or offset length, ``MOVE_RANGE`` diagonals."""
+        return MOVE_RANGE * max(self.diagonal, 1e-300)
+
+    def position(self, v: np.ndarray, where: str) -> np.ndarray:
+        """``v`` checked to lie within ``MOVE_RANGE`` diagonals of the centre."""
+        d = float(np.linalg.norm(v - self.center))
+        expect(d <= self.translation, f"{where} lies {d:.3g} from the mesh centre, beyond {MOVE_RANGE:g} mesh "
+               f"diagonals ({self.translation:.3g})", field=where)
+        return v
+
+
+@dataclass(frozen=True)
+class RestTargets:
+    """Rest values of the MOVE-addressable targets, for :func:`scaled_move`.
+
+    Attributes
+    ----------
+    points : dict of str to ((3,) array, (3,) array or None)
+        Rest position and SPEC target of each SPEC point.
+    motion : dict of str to (3,) array
+        Rest position of each motion point.
+    relative : dict of str to (3,) array
+        Rest offset ``a - b`` of each relative constraint.
+    """
+
+    points: dict[str, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)
+    motion: dict[str, np.ndarray] = field(default_factory=dict)
+    relative: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
+    """The MOVE scaled by ``f`` in [0, 1]: ``f = 0`` is the rest shape, ``f = 1`` the MOVE.
+
+    Handles: translation ``f t``, rotation angle ``f θ``, scale ``s^f``.
+    Point and motion targets and relative offsets: ``rest + f (target - rest)``.
+    Feature and relative scales: ``s^f``.
+    """
+    handles = {k: h.interpolate(f) for k, h in mv.handles.items()}
+    points = {}
+    for name, (r0, spec_target) in rest.points.items():
+        target = mv.points.get(name, spec_target)
+        if target is not None:
+            points[name] = r0 + f * (np.asarray(target) - r0)
+    motion = {k: rest.motion[k] + f * (v - rest.motion[k]) for k, v in mv.motion.items()}
+    relative: dict[str, dict[str, Any]] = {}
+    for k, v in mv.relative.items():
+        if "offset" in v:
+            r0 = rest.relative[k]
+            relative[k] = {"offset": r0 + f * (v["offset"] - r0)}
+        else:
+            relative[k] = {"scale": v["scale"] ** f}
+    features = {k: v ** f for k, v in mv.features.items()}
+    return Move(handles, points, relative, features, motion)
+
+
+def _scale(x: Any, where: str) -> float:
+    s = number(x, where)
+    expect(s > 0, f"{where} must be > 0, got {s}", field=where, value=s)
+    expect(SCALE_RANGE[0] <= s <= SCALE_RANGE[1], f"{where} must be in [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}], "
+           f"got {s:g}", field=where, value=s)
+    return s
+
+
+def _parse_rotation(rot: Any, where: str) -> np.ndarray:
+    check_keys(rot, ("axis", "angle_deg", "quaternion"), where)
+    if "quaternion" in rot:
+        expect("axis" not in rot and "angle_deg" not in rot,
+               f"{where}: give either axis+angle_deg or quaternion, not both", field=where)
+        q = rot["quaternion"]
+        expect(isinstance(q, list) and len(q) == 4 and all(is_number(v) for v in q),
+               f"{where}.quaternion must be 4 numbers [w, x, y, z]", field=f"{where}.quaternion")
+        qa = np.array([number(v, f"{where}.quaternion", -1e150, 1e150) for v in q])
+        nq = float(np.linalg.norm(qa))
+        expect(nq > 1e-150, f"{where}.quaternion must be non-zero", field=f"{where}.quaternion")
+        qa = qa / nq
+        if qa[0] < 0:
+            qa = -qa  # the shorter of the two equal rotations
+        v = qa[1:]
+        nv = float(np.linalg.norm(v))
+        if nv == 0:
+            return np.zeros(3)
+        return math.atan2(nv, qa[0]) * v / nv
+    expect("axis" in rot and "angle_deg" in rot, f"{where} needs axis and angle_deg (or quaternion)", field=where)
+    axis = vec3(rot["axis"], f"{where}.axis", 1e150)
+    deg = math.fmod(number(rot["angle_deg"], f"{where}.angle_deg"), 360.0)  # exact, keeps the sign
+    if deg == 0.0:
+        return np.zeros(3)
+    na = float(np.linalg.norm(axis))
+    expect(na > 1e-150, f"{where}.axis must be non-zero", field=f"{where}.axis")
+    return (math.radians(deg) / 2.0) * axis / na
+
+
+def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[str, Any] | None = None,
+               bounds: MoveBounds | None = None) -> Move:
+    """Parse and validate a MOVE document against the SPEC's names.
+
+    Parameters
+    ----------
+    doc : dict
+        ``{"handles": {HANDLE: {"translation": [..], "rotation": {...}, "pivot": [..],
+        "scale": s}}, "points": {POINT: [x, y, z]}, "relative": {NAME: {"offset": [..]}
+        | {"scale": s}}, "features": {FEATURE: {"scale": s}}, "motion": {NAME:
+        {"point": [x, y, z]}}}``; every field is optional. A handle the MOVE
+        does not name stays at its rest position.
+    handle_names : sequence of str
+    names : dict, optional
+        Names the SPEC defines per category (``"points"``, ``"relative"``,
+        ``"features"``, ``"motion"``); categories not given accept no names.
+    bounds : MoveBounds, optional
+        The mesh's extent: translations, offsets, pivots and targets beyond
+        ``MOVE_RANGE`` diagonals are refused.
+
+    Returns
+    -------
+    Move
+
+    Raises
+    ------
+    SpecError
+        Unknown fields or names, a value that is not a JSON number, a
+        non-finite or out-of-range number; ``details["field"]`` names it.
+
+    Examples
+    --------
+    >>> m = parse_move({"handles": {"h": {"translation": [1, 0, 0]}}}, ["h"])
+    >>> m.handles["h"].translation.tolist()
+    [1.0, 0.0, 0.0]
+    >>> parse_move({"handles": {"h": {"rotation": {"axis": [0, 0, 1], "angle_deg": 370}}}},
+    ...            ["h"]).to_dict()["handles"]["h"]["rotation"]["angle_deg"]
+    10.0
+    """
+    check_keys(doc, ("handles", "points", "relative", "features", "motion"), "MOVE")
+    names = names or {}
+    tmax = bounds.translation if bounds is not None else 1e150
+
+    def pos(x: Any, where: str) -> np.ndarray:
+        v = vec3(x, where, 1e150)
+        return bounds.position(v, where) if bounds is not None else v
+
+    for key in ("points", "relative", "features", "motion"):
+        val = doc.get(key, {})
+        expect(isinstance(val, dict), f"MOVE.{key} must be an object", field=key)
+        bad = sorted(set(val) - set(names.get(key, ())))
+        expect(not bad, f"MOVE.{key} names unknown {key} {bad}; the SPEC defines {sorted(names.get(key, ()))}",
+               field=key, unknown=bad)
+    hs = doc.get("handles", {})
+    expect(isinstance(hs, dict), "MOVE.handles must be an object", field="handles")
+    unknown = sorted(set(hs) - set(handle_names))
+    expect(not unknown, f"MOVE names unknown handle(s) {unknown}; the SPEC defines {sorted(handle_names)}",
+           field="handles", unknown=unknown)
+    out = {}
+    for name, h in hs.items():
+        where = f"MOVE.handles.{name}"
+        check_keys(h, ("translation", "rotation", "pivot", "scale"), where)
+        t = vec3(h["translation"], f"{where}.translation", tmax) if "translation" in h else np.zeros(3)
+        r = _parse_rotation(h["rotation"], f"{where}.rotation") if "rotation" in h else np.zeros(3)
+        s = _scale(h.get("scale", 1.0), f"{where}.scale")
+        p = pos(h["pivot"], f"{where}.pivot") if "pivot" in h else None
+        out[name] = HandleMove(t, r, s, p)
+    points = {k: pos(v, f"MOVE.points.{k}") for k, v in doc.get("points", {}).items()}
+    relative: dict[str, dict[str, Any]] = {}
+    for k, v in doc.get("relative", {}).items():
+        where = f"MOVE.relative.{k}"
+        check_keys(v, ("offset", "scale"), where)
+        expect(len(v) == 1, f"{where} needs exactly one of offset or scale", field=where)
+        if "offset" in v:
+            relative[k] = {"offset": vec3(v["offset"], f"{where}.offset", tmax)}
+        else:
+            relative[k] = {"scale": _scale(v["scale"], f"{where}.scale")}
+    features = {}
+    for k, v in doc.get("features", {}).items():
+        where = f"MOVE.features.{k}"
+        check_keys(v, ("scale",), where)
+        features[k] = _scale(v.get("scale", 1.0), f"{where}.scale")
+    motion = {}
+    for k, v in doc.get("motion", {}).items():
+        where = f"MOVE.motion.{k}"
+        check_keys(v, ("point",), where)
+        expect("point" in v, f"{where} needs a point", field=where)
+        motion[k] = pos(v["point"], f"{where}.point")
+    return Move(out, points, relative, features, motion)

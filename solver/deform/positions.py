@@ -1,0 +1,236 @@
+"""Position solves of eq. (4.2)/(4.3): the split and the joint precompute.
+
+``joint``
+    The least-squares problem (4.2)/(4.3) over all vertices at once, hard
+    constraints eliminated (the null-space method with a selection matrix).
+``split``
+    When no interior row is tied to a known vertex by the constraints, the
+    interior rows of (4.2) can be met exactly for any boundary, so the joint
+    optimum is: boundary vertices from the boundary rows alone, then interior
+    vertices from the square mean-value system. Interior vertices that are
+    constrained (fixed volumes) keep their known positions and their rows are
+    dropped -- see the README for the measured difference to ``joint``.
+
+Each is one immutable object holding its factorizations (:class:`SplitPositions`:
+the boundary system and the interior LU; :class:`JointPositions`: one
+system), built by :func:`positions_precompute`. ``solve`` only
+back-substitutes, in residual form: every system is solved for the
+displacement of the free vertices from their rest positions, so round-off
+scales with the change, not with the coordinates (a zero move gives exactly
+the rest shape).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..constraints.move import HandleMove, Move
+from ..constraints.spec import Spec
+from ..linalg import factorization as fz
+from ..linalg.constrained import ConstrainedSolver, constrained_solver
+from ..mesh import Mesh
+from .constraint_set import ConstraintSet
+from .operators import Operators, csr
+from .rhs import RightHandSides
+from .rotation_field import REFINE_STEPS
+from .thin_walls import WallRows
+
+__all__ = ["Positions", "SplitPositions", "JointPositions", "positions_precompute", "REFINE_TOL"]
+
+#: The refinement step is skipped when, for a probe move at set-up, it moves no
+#: vertex by more than this fraction of the diagonal (:func:`refinement_probe`).
+REFINE_TOL = 1e-11
+
+
+@dataclass(frozen=True, eq=False)
+class Positions:
+    """What both position solves share.
+
+    Attributes
+    ----------
+    system : ConstrainedSolver or None
+        The least-squares system with its hard constraints (boundary rows for
+        split, every row for joint).
+    unknowns : (u,) int array
+        Its unknown vertices.
+    rows : (l,) int array
+        Vertices of its soft rows, in row order (thin-wall rows follow).
+    vector : bool
+        Whether the unknowns are interleaved coordinates (3 per vertex).
+    refine_steps : int
+        Refinement steps per solve (0 or :data:`~solver.deform.rotation_field.REFINE_STEPS`).
+    refine_probe : float
+        Size of the refinement step for the probe move at set-up.
+    factorizations : int
+    """
+
+    system: ConstrainedSolver | None
+    unknowns: np.ndarray
+    rows: np.ndarray
+    vector: bool
+    refine_steps: int
+    refine_probe: float
+    factorizations: int
+
+    mode = "joint"
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the factors."""
+        return self.system.nbytes if self.system is not None else 0
+
+    @property
+    def lu_backend(self) -> str | None:
+        """Backend of the interior LU (split only)."""
+        return None
+
+    def _layout(self, X: np.ndarray) -> np.ndarray:
+        return X.reshape(-1, 1) if self.vector else X
+
+    def _unlayout(self, x: np.ndarray) -> np.ndarray:
+        return x.reshape(-1, 3) if self.vector else x
+
+    def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
+        """Corner positions (n, 3) for one MOVE's right-hand sides (mid-side nodes at rest)."""
+        P = V0.copy()
+        P[constrained] = rhs.U
+        if self.system is not None:
+            u = self.unknowns
+            x = self.system.solve(self._layout(V0[u]), rhs.d, self._layout(rhs.c), refine=self.refine_steps)
+            P[u] = self._unlayout(x)
+        return P
+
+
+@dataclass(frozen=True, eq=False)
+class JointPositions(Positions):
+    """Every row of eq. (4.2) in one constrained least-squares system."""
+
+    mode = "joint"
+
+
+@dataclass(frozen=True, eq=False)
+class SplitPositions(Positions):
+    """The boundary system, then the square mean-value system of the free interior vertices.
+
+    Attributes
+    ----------
+    free_interior : (f,) int array
+        Interior vertices in no fixed or handle selection.
+    Mfi : (f, n) csr matrix
+        Their mean-value rows ``p_i - sum_j w_ij p_j``.
+    interior : Factor or None
+        LU of ``Mfi[:, free_interior]``.
+    """
+
+    free_interior: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    Mfi: sp.csr_matrix | None = None
+    interior: fz.Factor | None = None
+
+    mode = "split"
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the factors and the interior rows."""
+        total = super().nbytes
+        if self.interior is not None:
+            total += int(self.interior.nbytes)
+        if self.Mfi is not None:
+            total += int(self.Mfi.data.nbytes + self.Mfi.indices.nbytes + self.Mfi.indptr.nbytes)
+        return total
+
+    @property
+    def lu_backend(self) -> str | None:
+        """Backend of the interior LU."""
+        return self.interior.name if self.interior is not None else None
+
+    def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
+        """Boundary, then interior positions (residual form: ``P_f -= M_ff^{-1} (M_f P)``)."""
+        P = super().solve(V0, constrained, rhs)
+        if self.interior is not None and self.Mfi is not None:
+            P[self.free_interior] -= self.interior.solve(self.Mfi @ P)
+        return P
+
+
+RhsFor = Callable[[Move, np.ndarray], RightHandSides]
+
+
+def refinement_probe(system: ConstrainedSolver, vector: bool, x0: np.ndarray, rhs: RightHandSides) -> float:
+    """Size of the refinement step for a probe move (largest vertex correction).
+
+    Residual form makes one back-substitution exact to round-off on
+    well-conditioned systems; slivers (large condition numbers) need the
+    refinement step.
+    """
+    lay = (lambda X: X.reshape(-1, 1)) if vector else (lambda X: X)
+    x = system.start(lay(x0), rhs.d)
+    c = lay(rhs.c)
+    x = x + system.step(system.gradient(x, c), x, rhs.d)
+    dx = system.step(system.gradient(x, c), x, rhs.d)
+    return float(np.abs(dx).max())
+
+
+def probe_move(cs: ConstraintSet) -> Move:
+    """Every handle turned 10 degrees and moved 1% of the diagonal."""
+    axis = np.array([0.36, 0.48, 0.8])
+    return Move({h: HandleMove(0.01 * cs.diag * axis, np.radians(10.0) / 2 * axis) for h in cs.handle_names})
+
+
+def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators, walls: WallRows | None,
+                         rhs_for: RhsFor) -> Positions:
+    """Assemble and factor the position solve that ``cs.mode`` names.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    spec : Spec
+    cs : ConstraintSet
+    ops : Operators
+    walls : WallRows or None
+    rhs_for : callable
+        ``rhs_for(move, rows) -> RightHandSides`` for the refinement probe.
+
+    Returns
+    -------
+    SplitPositions or JointPositions
+
+    Raises
+    ------
+    FactorizationError
+    """
+    if cs.mode == "joint":
+        rows = np.flatnonzero(mesh.referenced)
+        A = csr(ops.Lb + sp.diags(ops.wi) @ ops.Mi)  # every row of eq. (4.2), weighted
+        A = csr(A[rows][:, rows])
+        what = "position system (joint)"
+    else:
+        rows = cs.bidx
+        A = csr(ops.Lb[rows][:, rows]) if rows.size else None
+        what = "boundary position system"
+    system = None
+    if A is not None and cs.pasm is not None:
+        if walls is not None:
+            A = csr(sp.vstack([A, walls.matrix(rows, mesh.n)]))
+        if cs.vector:
+            A = sp.kron(A, sp.identity(3), format="csr")
+        system = constrained_solver(cs.pasm.C, A=A, method=spec.method, beta=spec.penalty_weight, what=what,
+                                    analysis=cs.pra)
+    probe = 0.0
+    if system is not None and cs.handle_names:
+        probe = refinement_probe(system, cs.vector, mesh.V[cs.unknowns], rhs_for(probe_move(cs), rows))
+    steps = 0 if probe <= REFINE_TOL * cs.diag else REFINE_STEPS
+    nf = system.factorizations if system is not None else 0
+    common = dict(system=system, unknowns=cs.unknowns, rows=rows, vector=cs.vector, refine_steps=steps,
+                  refine_probe=probe)
+    if cs.mode == "joint":
+        return JointPositions(factorizations=nf, **common)  # type: ignore[arg-type]
+    fi = np.flatnonzero(mesh.interior & ~np.isin(np.arange(mesh.n), cs.constrained) & mesh.referenced)
+    Mfi = interior = None
+    if fi.size:
+        Mfi = csr(ops.Mi[fi])
+        interior = fz.lu(Mfi[:, fi].tocsc(), "interior mean-value system")
+        nf += 1
+    return SplitPositions(factorizations=nf, free_interior=fi, Mfi=Mfi, interior=interior, **common)  # type: ignore

@@ -1,0 +1,155 @@
+"""Precompute: everything a MOVE needs, assembled and factored once (libigl's ``*_precompute``).
+
+:func:`deform_precompute` returns a frozen :class:`DeformData`; the
+functions of :mod:`solver.deform.solve` take it and a MOVE and return values.
+Nothing in it is written after it is built, so one instance serves
+concurrent solves (factor backends that keep work space in the factor
+serialize their own back-substitutions, :mod:`solver.linalg.factorization`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..constraints.move import Move
+from ..constraints.spec import Spec
+from ..mesh import Mesh
+from ..validity.check import ElementCheck
+from ..validity.midside import MidsideNodes
+from .constraint_set import ConstraintSet, constraint_set
+from .operators import operators
+from .positions import Positions, positions_precompute
+from .rhs import RightHandSides, handle_targets, right_hand_sides
+from .rotation_field import RotationField, rotation_field_precompute
+from .thin_walls import WallRows, wall_rows
+
+__all__ = ["DeformData", "deform_precompute"]
+
+Progress = Callable[[str, float], None]
+
+
+@dataclass(frozen=True, eq=False)
+class DeformData:
+    """The precomputed deformation of one mesh under one SPEC (immutable).
+
+    Attributes
+    ----------
+    mesh : Mesh
+    spec : Spec
+    constraints : ConstraintSet
+    delta : (n, 3) float array
+        Rest mean curvature normals (eq. 3.1).
+    walls : WallRows or None
+    rotation : RotationField
+    positions : SplitPositions or JointPositions
+    midside : MidsideNodes or None
+        Quadratic meshes: the mid-side placement.
+    pinned_mid : (p,) int array
+        Mid-side nodes held by fixed and handle selections.
+    check : ElementCheck or None
+        The element check (None for triangle surfaces).
+    setup_timings : dict
+        ``assembly_ms``, ``rotation_factorization_ms``, ``position_factorization_ms``, ``total_ms``.
+    factorizations : int
+        Factorizations made by this precompute (its own count).
+    """
+
+    mesh: Mesh
+    spec: Spec
+    constraints: ConstraintSet
+    delta: np.ndarray
+    walls: WallRows | None
+    rotation: RotationField
+    positions: Positions
+    midside: MidsideNodes | None
+    pinned_mid: np.ndarray
+    check: ElementCheck | None
+    setup_timings: dict[str, float]
+    factorizations: int
+
+    def rhs(self, move: Move) -> RightHandSides:
+        """Right-hand sides of a parsed MOVE."""
+        p = self.positions
+        return right_hand_sides(self.mesh, self.constraints, self.rotation, self.delta, self.walls, p.rows,
+                                p.system is not None, move)
+
+    def pinned_targets(self, move: Move) -> np.ndarray:
+        """Targets (p, 3) of the fixed and handle mid-side nodes."""
+        return handle_targets(self.mesh, self.constraints, move, self.pinned_mid)
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the factors, operators and rotation basis, in bytes."""
+        return int(self.rotation.nbytes + self.delta.nbytes + self.positions.nbytes)
+
+
+def _touch_topology(mesh: Mesh) -> None:
+    """Fill the mesh's cached topology now, so that no solve writes it."""
+    for name in ("F", "referenced", "boundary", "interior", "body_labels", "shell_labels"):
+        getattr(mesh, name)
+    if mesh.cells or not mesh.is_surface:
+        _ = mesh.edges
+
+
+def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) -> DeformData:
+    """Assemble and factor the deformation of ``mesh`` under a parsed ``spec``.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    spec : Spec
+    progress : callable, optional
+        ``progress(stage, fraction)`` as set-up advances, with ``stage`` in
+        ``"constraints"`` (selections resolved and checked: every SPEC error
+        has been raised by then), ``"assembly"``, ``"rotation"``,
+        ``"positions"``, ``"done"``.
+
+    Returns
+    -------
+    DeformData
+
+    Raises
+    ------
+    SpecError, ConstraintError, FactorizationError
+    """
+    t0 = time.perf_counter()
+    report: Progress = progress or (lambda stage, fraction: None)
+    _touch_topology(mesh)
+    cs = constraint_set(mesh, spec)
+    report("constraints", 0.05)
+    ops = operators(mesh, spec)
+    walls = wall_rows(mesh, spec.thin_walls, ops.Lb)
+    t_assembly = time.perf_counter() - t0
+    report("assembly", 0.35)
+    t1 = time.perf_counter()
+    rotation = rotation_field_precompute(mesh, spec, cs, ops)
+    t_rot = time.perf_counter() - t1
+    report("rotation", 0.5)
+    t2 = time.perf_counter()
+
+    def rhs_for(move: Move, rows: np.ndarray) -> RightHandSides:
+        return right_hand_sides(mesh, cs, rotation, ops.delta, walls, rows, True, move)
+
+    positions = positions_precompute(mesh, spec, cs, ops, walls, rhs_for)
+    t_pos = time.perf_counter() - t2
+    report("positions", 0.95)
+    midside = MidsideNodes(mesh.V, mesh.T10) if mesh.T10 is not None else None
+    check = None if mesh.is_surface else ElementCheck(mesh.V, mesh.T, mesh.cells, mesh.T10)
+    timings = {"assembly_ms": 1e3 * t_assembly, "rotation_factorization_ms": 1e3 * t_rot,
+               "position_factorization_ms": 1e3 * t_pos, "total_ms": 1e3 * (time.perf_counter() - t0)}
+    data = DeformData(mesh=mesh, spec=spec, constraints=cs, delta=ops.delta, walls=walls, rotation=rotation,
+                      positions=positions, midside=midside, pinned_mid=cs.pinned_mid, check=check,
+                      setup_timings=timings, factorizations=rotation.factorizations + positions.factorizations)
+    report("done", 1.0)
+    return data
+
+
+def describe_setup(data: DeformData) -> dict[str, Any]:
+    """Set-up facts for a session document: timings, factorizations, bytes, solve mode."""
+    return {"timings": data.setup_timings, "factorizations": data.factorizations, "nbytes": data.nbytes,
+            "solve_mode": data.constraints.mode}

@@ -1,0 +1,110 @@
+"""Solve: a MOVE through the precompute, by back-substitution only (libigl's ``*_solve``).
+
+Every function here is pure: it reads a :class:`~solver.deform.precompute.DeformData`
+and a parsed MOVE and returns values.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..constraints.move import Move
+from ..linalg import factorization as fz
+from ..validity.check import CheckResult
+from ..validity.midside import Placement
+from .precompute import DeformData
+from .report import Report, constraint_report, element_report
+
+__all__ = ["Solved", "solve_positions", "check_positions", "evaluate"]
+
+
+@dataclass(frozen=True, eq=False)
+class Solved:
+    """The positions of one MOVE and what they were solved against.
+
+    Attributes
+    ----------
+    P : (n, 3) float array
+        Positions in file order (unreferenced vertices at rest).
+    U : (k, 3) float array
+        Targets of the fixed and handle corner nodes.
+    d : array or None
+        Targets of the position system's hard rows.
+    pinned_at : (p, 3) float array
+        Targets of the fixed and handle mid-side nodes (``DeformData.pinned_mid``).
+    placement : Placement or None
+        Quadratic meshes: the mid-side placement (its node Jacobians).
+    """
+
+    P: np.ndarray
+    U: np.ndarray
+    d: np.ndarray | None
+    pinned_at: np.ndarray
+    placement: Placement | None = None
+
+    def with_positions(self, P: np.ndarray) -> Solved:
+        """The same solve with other positions (after repair)."""
+        return Solved(P, self.U, self.d, self.pinned_at, None)
+
+
+def solve_positions(data: DeformData, move: Move) -> Solved:
+    """Positions for a parsed MOVE (eq. 4.2/4.3 by back-substitution; mid-side nodes placed after).
+
+    Fixed and handle mid-side nodes are set exactly to their targets; the
+    others follow their edges (:class:`~solver.validity.midside.MidsideNodes`).
+    """
+    rhs = data.rhs(move)
+    P = data.positions.solve(data.mesh.V, data.constraints.constrained, rhs)
+    pinned_at = data.pinned_targets(move)
+    placement = None
+    if data.midside is not None and data.check is not None:
+        placement = data.midside.place(P, data.check.valid_rest, data.pinned_mid, pinned_at)
+        P = placement.P
+    return Solved(P, rhs.U, rhs.d, pinned_at, placement)
+
+
+def check_positions(data: DeformData, solved: Solved) -> CheckResult | None:
+    """The element check at ``solved.P`` (None for triangle surfaces)."""
+    if data.check is None:
+        return None
+    return data.check.check(solved.P, solved.placement)
+
+
+def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | None = None) -> Report:
+    """The REPORT of one solve (no policy, no timings).
+
+    Parameters
+    ----------
+    data : DeformData
+    solved : Solved
+    move : Move
+    check : CheckResult, optional
+        Reused when given, else computed.
+
+    Returns
+    -------
+    Report
+    """
+    cs = data.constraints
+    cons = constraint_report(cs, data.positions.system, data.rotation, solved.P, solved.U, solved.d,
+                             data.pinned_mid, solved.pinned_at, move)
+    if check is None:
+        check = check_positions(data, solved)
+    el = element_report(check, data.check.valid_rest) if check is not None and data.check is not None else {
+        "inverted_elements": 0, "inverted_ids": [], "degenerate_elements": 0,
+        "min_scaled_jacobian": None, "p01_scaled_jacobian": None}
+    before = data.check.sj_before if data.check is not None else (None, None)
+    disp = np.linalg.norm(solved.P - data.mesh.V, axis=1)
+    relaxed = solved.placement.relaxed if solved.placement is not None else None
+    return Report(
+        **el, min_scaled_jacobian_before=before[0], p01_scaled_jacobian_before=before[1],
+        constraint_residual_max=cons.residual_max,
+        constraint_residual_relative=cons.residual_max / cs.diag if cs.diag else 0.0,
+        constraint_rows=cons.rows, redundant_constraints=cons.redundant,
+        conflicting_constraints=cons.conflicting,
+        max_displacement=float(disp.max()) if disp.size else 0.0,
+        solve_method=data.spec.method, solve_mode=data.positions.mode, refine_steps=data.positions.refine_steps,
+        backend=fz.backend(), lu_backend=data.positions.lu_backend,
+        finite=bool(np.isfinite(solved.P).all()), midside_relaxed=relaxed)

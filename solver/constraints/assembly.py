@@ -50,8 +50,23 @@ def assemble(blocks: list[Block], umap: np.ndarray, N: int, vector: bool) -> Ass
     ValueError
         A row mixes unknown and non-unknown vertices.
     """
-    Cr, Cc, Cv = [], [], []
-    blk, loc, crd = [], [], []
+    Cr: list[np.ndarray] = []
+    Cc: list[np.ndarray] = []
+    Cv: list[np.ndarray] = []
+    blk: list[np.ndarray] = []
+    loc: list[np.ndarray] = []
+    crd: list[np.ndarray] = []
+
+    def put(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
+        Cr.append(rows)
+        Cc.append(cols)
+        Cv.append(vals)
+
+    def tag(block: np.ndarray, local: np.ndarray, coord: np.ndarray) -> None:
+        blk.append(block)
+        loc.append(local)
+        crd.append(coord)
+
     m = 0
     for b_i, b in enumerate(blocks):
         u = umap[b.vert]
@@ -70,22 +85,22 @@ def assemble(blocks: list[Block], umap: np.ndarray, N: int, vector: bool) -> Ass
         r, uu, cv = newrow[b.row[e]], u[e], b.coeff[e]
         k = keep_rows.size
         if not vector:
-            Cr.append(m + r), Cc.append(uu), Cv.append(cv)
-            blk.append(np.full(k, b_i)), loc.append(keep_rows), crd.append(np.full(k, -1))
+            put(m + r, uu, cv)
+            tag(np.full(k, b_i), keep_rows, np.full(k, -1))
             m += k
-        elif b.vector:
+        elif b.normal is not None:
             nrm = b.normal[b.row[e]]  # (e, 3)
-            Cr.append(np.repeat(m + r, 3)), Cc.append((3 * uu[:, None] + np.arange(3)).ravel())
-            Cv.append((cv[:, None] * nrm).ravel())
-            blk.append(np.full(k, b_i)), loc.append(keep_rows), crd.append(np.full(k, -1))
+            put(np.repeat(m + r, 3), (3 * uu[:, None] + np.arange(3)).ravel(), (cv[:, None] * nrm).ravel())
+            tag(np.full(k, b_i), keep_rows, np.full(k, -1))
             m += k
         else:
             for c in range(3):
-                Cr.append(m + 3 * r + c), Cc.append(3 * uu + c), Cv.append(cv)
-            blk.append(np.full(3 * k, b_i)), loc.append(np.repeat(keep_rows, 3))
-            crd.append(np.tile(np.arange(3), k))
+                put(m + 3 * r + c, 3 * uu + c, cv)
+            tag(np.full(3 * k, b_i), np.repeat(keep_rows, 3), np.tile(np.arange(3), k))
             m += 3 * k
-    cat = (lambda p, dt: np.concatenate(p).astype(dt) if p else np.zeros(0, dt))
+    def cat(p: list[np.ndarray], dt: type) -> np.ndarray:
+        return np.concatenate(p).astype(dt) if p else np.zeros(0, dt)
+
     C = sp.csr_matrix((cat(Cv, float), (cat(Cr, np.int64), cat(Cc, np.int64))),
                       shape=(m, 3 * N if vector else N))
     return Assembly(C, cat(blk, np.int64), cat(loc, np.int64), cat(crd, np.int64), vector)

@@ -67,7 +67,7 @@ def face_adjacency(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _dihedral_cos(N: np.ndarray, pairs: np.ndarray) -> np.ndarray:
-    """cos of the angle between the normals of adjacent faces (1 = flat)."""
+    """Cosine of the angle between the normals of adjacent faces (1 = flat)."""
     return np.clip(np.einsum("ij,ij->i", N[pairs[:, 0]], N[pairs[:, 1]]), -1.0, 1.0)
 
 

@@ -116,7 +116,10 @@ def _fixed_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
 
 def _handle_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
     hm = mv.handles.get(b.name)
-    return b.rest if hm is None else hm.apply(b.rest, b.pivot)
+    if hm is None:
+        return b.rest
+    assert b.pivot is not None
+    return hm.apply(b.rest, b.pivot)
 
 
 def _tie_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:

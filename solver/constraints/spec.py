@@ -471,9 +471,9 @@ def point_def(e: dict[str, Any], where: str, selections: dict[str, Any]) -> Poin
         return PointDef(tuple(ids), (t, 1.0 - t))
     if form == "face":
         ids = int_list(e["face"], f"{where}.face", 3)
-        w = e.get("barycentric")
-        expect(isinstance(w, list) and len(w) == 3, f"{where}.barycentric must be 3 numbers", field=where)
-        w = [number(x, f"{where}.barycentric", 0.0, 1.0) for x in w]
+        bary = e.get("barycentric", [])
+        expect(isinstance(bary, list) and len(bary) == 3, f"{where}.barycentric must be 3 numbers", field=where)
+        w = [number(x, f"{where}.barycentric", 0.0, 1.0) for x in bary]
         expect(abs(sum(w) - 1.0) <= 1e-9, f"{where}.barycentric must sum to 1, got {w}", field=where)
         return PointDef(tuple(ids), tuple(w))
     ids = int_list(e["vertices"], f"{where}.vertices")

@@ -99,6 +99,7 @@ class Positions:
         P = V0.copy()
         P[constrained] = rhs.U
         if self.system is not None:
+            assert rhs.d is not None
             u = self.unknowns
             x = self.system.solve(self._layout(V0[u]), rhs.d, self._layout(rhs.c), refine=self.refine_steps)
             P[u] = self._unlayout(x)
@@ -165,11 +166,16 @@ def refinement_probe(system: ConstrainedSolver, vector: bool, x0: np.ndarray, rh
     well-conditioned systems; slivers (large condition numbers) need the
     refinement step.
     """
-    lay = (lambda X: X.reshape(-1, 1)) if vector else (lambda X: X)
-    x = system.start(lay(x0), rhs.d)
+    d = rhs.d
+    assert d is not None
+
+    def lay(X: np.ndarray) -> np.ndarray:
+        return X.reshape(-1, 1) if vector else X
+
+    x = system.start(lay(x0), d)
     c = lay(rhs.c)
-    x = x + system.step(system.gradient(x, c), x, rhs.d)
-    dx = system.step(system.gradient(x, c), x, rhs.d)
+    x = x + system.step(system.gradient(x, c), x, d)
+    dx = system.step(system.gradient(x, c), x, d)
     return float(np.abs(dx).max())
 
 

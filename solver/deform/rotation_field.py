@@ -131,9 +131,11 @@ def rotation_field_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Op
 
 
 def _extend(mesh: Mesh, known: np.ndarray, Phi: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """Rotation basis at internal-void vertices: the harmonic extension of the outer
-    shells' field through the elements (graph Laplacian of their edges, Dirichlet on
-    ``known``), so a void turns with the volume around it."""
+    """Rotation basis at internal-void vertices: the outer shells' field extended harmonically.
+
+    The graph Laplacian of the element edges, Dirichlet on ``known``: a void turns
+    with the volume around it.
+    """
     n = mesh.n
     Lv = uniform_matrix(mesh.edges if mesh.cells else mesh.T, n)
     isknown = np.zeros(n, bool)

@@ -1,5 +1,4 @@
-"""Files: reading with meshio, writing back in place where a patcher is registered, and
-tetrahedralizing closed surfaces."""
+"""Files: reading with meshio, writing back in place where a patcher is registered, tetrahedralizing."""
 
 from .patchers import PATCHERS, Patcher, patcher_for
 from .read import mesh_from_meshio, read_mesh

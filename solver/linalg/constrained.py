@@ -34,7 +34,7 @@ back-substitutes, so one instance may serve concurrent solves.
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -267,7 +267,7 @@ class PenaltySolver(_Quadratic):
 
 
 #: The methods by SPEC name.
-METHODS: dict[str, type[_Quadratic]] = {"null_space": NullSpaceSolver, "kkt": KKTSolver, "penalty": PenaltySolver}
+METHODS: dict[str, Any] = {"null_space": NullSpaceSolver, "kkt": KKTSolver, "penalty": PenaltySolver}
 
 
 def constrained_solver(C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.spmatrix | None = None,
@@ -315,4 +315,5 @@ def constrained_solver(C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.sp
     cls = METHODS.get(method)
     if cls is None:
         raise ValueError(f"method must be one of {list(METHODS)}, got {method!r}")
-    return cls(C, A=A, H=H, what=what, rank_tol=rank_tol, analysis=analysis, beta=beta)  # type: ignore[return-value]
+    solver: ConstrainedSolver = cls(C, A=A, H=H, what=what, rank_tol=rank_tol, analysis=analysis, beta=beta)
+    return solver

@@ -286,13 +286,13 @@ class _PardisoFactor:
         # scaling and weighted matching (11, 13; MKL's defaults for non-symmetric and the advice
         # for highly indefinite matrices), report the factor's size (18). Saddle-point (KKT)
         # systems keep two refinement steps and Bunch-Kaufman pivoting (21).
-        iparms = {1: 1, 2: 3, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1}
+        iparms: dict[int, int] = {1: 1, 2: 3, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1}
         if indefinite:
             iparms.update({8: 2, 21: 1})
         elif symmetric:  # positive definite: no pivoting, scaling or matching
             iparms.update({10: 0, 11: 0, 13: 0})
-        for i, v in iparms.items():
-            self._ps.set_iparm(i, v)
+        for key, v in iparms.items():
+            self._ps.set_iparm(key, v)
         self._ps.set_statistical_info_off()
         try:
             self._ps.factorize(self._A)

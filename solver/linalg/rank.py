@@ -225,7 +225,9 @@ def rank_analysis(C: sp.csr_matrix, rank_tol: float = RANK_TOL) -> RankAnalysis:
                     z_c.append(np.tile(ncol + np.arange(q), u))
                     z_v.append(Q2.ravel())
                     ncol += q
-    cat = (lambda parts, dt: np.concatenate(parts).astype(dt) if parts else np.zeros(0, dt))
+    def cat(parts: list, dt: type) -> np.ndarray:
+        return np.concatenate(parts).astype(dt) if parts else np.zeros(0, dt)
+
     Xp = sp.csr_matrix((cat(xp_v, float), (cat(xp_r, np.int64), cat(xp_c, np.int64))), shape=(N, m))
     Zc = sp.csr_matrix((cat(z_v, float), (cat(z_r, np.int64), cat(z_c, np.int64))), shape=(N, ncol))
     free = np.flatnonzero(~touched)

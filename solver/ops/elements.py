@@ -220,8 +220,10 @@ def element_volumes(V: np.ndarray, E: np.ndarray, kind: str) -> np.ndarray:
 
 
 def element_blocks(T: np.ndarray, cells: dict[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
-    """Non-empty volume element blocks ``(type, connectivity)`` in element-numbering order:
-    the tets, then the other types in :data:`LINEAR_TYPES` order."""
+    """Non-empty volume element blocks ``(type, connectivity)`` in element-numbering order.
+
+    The tets, then the other types in :data:`LINEAR_TYPES` order.
+    """
     out = [("tetra", T)] if len(T) else []
     return out + [(k, cells[k]) for k in LINEAR_TYPES[1:] if k in cells and len(cells[k])]
 
@@ -266,7 +268,8 @@ def boundary_faces(blocks: list[tuple[str, np.ndarray]], n: int) -> tuple[np.nda
     """
     from ..errors import InvalidMeshError, format_ids
 
-    tris, quads = [], []
+    tris: list[tuple[np.ndarray, np.ndarray]] = []
+    quads: list[tuple[np.ndarray, np.ndarray]] = []
     base = 0
     for kind, E in blocks:
         eid = base + np.arange(len(E))

@@ -72,10 +72,12 @@ def _mvc_kernel(x, Q, eps, w, on_face):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, error_model="numpy")
 def mvc_pair(x, q0, q1, q2, eps, w, wk):  # pragma: no cover - compiled
-    """Weights ``w`` (3,) that triangle ``(q0, q1, q2)`` gives its corners for point ``x``
-    (Ju et al., Fig. 4, with the corner, near-face and coplanar cases; non-finite
-    weights become 0). Returns whether ``x`` lies on the triangle. ``wk`` is (8, 3)
-    scratch. Compiled; callable from other numba kernels."""
+    """Weights ``w`` (3,) that triangle ``(q0, q1, q2)`` gives its corners for point ``x``.
+
+    Ju et al., Fig. 4, with the corner, near-face and coplanar cases; non-finite
+    weights become 0. Returns whether ``x`` lies on the triangle. ``wk`` is (8, 3)
+    scratch. Compiled; callable from other numba kernels.
+    """
     U = wk[0:3]  # corner directions, unit after the corner test
     d, theta, sin_t, cc, ss = wk[3], wk[4], wk[5], wk[6], wk[7]
     for j in range(3):

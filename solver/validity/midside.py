@@ -45,7 +45,7 @@ def _reference_nodes() -> np.ndarray:
 
 
 def _shape_gradients() -> np.ndarray:
-    """d N_i / d xi_k at each node: (10 nodes, 10 shape functions, 3).
+    """Derivatives d N_i / d xi_k at each node: (10 nodes, 10 shape functions, 3).
 
     xi = (L1, L2, L3), L0 = 1 - L1 - L2 - L3; N_i = L_i (2 L_i - 1) at corners,
     4 L_i L_j at the mid-side node of edge (i, j).

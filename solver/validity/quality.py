@@ -219,8 +219,8 @@ def dihedral_angles(V: np.ndarray, T: np.ndarray) -> np.ndarray:
     Nn = N / np.maximum(np.linalg.norm(N, axis=2, keepdims=True), 1e-300)
     out = np.empty((T.shape[0], 6))
     for e, (i, j) in enumerate(_EDGES):
-        k, l = (x for x in range(4) if x not in (i, j))
-        cosang = np.clip(-np.einsum("ij,ij->i", Nn[:, k], Nn[:, l]), -1.0, 1.0)
+        k, q = (x for x in range(4) if x not in (i, j))
+        cosang = np.clip(-np.einsum("ij,ij->i", Nn[:, k], Nn[:, q]), -1.0, 1.0)
         out[:, e] = np.degrees(np.arccos(cosang))
     return out
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -110,7 +111,7 @@ def repair_inverted(V0: np.ndarray, P: np.ndarray, T: np.ndarray, movable: np.nd
     """
     t0 = time.perf_counter()
     bad0, sj0 = _bad(P, T)
-    rep = {"attempted": True, "inverted_before": int(bad0.sum()),
+    rep: dict[str, Any] = {"attempted": True, "inverted_before": int(bad0.sum()),
            "min_scaled_jacobian_before": float(sj0.min())}
     if not bad0.any():
         rep.update(success=True, accepted=False, inverted_after=0, repaired_elements=[], moved_vertices=0,
@@ -128,7 +129,7 @@ def repair_inverted(V0: np.ndarray, P: np.ndarray, T: np.ndarray, movable: np.nd
     passes = 0
     moved = np.zeros(n, bool)
     bad = bad0
-    for passes in range(1, max_passes + 1):
+    for passes in range(1, max_passes + 1):  # noqa: B007 - the count is reported after the loop
         verts = np.zeros(n, bool)
         verts[T[tets].ravel()] = True
         idx = np.flatnonzero(verts & movable)

@@ -3,7 +3,6 @@
 The assembly is bracket.inp (gmsh) and its mirror image about its x = 100 end face: two
 parts whose end faces meet node for node, as parts of a CAE assembly do.
 """
-
 from __future__ import annotations
 
 import numpy as np

@@ -1,5 +1,4 @@
 """Feature extraction: min-cut regions (Form features §4.3) and automatic hole/boss/plane candidates."""
-
 from __future__ import annotations
 
 import json
@@ -12,7 +11,9 @@ from solver import SpecError, precompute, read_mesh
 from solver.cli import main
 from solver.constraints.features import feature_candidates, feature_region
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
 PLATE_HOLES = {1: (160 / 3, 80 / 3), 2: (320 / 3, 80 / 3), 3: (160 / 3, 160 / 3), 4: (320 / 3, 160 / 3)}
 
 

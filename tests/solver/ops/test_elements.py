@@ -1,5 +1,4 @@
 """Hexahedra, wedges and pyramids next to tetrahedra (tests/data/mixed.msh, made by make_mixed.py)."""
-
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,11 +14,18 @@ from solver.ops.elements import CORNERS, FACES, MIRROR, corner_jacobians, elemen
 from solver.ops.mvc_matrix import mvc_matrix
 from solver.validity.quality import element_quality
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[2] / "data"
+
+
 MIXED = DATA / "mixed.msh"
+
+
 SPEC = {"selections": {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}}, "fixed": ["fix"],
         "handles": {"tip": "load"}}
+
+
 BEND = {"handles": {"tip": {"translation": [0, 0, 4], "rotation": {"axis": [0, 1, 0], "angle_deg": -15}}}}
+
 
 # Reference nodes of the trilinear hexahedron and the linear wedge (VTK order, gmsh winding for the
 # wedge); each element's Jacobian at its own nodes is compared in sign with the rest shape, so the

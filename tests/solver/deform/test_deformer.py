@@ -1,5 +1,4 @@
 """Properties of the deformation: identity, rigid motions, exact constraints, joint = split."""
-
 from __future__ import annotations
 
 import numpy as np
@@ -19,8 +18,7 @@ from solver.constraints.move import axis_angle_matrix
 from solver.linalg import factorization as fz
 from solver.testing import cube_mesh, sphere_surface
 from solver.validity.quality import signed_volumes
-
-from .conftest import DATA, bend_move, bend_spec, load, longest_axis, slab
+from tests.conftest import DATA, bend_move, bend_spec, load, longest_axis, slab
 
 REAL = ["Armadillo13K.msh", "screw.msh", "beam.node"]
 
@@ -40,6 +38,24 @@ def _cube():
     return mesh_from_arrays(*cube_mesh(4))
 
 
+def _rigid(rng):
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    angle = float(rng.uniform(-150, 150))
+    t = rng.normal(size=3)
+    return axis, angle, t
+
+
+_CACHE = {}
+
+
+def _cube_deformer():
+    if "d" not in _CACHE:
+        m = _cube()
+        _CACHE["d"] = precompute(m, bend_spec(m))
+    return _CACHE["d"]
+
+
 @pytest.mark.parametrize("name", REAL)
 def test_zero_move_is_identity(name):
     m = load(name)
@@ -48,14 +64,6 @@ def test_zero_move_is_identity(name):
     _, diag = longest_axis(m)
     assert np.abs(r.V - m.V).max() <= 1e-10 * diag
     assert r.report["inverted_elements"] == 0
-
-
-def _rigid(rng):
-    axis = rng.normal(size=3)
-    axis /= np.linalg.norm(axis)
-    angle = float(rng.uniform(-150, 150))
-    t = rng.normal(size=3)
-    return axis, angle, t
 
 
 @pytest.mark.parametrize("name", ["Armadillo13K.msh", "beam.node", "screw.msh"])
@@ -269,13 +277,3 @@ def test_random_moves_keep_constraints_exact(t, angle, scale):
     assert np.isfinite(r.V).all()
     assert r.report["constraint_residual_max"] <= 1e-12
     assert np.abs(r.V[d.data.constraints.owner == -2] - m.V[d.data.constraints.owner == -2]).max() == 0.0
-
-
-_CACHE = {}
-
-
-def _cube_deformer():
-    if "d" not in _CACHE:
-        m = _cube()
-        _CACHE["d"] = precompute(m, bend_spec(m))
-    return _CACHE["d"]

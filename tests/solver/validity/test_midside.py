@@ -4,7 +4,6 @@ Real decks from ../shared/data/tet: kiefer_fea_bracket.vtu (curved tetra10, mid-
 nodes up to 13% of the edge off the chord), tractor_wheel_coarse.INP (C3D10) and
 segmenttet.inp (C3D10 with node sets; GPL-2.0, so it is read from ../shared, not copied).
 """
-
 from __future__ import annotations
 
 import numpy as np

@@ -36,6 +36,9 @@ RELATIVE_MODES = ("rotate", "translate")
 SOLVE_MODES = ("auto", "split", "joint")
 ROTATIONS = ("harmonic", "least_squares")
 INVERSION_POLICIES = ("warn", "reject", "clamp")
+#: Interior solve precision: a single-precision factor with a double-precision residual check
+#: (and one refinement step when it is not met), or the double-precision factor.
+PRECISIONS = ("mixed", "exact")
 SELECTION_KINDS = ("ids", "set", "box", "sphere", "plane")
 #: Largest penalty weight: beta**2 must stay far from float64 overflow (1e308) and the
 #: penalised system's condition number grows as beta**2 (measure_choices.py --only penalty).
@@ -202,6 +205,13 @@ class Spec:
     voids : {"volume", "refuse"}
         An internal void (a boundary shell with no fixed or handle vertex):
         positioned by the surrounding volume, or refused.
+    precision : {"mixed", "exact"}
+        The split solve's interior mean-value system: ``mixed`` factors it in
+        single precision (half the bytes per update), checks the double-precision
+        residual and refines once when it exceeds
+        :data:`~solver.deform.positions.MIXED_TOL`; the REPORT states the
+        residual. ``exact`` keeps a double-precision factor. Hard constraints
+        are exact either way.
     thin_walls : float
         Weight of the rows that tie the two faces of walls one tet thick
         (default ``THIN_WALL_WEIGHT``; 0 is the paper's method unchanged), see
@@ -227,6 +237,7 @@ class Spec:
     thin_walls: float = THIN_WALL_WEIGHT
     ties: Any = "auto"
     voids: str = "volume"
+    precision: str = "mixed"
 
     @property
     def names(self) -> dict[str, tuple[str, ...]]:
@@ -241,7 +252,7 @@ class Spec:
             "constraints": {"method": self.method, "penalty_weight": self.penalty_weight},
             "solve": self.solve, "rotation": self.rotation, "inversion": self.inversion,
             "conflicts": self.conflicts, "repair": self.repair, "thin_walls": self.thin_walls,
-            "ties": self.ties, "voids": self.voids,
+            "ties": self.ties, "voids": self.voids, "precision": self.precision,
         }
         for key in ("points", "relative", "features", "motion", "sliding"):
             if getattr(self, key):
@@ -384,7 +395,7 @@ def parse_spec(doc: Any) -> Spec:
     """
     check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
                      "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
-                     "conflicts", "repair", "thin_walls", "ties", "voids"), "SPEC")
+                     "conflicts", "repair", "thin_walls", "ties", "voids", "precision"), "SPEC")
     sels = doc.get("selections", {})
     expect(isinstance(sels, dict) and len(sels) > 0, "SPEC.selections must name at least one selection",
            field="selections")
@@ -418,7 +429,8 @@ def parse_spec(doc: Any) -> Spec:
                                   ("rotation", ROTATIONS, "harmonic"),
                                   ("inversion", INVERSION_POLICIES, "warn"),
                                   ("conflicts", CONFLICT_POLICIES, "report"),
-                                  ("voids", ("volume", "refuse"), "volume")):
+                                  ("voids", ("volume", "refuse"), "volume"),
+                                  ("precision", PRECISIONS, "mixed")):
         val = doc.get(key, default)
         expect(isinstance(val, str) and val in allowed, f"SPEC.{key} must be one of {list(allowed)}, got {val!r}",
                field=key)

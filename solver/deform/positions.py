@@ -39,8 +39,32 @@ from .rhs import RightHandSides
 from .rotation_field import REFINE_STEPS
 from .thin_walls import WallRows
 
-__all__ = ["Positions", "SplitPositions", "JointPositions", "positions_precompute", "REFINE_TOL"]
+__all__ = ["Positions", "SplitPositions", "JointPositions", "PositionSolve", "positions_precompute", "REFINE_TOL",
+           "MIXED_TOL"]
 
+
+@dataclass(frozen=True, eq=False)
+class PositionSolve:
+    """Positions of one solve and the accuracy of its interior part.
+
+    Attributes
+    ----------
+    P : (n, 3) float array
+        Corner positions (mid-side nodes at rest).
+    interior_residual : float or None
+        Mixed precision: the largest mean-value row residual ``|p_i - sum w_ij p_j|``
+        over the largest interior displacement (None for double precision).
+    refined : bool
+        Whether the interior solve took a refinement step.
+    """
+
+    P: np.ndarray
+    interior_residual: float | None = None
+    refined: bool = False
+
+#: Mixed precision: the interior solve is refined once when the relative mean-value residual
+#: (largest row residual over the largest interior displacement) exceeds this.
+MIXED_TOL = 1e-5
 #: The refinement step is skipped when, for a probe move at set-up, it moves no
 #: vertex by more than this fraction of the diagonal (:func:`refinement_probe`).
 REFINE_TOL = 1e-11
@@ -94,8 +118,17 @@ class Positions:
     def _unlayout(self, x: np.ndarray) -> np.ndarray:
         return x.reshape(-1, 3) if self.vector else x
 
-    def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
+    @property
+    def interior_precision(self) -> str | None:
+        """``"single"`` or ``"double"`` for the split solve's interior factor, else None."""
+        return None
+
+    def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> PositionSolve:
         """Corner positions (n, 3) for one MOVE's right-hand sides (mid-side nodes at rest)."""
+        return PositionSolve(self.boundary(V0, constrained, rhs))
+
+    def boundary(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
+        """Positions with the fixed and handle nodes and the system's unknowns solved."""
         P = V0.copy()
         P[constrained] = rhs.U
         if self.system is not None:
@@ -148,12 +181,41 @@ class SplitPositions(Positions):
         """Backend of the interior LU."""
         return self.interior.name if self.interior is not None else None
 
-    def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
+    @property
+    def interior_precision(self) -> str | None:
+        """Precision of the interior factor."""
+        if self.interior is None:
+            return None
+        return "single" if getattr(self.interior, "single", False) else "double"
+
+    def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> PositionSolve:
         """Boundary, then interior positions (residual form: ``P_f -= M_ff^{-1} (M_f P)``)."""
-        P = super().solve(V0, constrained, rhs)
-        if self.interior is not None and self.Mfi is not None:
-            P[self.free_interior] -= self.interior.solve(self.Mfi @ P)
-        return P
+        return self.interior_solve(self.boundary(V0, constrained, rhs))
+
+    def interior_solve(self, P: np.ndarray) -> PositionSolve:
+        """Interior positions for boundary positions ``P`` (a new array; ``P`` is not changed).
+
+        In single precision the double-precision residual of the mean-value rows
+        is measured, and one refinement step is taken when it exceeds
+        :data:`MIXED_TOL` of the interior displacement.
+        """
+        P = P.copy()
+        if self.interior is None or self.Mfi is None:
+            return PositionSolve(P)
+        fi = self.free_interior
+        dx = np.asarray(self.interior.solve(self.Mfi @ P), dtype=np.float64)
+        P[fi] -= dx
+        if self.interior_precision != "single":
+            return PositionSolve(P)
+        res = self.Mfi @ P
+        scale = max(float(np.sqrt((dx * dx).sum(axis=1)).max()), 1e-300)
+        rel = float(np.sqrt((res * res).sum(axis=1)).max()) / scale
+        refined = rel > MIXED_TOL
+        if refined:
+            P[fi] -= np.asarray(self.interior.solve(res), dtype=np.float64)
+            res = self.Mfi @ P
+            rel = float(np.sqrt((res * res).sum(axis=1)).max()) / scale
+        return PositionSolve(P, rel, refined)
 
 
 RhsFor = Callable[[Move, np.ndarray], RightHandSides]
@@ -237,6 +299,6 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
     Mfi = interior = None
     if fi.size:
         Mfi = csr(ops.Mi[fi])
-        interior = fz.lu(Mfi[:, fi].tocsc(), "interior mean-value system")
+        interior = fz.lu(Mfi[:, fi].tocsc(), "interior mean-value system", single=spec.precision == "mixed")
         nf += 1
     return SplitPositions(factorizations=nf, free_interior=fi, Mfi=Mfi, interior=interior, **common)  # type: ignore

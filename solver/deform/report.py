@@ -19,7 +19,6 @@ from ..constraints.assembly import describe
 from ..constraints.move import Move
 from ..constraints.rows import REPORT_IDS
 from ..validity.check import CheckResult
-from ..validity.quality import first_percentile
 from .constraint_set import CONFLICT_TOL, ConstraintSet
 from .rotation_field import RotationField
 
@@ -82,11 +81,15 @@ class Report:
     inverted_elements_unclamped: int | None = None
     repair: dict[str, Any] | None = None
     quality: dict[str, Any] | None = None
+    interior_precision: str | None = None
+    mean_value_residual: float | None = None
+    interior_refined: bool | None = None
     timings: dict[str, Any] = field(default_factory=dict)
 
     #: Optional keys: left out when None (``midside_relaxed`` is kept for quadratic meshes).
     OPTIONAL = ("element_order", "min_jacobian_ratio", "invalid_at_rest_elements", "safe_fraction_solves",
-                "applied_fraction", "inverted_elements_unclamped", "repair", "quality")
+                "applied_fraction", "inverted_elements_unclamped", "repair", "quality", "interior_precision",
+                "mean_value_residual", "interior_refined")
 
     def with_(self, **changes: Any) -> Report:
         """A copy with ``changes``."""
@@ -195,14 +198,12 @@ def constraint_report(cs: ConstraintSet, system: Any, rotation: RotationField, P
 
 def element_report(check: CheckResult, valid_rest: np.ndarray | None) -> dict[str, Any]:
     """The element part of a REPORT (counts, first ids, scaled Jacobians; quadratic ratios)."""
-    bad = np.flatnonzero(check.bad)
-    sj = check.sj
     out: dict[str, Any] = {
-        "inverted_elements": int(bad.size),
-        "inverted_ids": bad[:REPORT_IDS].tolist(),
-        "degenerate_elements": int(check.degenerate.sum()),
-        "min_scaled_jacobian": float(sj.min()) if sj.size else None,
-        "p01_scaled_jacobian": first_percentile(sj) if sj.size else None,
+        "inverted_elements": check.count,
+        "inverted_ids": check.ids[:REPORT_IDS].tolist(),
+        "degenerate_elements": check.degenerate,
+        "min_scaled_jacobian": check.min_sj,
+        "p01_scaled_jacobian": check.p01_sj,
     }
     dj = check.node_jacobians
     if dj is not None and valid_rest is not None:

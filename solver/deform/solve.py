@@ -14,7 +14,9 @@ from ..constraints.move import Move
 from ..linalg import factorization as fz
 from ..validity.check import CheckResult
 from ..validity.midside import Placement
+from .positions import PositionSolve
 from .precompute import DeformData
+from .rhs import RightHandSides
 from .report import Report, constraint_report, element_report
 
 __all__ = ["Solved", "solve_positions", "check_positions", "evaluate"]
@@ -36,6 +38,9 @@ class Solved:
         Targets of the fixed and handle mid-side nodes (``DeformData.pinned_mid``).
     placement : Placement or None
         Quadratic meshes: the mid-side placement (its node Jacobians).
+    interior_residual : float or None
+        Mixed precision: the interior's relative mean-value residual.
+    interior_refined : bool
     """
 
     P: np.ndarray
@@ -43,10 +48,12 @@ class Solved:
     d: np.ndarray | None
     pinned_at: np.ndarray
     placement: Placement | None = None
+    interior_residual: float | None = None
+    interior_refined: bool = False
 
     def with_positions(self, P: np.ndarray) -> Solved:
         """The same solve with other positions (after repair)."""
-        return Solved(P, self.U, self.d, self.pinned_at, None)
+        return Solved(P, self.U, self.d, self.pinned_at, None, self.interior_residual, self.interior_refined)
 
 
 def solve_positions(data: DeformData, move: Move) -> Solved:
@@ -56,13 +63,19 @@ def solve_positions(data: DeformData, move: Move) -> Solved:
     others follow their edges (:class:`~solver.validity.midside.MidsideNodes`).
     """
     rhs = data.rhs(move)
-    P = data.positions.solve(data.mesh.V, data.constraints.constrained, rhs)
+    ps = data.positions.solve(data.mesh.V, data.constraints.constrained, rhs)
+    return finish(data, ps, rhs, move)
+
+
+def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move) -> Solved:
+    """Mid-side placement (quadratic meshes) after the corner positions of a solve."""
+    P = ps.P
     pinned_at = data.pinned_targets(move)
     placement = None
     if data.midside is not None and data.check is not None:
         placement = data.midside.place(P, data.check.valid_rest, data.pinned_mid, pinned_at)
         P = placement.P
-    return Solved(P, rhs.U, rhs.d, pinned_at, placement)
+    return Solved(P, rhs.U, rhs.d, pinned_at, placement, ps.interior_residual, ps.refined)
 
 
 def check_positions(data: DeformData, solved: Solved) -> CheckResult | None:
@@ -107,4 +120,6 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         max_displacement=float(disp.max()) if disp.size else 0.0,
         solve_method=data.spec.method, solve_mode=data.positions.mode, refine_steps=data.positions.refine_steps,
         backend=fz.backend(), lu_backend=data.positions.lu_backend,
-        finite=bool(np.isfinite(solved.P).all()), midside_relaxed=relaxed)
+        finite=bool(np.isfinite(solved.P).all()), midside_relaxed=relaxed,
+        interior_precision=data.positions.interior_precision, mean_value_residual=solved.interior_residual,
+        interior_refined=solved.interior_refined if solved.interior_residual is not None else None)

@@ -6,7 +6,7 @@ Backends, in order of preference:
     SuiteSparse CHOLMOD through scikit-sparse (supernodal Cholesky, BLAS-3).
     Installed by ``make`` from Debian's ``libsuitesparse-dev`` with OpenBLAS.
 ``pardiso``
-    Intel MKL PARDISO through pypardiso (pip only). Used for the square,
+    Intel MKL PARDISO, called directly (:mod:`solver.linalg.pardiso`; MKL from pip). Used for the square,
     non-symmetric mean-value-coordinate system (LU with a symmetric METIS
     ordering: 10x faster than SuperLU there), and for symmetric systems too when
     CHOLMOD is missing.
@@ -39,6 +39,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import FactorizationError
+from .pardiso import PardisoFactor, mkl_runtime
 
 __all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
@@ -73,8 +74,8 @@ BACKENDS = ("cholmod", "pardiso", "scipy")
 
 
 def _importable(module: str) -> bool:
-    if module == "pypardiso":
-        _locate_mkl()  # importing pypardiso builds a solver, which searches for MKL
+    if module == "mkl":
+        return mkl_runtime() is not None
     try:
         __import__(module)
     except ImportError:
@@ -102,7 +103,7 @@ def backend() -> str:
             raise FactorizationError(
                 f"TETMORPH_SOLVER={wanted!r} is not a backend; use one of {list(BACKENDS)}",
                 code="unknown_backend")
-        modules = {"cholmod": "sksparse.cholmod", "pardiso": "pypardiso", "scipy": "scipy"}
+        modules = {"cholmod": "sksparse.cholmod", "pardiso": "mkl", "scipy": "scipy"}
         if wanted:
             if not _importable(modules[wanted]):
                 raise FactorizationError(f"TETMORPH_SOLVER={wanted!r} but {modules[wanted]} "
@@ -132,7 +133,7 @@ def lu_backend() -> str:
     """Name of the backend for square non-symmetric systems (``"pardiso"`` or ``"scipy"``)."""
     global _LU_BACKEND
     if _LU_BACKEND is None:
-        _LU_BACKEND = "pardiso" if backend() != "scipy" and _importable("pypardiso") else "scipy"
+        _LU_BACKEND = "pardiso" if backend() != "scipy" and _importable("mkl") else "scipy"
     return _LU_BACKEND
 
 
@@ -235,93 +236,6 @@ class _SuperLUFactor:
         return self._f.solve(np.asarray(b, dtype=np.float64))
 
 
-_MKL_RT: str | None = None
-
-
-def _locate_mkl() -> None:
-    """Find MKL's runtime once and hand it to pypardiso through ``PYPARDISO_MKL_RT``.
-
-    pypardiso otherwise runs ``ctypes.util.find_library`` (a subprocess) and a
-    recursive glob of ``sys.prefix`` for every solver it constructs: about
-    0.1 s per factorization, measured.
-    """
-    global _MKL_RT
-    if _MKL_RT is not None or os.environ.get("PYPARDISO_MKL_RT"):
-        return
-    import glob
-    import sys
-
-    # pip's mkl wheel puts it in <prefix>/lib; the recursive search (0.3 s) is the fallback
-    found = sorted(glob.glob(f"{sys.prefix}/lib/libmkl_rt.so*"), key=len) or \
-        sorted(glob.glob(f"{sys.prefix}/[Ll]ib*/**/*mkl_rt*", recursive=True), key=len)
-    if found:
-        _MKL_RT = found[0]
-        os.environ["PYPARDISO_MKL_RT"] = _MKL_RT
-
-
-class _PardisoFactor:
-    """MKL PARDISO LU (``mtype=11``) or Cholesky (``mtype=2``) with METIS ordering."""
-
-    name = "pardiso"
-
-    def __init__(self, M: sp.spmatrix, what: str, symmetric: bool, indefinite: bool = False) -> None:
-        _locate_mkl()
-        import pypardiso
-        if indefinite:  # PARDISO needs every diagonal entry stored, zero or not
-            M = sp.coo_matrix(M)
-            i = np.arange(M.shape[0])
-            M = sp.csr_matrix((np.r_[M.data, np.zeros(i.size)], (np.r_[M.row, i], np.r_[M.col, i])),
-                              shape=M.shape)
-        self._A = sp.triu(M, format="csr") if symmetric else sp.csr_matrix(M)
-        self._A.sort_indices()
-        mtype = (-2 if indefinite else 2) if symmetric else 11
-        self._ps = pypardiso.PyPardisoSolver(mtype=mtype)
-        self._lock = threading.Lock()
-        # pypardiso leaves iparm(1) = 0, which makes PARDISO use its defaults for every iparm,
-        # and those include two steps of iterative refinement on every solve: 14.5-19.6 ms
-        # instead of 5.5-6.9 ms for the 107k-tet bracket's interior system (benchmarks/
-        # measure_choices.py --only pardiso; the residual is 2.2e-15 relative without them, and
-        # every system here is solved in residual form). So every
-        # iparm is set: parallel METIS ordering (2), no refinement (8), pivot perturbation 1e-13 (10),
-        # scaling and weighted matching (11, 13; MKL's defaults for non-symmetric and the advice
-        # for highly indefinite matrices), report the factor's size (18). Saddle-point (KKT)
-        # systems keep two refinement steps and Bunch-Kaufman pivoting (21).
-        iparms: dict[int, int] = {1: 1, 2: 3, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1}
-        if indefinite:
-            iparms.update({8: 2, 21: 1})
-        elif symmetric:  # positive definite: no pivoting, scaling or matching
-            iparms.update({10: 0, 11: 0, 13: 0})
-        for key, v in iparms.items():
-            self._ps.set_iparm(key, v)
-        self._ps.set_statistical_info_off()
-        try:
-            self._ps.factorize(self._A)
-        except Exception as e:  # pypardiso raises PyPardisoError for singular systems
-            raise FactorizationError(
-                f"{what}: the {M.shape[0]}x{M.shape[0]} system is singular ({e})",
-                code="singular_system") from e
-        perturbed = int(self._ps.iparm[13])  # pivots PARDISO replaced instead of failing
-        if perturbed > 0 and not indefinite:
-            raise FactorizationError(
-                f"{what}: the {M.shape[0]}x{M.shape[0]} system is singular ({perturbed} zero "
-                "pivots)", code="singular_system")
-        nnz = int(self._ps.iparm[17])
-        self.nbytes = abs(nnz) * 12
-        self.shape = M.shape
-
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        _count("solves")
-        with self._lock:  # PARDISO's handle and pypardiso's phase are shared state
-            x = self._ps.solve(self._A, np.asfortranarray(b, dtype=np.float64))
-        return np.asarray(x).reshape(np.shape(b))
-
-    def __del__(self) -> None:
-        try:
-            self._ps.free_memory(everything=True)
-        except Exception:  # interpreter shutdown
-            pass
-
-
 def cholesky(M: sp.spmatrix, what: str = "system") -> Factor:
     """Factor a symmetric positive definite sparse matrix.
 
@@ -354,11 +268,11 @@ def cholesky(M: sp.spmatrix, what: str = "system") -> Factor:
     if b == "cholmod":
         return _CholmodFactor(M, what)
     if b == "pardiso":
-        return _PardisoFactor(M, what, symmetric=True)
+        return PardisoFactor(M, what, mtype=2)
     return _SuperLUFactor(M, what, symmetric=True)
 
 
-def lu(A: sp.spmatrix, what: str = "system") -> Factor:
+def lu(A: sp.spmatrix, what: str = "system", single: bool = False) -> Factor:
     """Factor a square, possibly non-symmetric, non-singular sparse matrix.
 
     Parameters
@@ -366,6 +280,10 @@ def lu(A: sp.spmatrix, what: str = "system") -> Factor:
     A : (n, n) sparse matrix
     what : str
         Name of the system, used in error messages.
+    single : bool
+        Factor in single precision where the backend can (MKL PARDISO, above
+        ``LU_SMALL`` unknowns): half the bytes per back-substitution; the
+        solution is float32 (the caller refines or states the accuracy).
 
     Returns
     -------
@@ -385,7 +303,7 @@ def lu(A: sp.spmatrix, what: str = "system") -> Factor:
     """
     A = _prepared(A, what)
     if lu_backend() == "pardiso" and A.shape[0] > LU_SMALL:
-        return _PardisoFactor(A, what, symmetric=False)
+        return PardisoFactor(A, what, mtype=11, single=single)
     return _SuperLUFactor(A, what, symmetric=False)
 
 
@@ -421,5 +339,5 @@ def ldl(K: sp.spmatrix, what: str = "system") -> Factor:
     """
     K = _prepared(K, what)
     if lu_backend() == "pardiso":
-        return _PardisoFactor(K, what, symmetric=True, indefinite=True)
+        return PardisoFactor(K, what, mtype=-2)
     return _SuperLUFactor(K, what, symmetric=True)

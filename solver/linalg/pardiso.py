@@ -1,0 +1,204 @@
+"""MKL PARDISO called directly: LU, Cholesky and LDL^T factors in double or single precision.
+
+One object owns one PARDISO handle: ``phase 12`` (ordering, symbolic and
+numeric factorization) in the constructor, ``phase 33`` (back-substitution)
+in :meth:`PardisoFactor.solve`, ``phase -1`` on release. Compared with going
+through pypardiso, which this module replaces for tetmorph's systems:
+
+* the index arrays are converted once, not on every solve (pypardiso builds
+  ``indptr + 1`` and ``indices + 1`` and compares the whole matrix with its
+  stored copy on every call: several milliseconds at 1M elements);
+* single precision (``iparm(28) = 1``) is available: the factor's values are
+  float32, so a back-substitution reads half the bytes. pypardiso refuses
+  float32 matrices;
+* several right-hand sides are solved in one call (``nrhs``).
+
+Settings (MKL's 1-based iparm numbers): parallel nested dissection
+(``iparm(2) = 3``); no iterative refinement (``iparm(8) = 0``; tetmorph solves
+in residual form and refines where it measures that it matters); pivot
+perturbation 1e-13 (``iparm(10) = 13``); scaling and weighted matching for
+non-symmetric and indefinite matrices (``iparm(11) = iparm(13) = 1``); the
+factor's size reported (``iparm(18) = -1``); zero-based indices
+(``iparm(35) = 1``). Indefinite (KKT) systems keep two refinement steps and
+Bunch-Kaufman pivoting (``iparm(8) = 2``, ``iparm(21) = 1``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+import sys
+import threading
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import FactorizationError
+
+__all__ = ["PardisoFactor", "mkl_runtime"]
+
+_LIB: ctypes.CDLL | None = None
+_LOCK = threading.Lock()
+
+
+def mkl_runtime() -> str | None:
+    """Path of MKL's single dynamic library (``libmkl_rt``), or None when MKL is not installed."""
+    env = os.environ.get("PYPARDISO_MKL_RT") or os.environ.get("TETMORPH_MKL_RT")
+    if env and os.path.exists(env):
+        return env
+    # pip's mkl wheel puts it in <prefix>/lib; a recursive search of the prefix is the fallback
+    found = sorted(glob.glob(f"{sys.prefix}/lib/libmkl_rt.so*"), key=len) or \
+        sorted(glob.glob(f"{sys.prefix}/[Ll]ib*/**/*mkl_rt*", recursive=True), key=len)
+    return found[0] if found else None
+
+
+def _library() -> ctypes.CDLL:
+    global _LIB
+    with _LOCK:
+        if _LIB is None:
+            path = mkl_runtime()
+            if path is None:
+                raise FactorizationError("MKL PARDISO is not installed (no libmkl_rt found)", code="unknown_backend")
+            lib = ctypes.CDLL(path)
+            f = lib.pardiso
+            i32 = ctypes.POINTER(ctypes.c_int32)
+            f.argtypes = [ctypes.POINTER(ctypes.c_int64), i32, i32, i32, i32, i32, ctypes.c_void_p, i32, i32,
+                          i32, i32, i32, i32, ctypes.c_void_p, ctypes.c_void_p, i32]
+            f.restype = None
+            _LIB = lib
+        return _LIB
+
+
+#: PARDISO's error codes (MKL reference).
+_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
+           -4: "zero pivot, numerical factorization or iterative refinement problem", -5: "unclassified internal error",
+           -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
+           -9: "not enough memory for out-of-core", -10: "error opening out-of-core files",
+           -11: "read/write error with out-of-core files", -12: "wrong pardiso_64 call", -13: "interrupted",
+           -15: "internal error"}
+
+
+class PardisoFactor:
+    """A PARDISO factorization of one sparse matrix, owned by this object.
+
+    Parameters
+    ----------
+    M : (n, n) sparse matrix
+    what : str
+        Name of the system, for error messages.
+    mtype : {11, 2, -2}
+        Real non-symmetric (LU), symmetric positive definite (Cholesky), or
+        symmetric indefinite (LDL^T). For 2 and -2 only the upper triangle is used.
+    single : bool
+        Factor and solve in single precision (float32 values, right-hand sides
+        and solutions; the caller converts).
+
+    Raises
+    ------
+    FactorizationError
+        ``singular_system`` when PARDISO reports a zero pivot or perturbs one
+        (non-indefinite systems), or another PARDISO error.
+
+    Notes
+    -----
+    ``solve`` holds a per-object lock: PARDISO's handle carries work space, so
+    concurrent back-substitutions on one factor are serialized.
+    """
+
+    name = "pardiso"
+
+    def __init__(self, M: sp.spmatrix, what: str, mtype: int = 11, single: bool = False) -> None:
+        self._lib = _library()
+        self.mtype = mtype
+        self.single = single
+        self.dtype = np.float32 if single else np.float64
+        n = M.shape[0]
+        if mtype in (2, -2):
+            M = sp.coo_matrix(M)
+            if mtype == -2:  # PARDISO needs every diagonal entry stored, zero or not
+                i = np.arange(n)
+                M = sp.coo_matrix((np.r_[M.data, np.zeros(n)], (np.r_[M.row, i], np.r_[M.col, i])), shape=M.shape)
+            M = sp.triu(M, format="csr")
+        A = sp.csr_matrix(M)
+        A.sum_duplicates()
+        A.sort_indices()
+        if A.nnz >= 2**31:
+            raise FactorizationError(f"{what}: {A.nnz} nonzeros exceed PARDISO's 32-bit indices", code="too_large")
+        self._a = np.ascontiguousarray(A.data, dtype=self.dtype)
+        self._ia = np.ascontiguousarray(A.indptr, dtype=np.int32)
+        self._ja = np.ascontiguousarray(A.indices, dtype=np.int32)
+        self.shape = (n, n)
+        self._pt = np.zeros(64, np.int64)
+        self._iparm = np.zeros(64, np.int32)
+        for k, v in {1: 1, 2: 3, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1, 35: 1}.items():
+            self._iparm[k - 1] = v
+        if mtype == -2:
+            self._iparm[7], self._iparm[20] = 2, 1
+        elif mtype == 2:  # positive definite: no pivoting, scaling or matching
+            self._iparm[9], self._iparm[10], self._iparm[12] = 0, 0, 0
+        if single:
+            self._iparm[27] = 1
+        self._perm = np.zeros(n, np.int32)
+        self._lock = threading.Lock()
+        self._alive = False
+        err = self._call(12, np.zeros((n, 1), self.dtype, order="F"), np.zeros((n, 1), self.dtype, order="F"))
+        self._alive = True
+        if err:
+            self.release()
+            kind = "singular_system" if err in (-4, -7) else "factorization_failed"
+            raise FactorizationError(f"{what}: PARDISO failed on the {n}x{n} system ({_ERRORS.get(err, err)})",
+                                     code=kind)
+        perturbed = int(self._iparm[13])
+        if perturbed > 0 and mtype != -2:
+            self.release()
+            raise FactorizationError(f"{what}: the {n}x{n} system is singular ({perturbed} zero pivots)",
+                                     code="singular_system")
+        self.nnz = abs(int(self._iparm[17]))
+        self.nbytes = self.nnz * (4 if single else 8) + self._a.nbytes + self._ia.nbytes + self._ja.nbytes
+
+    def _call(self, phase: int, b: np.ndarray, x: np.ndarray) -> int:
+        c_int = ctypes.c_int32
+        err = c_int(0)
+        i32 = ctypes.POINTER(ctypes.c_int32)
+        self._lib.pardiso(self._pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(c_int(1)),
+                          ctypes.byref(c_int(1)), ctypes.byref(c_int(self.mtype)), ctypes.byref(c_int(phase)),
+                          ctypes.byref(c_int(self.shape[0])), self._a.ctypes.data, self._ia.ctypes.data_as(i32),
+                          self._ja.ctypes.data_as(i32), self._perm.ctypes.data_as(i32),
+                          ctypes.byref(c_int(b.shape[1])), self._iparm.ctypes.data_as(i32), ctypes.byref(c_int(0)),
+                          b.ctypes.data, x.ctypes.data, ctypes.byref(err))
+        return int(err.value)
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """Solve ``A x = b`` for ``b`` of shape (n,) or (n, k); ``x`` in the factor's precision.
+
+        Parameters
+        ----------
+        b : (n,) or (n, k) array
+
+        Returns
+        -------
+        x : array of ``b``'s shape, float32 for a single-precision factor, else float64
+        """
+        shape = np.shape(b)
+        B = np.asfortranarray(np.reshape(b, (shape[0], -1)), dtype=self.dtype)
+        X = np.empty_like(B, order="F")
+        with self._lock:
+            err = self._call(33, B, X)
+        if err:
+            raise FactorizationError(f"PARDISO back-substitution failed ({_ERRORS.get(err, err)})",
+                                     code="factorization_failed")
+        return np.ascontiguousarray(X).reshape(shape)
+
+    def release(self) -> None:
+        """Free PARDISO's memory for this factor (also done when the object is collected)."""
+        if self._alive:
+            dummy = np.zeros((1, 1), self.dtype, order="F")
+            self._call(-1, dummy, dummy)
+            self._alive = False
+
+    def __del__(self) -> None:
+        try:
+            self.release()
+        except Exception:  # interpreter shutdown
+            pass

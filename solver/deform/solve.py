@@ -16,8 +16,8 @@ from ..validity.check import CheckResult
 from ..validity.midside import Placement
 from .positions import PositionSolve
 from .precompute import DeformData
-from .rhs import RightHandSides
 from .report import Report, constraint_report, element_report
+from .rhs import RightHandSides
 
 __all__ = ["Solved", "solve_positions", "check_positions", "evaluate"]
 

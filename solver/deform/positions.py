@@ -125,18 +125,41 @@ class Positions:
 
     def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> PositionSolve:
         """Corner positions (n, 3) for one MOVE's right-hand sides (mid-side nodes at rest)."""
-        return PositionSolve(self.boundary(V0, constrained, rhs))
+        return self.interior_solve(self.boundary(V0, constrained, rhs))
+
+    def solve_many(self, V0: np.ndarray, constrained: np.ndarray, rhss: list[RightHandSides]) -> list[PositionSolve]:
+        """:meth:`solve` for several MOVEs, their right-hand sides stacked into one back-substitution per factor."""
+        return self.interior_solve_many(self.boundary_many(V0, constrained, rhss))
 
     def boundary(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
-        """Positions with the fixed and handle nodes and the system's unknowns solved."""
-        P = V0.copy()
-        P[constrained] = rhs.U
-        if self.system is not None:
-            assert rhs.d is not None
-            u = self.unknowns
-            x = self.system.solve(self._layout(V0[u]), rhs.d, self._layout(rhs.c), refine=self.refine_steps)
-            P[u] = self._unlayout(x)
-        return P
+        """Positions with the fixed and handle nodes and the system's unknowns solved (interior at rest)."""
+        return self.boundary_many(V0, constrained, [rhs])[0]
+
+    def boundary_many(self, V0: np.ndarray, constrained: np.ndarray, rhss: list[RightHandSides]) -> list[np.ndarray]:
+        """:meth:`boundary` for several MOVEs: one stacked solve of the system."""
+        k = len(rhss)
+        Ps = [V0.copy() for _ in range(k)]
+        for P, rhs in zip(Ps, rhss, strict=True):
+            P[constrained] = rhs.U
+        if self.system is None or not k:
+            return Ps
+        u = self.unknowns
+        d = np.hstack([r.d for r in rhss if r.d is not None])
+        c = np.hstack([self._layout(r.c) for r in rhss])
+        x0 = np.hstack([self._layout(V0[u])] * k)
+        x = self.system.solve(x0, d, c, refine=self.refine_steps)
+        w = x.shape[1] // k
+        for j, P in enumerate(Ps):
+            P[u] = self._unlayout(x[:, j * w:(j + 1) * w])
+        return Ps
+
+    def interior_solve(self, P: np.ndarray) -> PositionSolve:
+        """Interior positions for boundary positions ``P`` (joint: nothing left to solve)."""
+        return self.interior_solve_many([P])[0]
+
+    def interior_solve_many(self, Ps: list[np.ndarray]) -> list[PositionSolve]:
+        """:meth:`interior_solve` for several position arrays."""
+        return [PositionSolve(P) for P in Ps]
 
 
 @dataclass(frozen=True, eq=False)
@@ -188,34 +211,39 @@ class SplitPositions(Positions):
             return None
         return "single" if getattr(self.interior, "single", False) else "double"
 
-    def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> PositionSolve:
-        """Boundary, then interior positions (residual form: ``P_f -= M_ff^{-1} (M_f P)``)."""
-        return self.interior_solve(self.boundary(V0, constrained, rhs))
-
-    def interior_solve(self, P: np.ndarray) -> PositionSolve:
-        """Interior positions for boundary positions ``P`` (a new array; ``P`` is not changed).
+    def interior_solve_many(self, Ps: list[np.ndarray]) -> list[PositionSolve]:
+        """Interior positions for boundary positions ``Ps`` (new arrays), residual form:
+        ``P_f -= M_ff^{-1} (M_f P)``, every position array a block of columns of one solve.
 
         In single precision the double-precision residual of the mean-value rows
-        is measured, and one refinement step is taken when it exceeds
+        is measured per array, and one refinement step is taken when it exceeds
         :data:`MIXED_TOL` of the interior displacement.
         """
-        P = P.copy()
-        if self.interior is None or self.Mfi is None:
-            return PositionSolve(P)
+        if self.interior is None or self.Mfi is None or not Ps:
+            return [PositionSolve(P.copy()) for P in Ps]
         fi = self.free_interior
+        k = len(Ps)
+        P = np.hstack(Ps)  # (n, 3k)
         dx = np.asarray(self.interior.solve(self.Mfi @ P), dtype=np.float64)
         P[fi] -= dx
         if self.interior_precision != "single":
-            return PositionSolve(P)
+            return [PositionSolve(P[:, 3 * j:3 * j + 3].copy()) for j in range(k)]
         res = self.Mfi @ P
-        scale = max(float(np.sqrt((dx * dx).sum(axis=1)).max()), 1e-300)
-        rel = float(np.sqrt((res * res).sum(axis=1)).max()) / scale
-        refined = rel > MIXED_TOL
-        if refined:
-            P[fi] -= np.asarray(self.interior.solve(res), dtype=np.float64)
+
+        def rel(R: np.ndarray, j: int, scale: np.ndarray) -> float:
+            r = R[:, 3 * j:3 * j + 3]
+            return float(np.sqrt((r * r).sum(axis=1)).max()) / scale[j]
+
+        scale = np.array([max(float(np.sqrt((dx[:, 3 * j:3 * j + 3] ** 2).sum(axis=1)).max()), 1e-300)
+                          for j in range(k)])
+        rels = [rel(res, j, scale) for j in range(k)]
+        refined = [r > MIXED_TOL for r in rels]
+        if any(refined):
+            cols = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
+            P[np.ix_(fi, cols)] -= np.asarray(self.interior.solve(res[:, cols]), dtype=np.float64)
             res = self.Mfi @ P
-            rel = float(np.sqrt((res * res).sum(axis=1)).max()) / scale
-        return PositionSolve(P, rel, refined)
+            rels = [rel(res, j, scale) if refined[j] else rels[j] for j in range(k)]
+        return [PositionSolve(P[:, 3 * j:3 * j + 3].copy(), rels[j], refined[j]) for j in range(k)]
 
 
 RhsFor = Callable[[Move, np.ndarray], RightHandSides]

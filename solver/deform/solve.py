@@ -19,7 +19,8 @@ from .precompute import DeformData
 from .report import Report, constraint_report, element_report
 from .rhs import RightHandSides
 
-__all__ = ["Solved", "solve_positions", "check_positions", "evaluate"]
+__all__ = ["Solved", "BoundaryStage", "solve_positions", "solve_positions_many", "solve_boundary", "complete",
+           "check_positions", "evaluate"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +66,54 @@ def solve_positions(data: DeformData, move: Move) -> Solved:
     rhs = data.rhs(move)
     ps = data.positions.solve(data.mesh.V, data.constraints.constrained, rhs)
     return finish(data, ps, rhs, move)
+
+
+def solve_positions_many(data: DeformData, moves: list[Move]) -> list[Solved]:
+    """:func:`solve_positions` for several MOVEs: their right-hand sides stacked, one back-substitution per factor.
+
+    Each result equals :func:`solve_positions` of its MOVE to round-off (a
+    multi-column solve sums in another order).
+    """
+    rhss = [data.rhs(mv) for mv in moves]
+    solves = data.positions.solve_many(data.mesh.V, data.constraints.constrained, rhss)
+    return [finish(data, ps, rhs, mv) for ps, rhs, mv in zip(solves, rhss, moves, strict=True)]
+
+
+@dataclass(frozen=True, eq=False)
+class BoundaryStage:
+    """The first stage of a split solve: boundary positions, interior still at rest.
+
+    Attributes
+    ----------
+    move : Move
+    rhs : RightHandSides
+    P : (n, 3) float array
+        Positions whose fixed, handle and boundary vertices are final.
+    ids : (b,) int array
+        The vertices that are final (boundary and constrained ones).
+    """
+
+    move: Move
+    rhs: RightHandSides
+    P: np.ndarray
+    ids: np.ndarray
+
+
+def solve_boundary(data: DeformData, move: Move) -> BoundaryStage:
+    """Boundary positions of a MOVE (the split solve's boundary system only; joint solves everything).
+
+    For interactive editing: the boundary is what a viewer draws; the
+    interior (the larger back-substitution) follows in :func:`complete`.
+    """
+    rhs = data.rhs(move)
+    P = data.positions.boundary(data.mesh.V, data.constraints.constrained, rhs)
+    ids = np.union1d(data.constraints.bidx, data.constraints.constrained)
+    return BoundaryStage(move, rhs, P, ids)
+
+
+def complete(data: DeformData, stage: BoundaryStage) -> Solved:
+    """The rest of a solve after :func:`solve_boundary`: interior and mid-side nodes."""
+    return finish(data, data.positions.interior_solve(stage.P), stage.rhs, stage.move)
 
 
 def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move) -> Solved:

@@ -80,8 +80,9 @@ class Deformer:
         return solve_positions(self.data, self.parse_move(move))
 
     def solve_boundary(self, move: Move | dict[str, Any]) -> BoundaryStage:
-        """The boundary positions of a MOVE first (:func:`~solver.deform.solve.solve_boundary`);
-        pass the stage to :meth:`solve` for the rest.
+        """The boundary positions of a MOVE first (:func:`~solver.deform.solve.solve_boundary`).
+
+        Pass the stage to :meth:`solve` for the rest.
         """
         return solve_boundary(self.data, self.parse_move(move))
 

@@ -212,8 +212,9 @@ class SplitPositions(Positions):
         return "single" if getattr(self.interior, "single", False) else "double"
 
     def interior_solve_many(self, Ps: list[np.ndarray]) -> list[PositionSolve]:
-        """Interior positions for boundary positions ``Ps`` (new arrays), residual form:
-        ``P_f -= M_ff^{-1} (M_f P)``, every position array a block of columns of one solve.
+        """Interior positions for boundary positions ``Ps`` (new arrays), in one solve.
+
+        Residual form ``P_f -= M_ff^{-1} (M_f P)``, every position array a block of columns.
 
         In single precision the double-precision residual of the mean-value rows
         is measured per array, and one refinement step is taken when it exceeds

@@ -1,0 +1,225 @@
+"""Per-update cost of tetmorph against a harmonic (k = 1) solve of the same mesh, side by side.
+
+The peer is libigl-style harmonic deformation: ``igl.cotmatrix(V, T)``, ``Q = -L``,
+the fixed and handle rows eliminated, one CHOLMOD factor of ``Q_uu``, and per
+update ``D_u = Q_uu^{-1} (-Q_ub D_b)`` for the three coordinates of the
+displacements. It is computed here, with the same fixed and handle vertices
+and the same targets as tetmorph (handle vertices rotated and translated
+about their centroid). Each case runs in its own process (its own peak RSS);
+cases alternate and repeat, and the table gives the median and the spread.
+
+Meshes: the CAD bracket of ``tests/data/make_bracket.py`` at gmsh sizes
+``--sizes 0.95,0.44`` (107k and 1.03M tets). Cases (``--cases``):
+
+``harmonic``       the peer
+``mixed``          tetmorph's default (single-precision interior factor, residual checked)
+``exact``          tetmorph with ``precision: "exact"`` (double-precision interior factor)
+``many``           tetmorph ``solve_many`` of the same moves, per-move cost
+``boundary``       tetmorph ``solve_boundary``: the boundary frame of the editor's stream
+
+Also printed: this machine's read bandwidth (a pass over a 1 GB array, in this
+process) and each solve's memory-traffic floor (bytes of factor read per
+update over that bandwidth).
+
+    python benchmarks/bench_update.py [--sizes 0.95,0.44] [--repeats 3] [--moves 6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+
+def _moves(k: int) -> list[dict]:
+    return [{"handles": {"top": {"translation": [10.0 * (j + 1) / k, 0, 0],
+                                 "rotation": {"axis": [0, 1, 0], "angle_deg": 20.0 * (j + 1) / k}}}}
+            for j in range(k)]
+
+
+SPEC = {"selections": {"bottom": {"set": "FIXED"}, "top": {"set": "LOAD"}}, "fixed": ["bottom"],
+        "handles": {"top": "top"}}
+
+
+def bandwidth_gbs() -> float:
+    """Read bandwidth of this machine: the best of 5 sums over a 1 GB float32 array."""
+    a = np.ones(2**28, np.float32)
+    best = 0.0
+    for _ in range(5):
+        t = time.perf_counter()
+        a.sum()
+        best = max(best, a.nbytes / (time.perf_counter() - t) / 1e9)
+    return best
+
+
+def run_harmonic(deck: Path, k: int) -> dict:
+    import igl
+    import scipy.sparse as sp
+
+    from solver import read_mesh
+    from solver.constraints.move import parse_move
+    from solver.linalg import factorization as fz
+
+    mesh = read_mesh(deck)
+    V, T = mesh.V, mesh.T
+    fixed, top = mesh.sets["FIXED"], mesh.sets["LOAD"]
+    t0 = time.perf_counter()
+    L = igl.cotmatrix(V, T)
+    Q = (-L).tocsr()
+    known = np.zeros(len(V), bool)
+    known[fixed] = known[top] = True
+    b = np.flatnonzero(known)
+    u = np.flatnonzero(~known & mesh.referenced)
+    Quu = Q[u][:, u].tocsc()
+    Qub = Q[u][:, b].tocsr()
+    f = fz.cholesky(Quu, "harmonic")
+    setup = time.perf_counter() - t0
+    c = V[top].mean(axis=0)
+    times = []
+    for doc in _moves(k) * 3:
+        hm = parse_move(doc, ["top"]).handles["top"]
+        t = time.perf_counter()
+        D = np.zeros((len(V), 3))
+        D[top] = hm.apply(V[top], c) - V[top]
+        X = V.copy()
+        X[b] += D[b]
+        X[u] += f.solve(-(Qub @ D[b]))
+        times.append(1e3 * (time.perf_counter() - t))
+    return {"setup_s": setup, "update_ms": float(np.median(times[k:])), "factor_nnz": int(f.nbytes // 12),
+            "factor_bytes": int(f.nbytes), "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20}
+
+
+def run_tetmorph(deck: Path, k: int, case: str) -> dict:
+    from solver import precompute, read_mesh
+
+    mesh = read_mesh(deck)
+    spec = {**SPEC, "precision": "exact" if case == "exact" else "mixed"}
+    t0 = time.perf_counter()
+    d = precompute(mesh, spec)
+    setup = time.perf_counter() - t0
+    moves = _moves(k)
+    out: dict = {"setup_s": setup}
+    if case == "many":
+        d.solve_many(moves)  # warm
+        ts = []
+        for _ in range(3):
+            t = time.perf_counter()
+            d.solve_many(moves)
+            ts.append(1e3 * (time.perf_counter() - t) / k)
+        out["update_ms"] = float(np.median(ts))
+    elif case == "boundary":
+        ts, full = [], []
+        for doc in moves * 3:
+            t = time.perf_counter()
+            st = d.solve_boundary(doc)
+            ts.append(1e3 * (time.perf_counter() - t))
+            r = d.solve(st)
+            full.append(ts[-1] + r.report["timings"]["update"]["solve_ms"] + r.report["timings"]["update"]["check_ms"])
+        out["update_ms"] = float(np.median(ts[k:]))
+        out["full_ms"] = float(np.median(full[k:]))
+    else:
+        ts, parts = [], []
+        for doc in moves * 3:
+            r = d.solve(doc)
+            u = r.report["timings"]["update"]
+            ts.append(u["rhs_ms"] + u["solve_ms"] + u["check_ms"])
+            parts.append((u["solve_ms"], u["check_ms"]))
+        out["update_ms"] = float(np.median(ts[k:]))
+        out["solve_ms"] = float(np.median([p[0] for p in parts[k:]]))
+        out["check_ms"] = float(np.median([p[1] for p in parts[k:]]))
+        out["inverted"] = r.report["inverted_elements"]
+        out["mean_value_residual"] = r.report.get("mean_value_residual")
+    pos = d.data.positions
+    out["interior_factor_bytes"] = int(pos.interior.nbytes) if getattr(pos, "interior", None) is not None else 0
+    out["boundary_factor_bytes"] = int(pos.system.nbytes) if pos.system is not None else 0
+    out["tets"] = int(len(mesh.T))
+    out["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    return out
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--sizes", default="0.95,0.44")
+    p.add_argument("--cases", default="harmonic,mixed,exact,many,boundary")
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--moves", type=int, default=6)
+    p.add_argument("--case", help=argparse.SUPPRESS)
+    a = p.parse_args()
+    if a.case == "bandwidth":
+        print(json.dumps({"gbs": bandwidth_gbs()}))
+        return
+    if a.case:
+        size, case = a.case.split(":")
+        from bench_solver import bracket_deck
+
+        deck = bracket_deck(float(size))
+        r = run_harmonic(deck, a.moves) if case == "harmonic" else run_tetmorph(deck, a.moves, case)
+        print(json.dumps(r))
+        return
+    from bench_solver import bracket_deck
+
+    # in its own process: a child's peak RSS would otherwise start at this process's (Linux keeps
+    # ru_maxrss across fork and exec)
+    out = subprocess.run([sys.executable, __file__, "--case", "bandwidth"], capture_output=True, text=True, check=True)
+    bw = json.loads(out.stdout)["gbs"]
+    print(f"read bandwidth: {bw:.1f} GB/s (best of 5 passes over 1 GB)")
+    cases = a.cases.split(",")
+    for size in a.sizes.split(","):
+        bracket_deck(float(size))
+        runs: dict[str, list[dict]] = {c: [] for c in cases}
+        for _ in range(a.repeats):
+            for c in cases:
+                out = subprocess.run([sys.executable, __file__, "--case", f"{size}:{c}", "--moves", str(a.moves)],
+                                     capture_output=True, text=True)
+                if out.returncode != 0:
+                    print(f"{c} {size} failed: {out.stderr.strip().splitlines()[-1]}")
+                    continue
+                runs[c].append(json.loads(out.stdout.strip().splitlines()[-1]))
+        h = runs.get("harmonic", [])
+        hs = float(np.median([r["setup_s"] for r in h])) if h else float("nan")
+        hu = float(np.median([r["update_ms"] for r in h])) if h else float("nan")
+        tets = next((r["tets"] for c in cases for r in runs[c] if "tets" in r), 0)
+        print(f"\nbracket, {tets:,} tets (gmsh size {size}); median [min-max] of {a.repeats} runs")
+        print("| case | setup s | setup ratio | update ms | update ratio | solve ms | check ms | peak RSS GB |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|")
+        for c in cases:
+            rs = runs[c]
+            if not rs:
+                continue
+            s = [r["setup_s"] for r in rs]
+            up = [r["update_ms"] for r in rs]
+
+            def spread(v: list[float], fmt: str) -> str:
+                return f"{np.median(v):{fmt}} [{min(v):{fmt}}-{max(v):{fmt}}]"
+
+            solve = spread([r["solve_ms"] for r in rs], ".1f") if "solve_ms" in rs[0] else ""
+            check = spread([r["check_ms"] for r in rs], ".1f") if "check_ms" in rs[0] else ""
+            label = {"harmonic": "harmonic k=1 (peer)", "mixed": "tetmorph default (mixed)",
+                     "exact": "tetmorph precision exact", "many": f"tetmorph solve_many ({a.moves} moves), per move",
+                     "boundary": "tetmorph boundary frame"}[c]
+            print(f"| {label} | {spread(s, '.2f')} | {np.median(s) / hs:.2f} | {spread(up, '.1f')} | "
+                  f"{np.median(up) / hu:.2f} | {solve} | {check} | {max(r['peak_rss_gb'] for r in rs):.2f} |")
+            if c == "boundary":
+                full = float(np.median([r["full_ms"] for r in rs]))
+                print(f"|  boundary frame / full update | | | {np.median(up) / full:.2f} | | | | |")
+        floor = []
+        for c in ("harmonic", "mixed", "exact"):
+            if runs.get(c):
+                r = runs[c][0]
+                nbytes = r.get("factor_bytes") or (r["interior_factor_bytes"] + r["boundary_factor_bytes"])
+                floor.append(f"{c}: {nbytes / 1e9:.2f} GB of factors, floor {1e3 * nbytes / 1e9 / bw:.0f} ms")
+        print("memory-traffic floor per update (factor bytes / bandwidth): " + "; ".join(floor))
+
+
+if __name__ == "__main__":
+    main()

@@ -81,7 +81,7 @@ def apply_policy(data: DeformData, solved: Solved, mv: Move, policy: str, repair
     t0 = time.perf_counter()
     report = evaluate(data, solved, mv)
     repair_rep = None
-    if repair and report.inverted_elements > 0 and data.check is not None:
+    if repair and report.inverted_elements > 0 and not data.mesh.is_surface:
         mesh = data.mesh
         rr = repair_inverted(mesh.V, solved.P, check_tets(mesh.T, mesh.cells), data.constraints.movable)
         repair_rep = rr.report

@@ -19,7 +19,7 @@ import numpy as np
 from ..constraints.move import Move
 from ..constraints.spec import Spec
 from ..mesh import Mesh
-from ..validity.check import ElementCheck
+from ..validity.check import ElementCheck, SurfaceCheck
 from ..validity.midside import MidsideNodes
 from .constraint_set import ConstraintSet, constraint_set
 from .operators import operators
@@ -51,8 +51,8 @@ class DeformData:
         Quadratic meshes: the mid-side placement.
     pinned_mid : (p,) int array
         Mid-side nodes held by fixed and handle selections.
-    check : ElementCheck or None
-        The element check (None for triangle surfaces).
+    check : ElementCheck or SurfaceCheck
+        The element check (flipped triangles for triangle surfaces).
     setup_timings : dict
         ``assembly_ms``, ``rotation_factorization_ms``, ``position_factorization_ms``, ``total_ms``.
     factorizations : int
@@ -68,7 +68,7 @@ class DeformData:
     positions: Positions
     midside: MidsideNodes | None
     pinned_mid: np.ndarray
-    check: ElementCheck | None
+    check: ElementCheck | SurfaceCheck | None
     setup_timings: dict[str, float]
     factorizations: int
 
@@ -94,6 +94,19 @@ def _touch_topology(mesh: Mesh) -> None:
         getattr(mesh, name)
     if mesh.cells or not mesh.is_surface:
         _ = mesh.edges
+
+
+def _surface_check(mesh: Mesh) -> SurfaceCheck:
+    """The surface check with each shell's closedness (no edge in only one triangle)."""
+    F = mesh.surface
+    shell = mesh.shell_labels[F[:, 0]]
+    ns = int(shell.max(initial=-1)) + 1
+    E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    _, inv, cnt = np.unique(E[:, 0] * mesh.n + E[:, 1], return_inverse=True, return_counts=True)
+    open_face = (cnt[inv] == 1).reshape(3, -1).any(axis=0)
+    closed = np.ones(ns, bool)
+    closed[np.unique(shell[open_face])] = False
+    return SurfaceCheck(mesh.V, F, shell, closed)
 
 
 def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) -> DeformData:
@@ -139,7 +152,7 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) 
     t_pos = time.perf_counter() - t2
     report("positions", 0.95)
     midside = MidsideNodes(mesh.V, mesh.T10) if mesh.T10 is not None else None
-    check = None if mesh.is_surface else ElementCheck(mesh.V, mesh.T, mesh.cells, mesh.T10)
+    check = _surface_check(mesh) if mesh.is_surface else ElementCheck(mesh.V, mesh.T, mesh.cells, mesh.T10)
     timings = {"assembly_ms": 1e3 * t_assembly, "rotation_factorization_ms": 1e3 * t_rot,
                "position_factorization_ms": 1e3 * t_pos, "total_ms": 1e3 * (time.perf_counter() - t0)}
     data = DeformData(mesh=mesh, spec=spec, constraints=cs, delta=ops.delta, walls=walls, rotation=rotation,

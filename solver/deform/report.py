@@ -69,6 +69,7 @@ class Report:
     backend: str
     lu_backend: str | None
     finite: bool
+    degenerate_at_rest: dict[str, Any] = field(default_factory=lambda: {"count": 0, "ids": []})
     safe_fraction: float = 1.0
     clamped: bool = False
     refactorized: bool = False
@@ -84,12 +85,13 @@ class Report:
     interior_precision: str | None = None
     mean_value_residual: float | None = None
     interior_refined: bool | None = None
+    enclosed_volume_ratio: float | None = None
     timings: dict[str, Any] = field(default_factory=dict)
 
     #: Optional keys: left out when None (``midside_relaxed`` is kept for quadratic meshes).
     OPTIONAL = ("element_order", "min_jacobian_ratio", "invalid_at_rest_elements", "safe_fraction_solves",
                 "applied_fraction", "inverted_elements_unclamped", "repair", "quality", "interior_precision",
-                "mean_value_residual", "interior_refined")
+                "mean_value_residual", "interior_refined", "enclosed_volume_ratio")
 
     def with_(self, **changes: Any) -> Report:
         """A copy with ``changes``."""

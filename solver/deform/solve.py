@@ -11,8 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constraints.move import Move
+from ..constraints.rows import REPORT_IDS
 from ..linalg import factorization as fz
-from ..validity.check import CheckResult
+from ..validity.check import CheckResult, SurfaceCheck
 from ..validity.midside import Placement
 from .positions import PositionSolve
 from .precompute import DeformData
@@ -159,6 +160,10 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         "min_scaled_jacobian": None, "p01_scaled_jacobian": None}
     before = data.check.sj_before if data.check is not None else (None, None)
     disp = np.linalg.norm(solved.P - data.mesh.V, axis=1)
+    flat = data.check.degenerate_at_rest if data.check is not None else np.zeros(0, np.int64)
+    ratio = None
+    if isinstance(data.check, SurfaceCheck) and data.check.closed.any():
+        ratio = float(np.nanmin(data.check.volume_ratios(solved.P)))
     relaxed = solved.placement.relaxed if solved.placement is not None else None
     return Report(
         **el, min_scaled_jacobian_before=before[0], p01_scaled_jacobian_before=before[1],
@@ -171,4 +176,5 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         backend=fz.backend(), lu_backend=data.positions.lu_backend,
         finite=bool(np.isfinite(solved.P).all()), midside_relaxed=relaxed,
         interior_precision=data.positions.interior_precision, mean_value_residual=solved.interior_residual,
-        interior_refined=solved.interior_refined if solved.interior_residual is not None else None)
+        interior_refined=solved.interior_refined if solved.interior_residual is not None else None,
+        degenerate_at_rest={"count": int(flat.size), "ids": flat[:REPORT_IDS].tolist()}, enclosed_volume_ratio=ratio)

@@ -85,7 +85,7 @@ def update(data: DeformData, mv: Move, solved: Solved, policy: str, quality: str
     out = apply_policy(data, solved, mv, policy, repair)
     rep, P = out.report, out.solved.P
     cell_q = None
-    if quality == "full" and data.check is not None:
+    if quality == "full" and not data.mesh.is_surface:
         mesh = data.mesh
         cell_q = element_quality(P, mesh.T, mesh.cells)
         before = summarize_quality(element_quality(mesh.V, mesh.T, mesh.cells))

@@ -21,7 +21,7 @@ from ..constraints.rows import REPORT_IDS
 from .midside import Placement, node_jacobians
 from .quality import DEGENERATE_TOL, element_jacobians, first_percentile
 
-__all__ = ["ElementCheck", "CheckResult"]
+__all__ = ["ElementCheck", "SurfaceCheck", "CheckResult", "tet_check", "triangle_quality"]
 
 #: Histogram bins over [-1, 1] used to select the 1st percentile.
 SJ_BINS = 4096
@@ -58,7 +58,7 @@ class CheckResult:
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
-def _tet_check_kernel(V, T, tol, nbins, sj, counts, mins, first, hist):  # pragma: no cover - compiled
+def _tet_check_kernel(V, T, tol, rest_flat, nbins, sj, counts, mins, first, hist):  # pragma: no cover
     m = T.shape[0]
     nch = counts.shape[0]
     cap = first.shape[1]
@@ -89,7 +89,11 @@ def _tet_check_kernel(V, T, tol, nbins, sj, counts, mins, first, hist):  # pragm
             degen = abs(s) <= tol
             if degen:
                 ndeg += 1
-            if det <= 0.0 or degen:
+            if rest_flat[t]:  # flat at rest: bad only when the morph turns it clearly inside out
+                is_bad = s < -tol
+            else:
+                is_bad = det <= 0.0 or degen
+            if is_bad:
                 if nbad < cap:
                     first[c, nbad] = t
                 nbad += 1
@@ -125,7 +129,8 @@ def _select_p01(sj: np.ndarray, hist: np.ndarray) -> float:
     return float(np.partition(out[:n], k - before)[k - before])
 
 
-def tet_check(V: np.ndarray, T: np.ndarray, tol: float = DEGENERATE_TOL) -> CheckResult:
+def tet_check(V: np.ndarray, T: np.ndarray, tol: float = DEGENERATE_TOL,
+              rest_flat: np.ndarray | None = None) -> CheckResult:
     """The check of linear tetrahedra in one compiled pass (see the module docstring).
 
     Parameters
@@ -134,6 +139,8 @@ def tet_check(V: np.ndarray, T: np.ndarray, tol: float = DEGENERATE_TOL) -> Chec
     T : (m, 4) int32 or int64 array
     tol : float
         Degeneracy threshold of ``|scaled Jacobian|``.
+    rest_flat : (m,) bool array, optional
+        Tets flat (degenerate) at rest: counted only when inverted beyond ``tol``.
 
     Returns
     -------
@@ -155,7 +162,8 @@ def tet_check(V: np.ndarray, T: np.ndarray, tol: float = DEGENERATE_TOL) -> Chec
     mins = np.empty(nch)
     first = np.empty((nch, REPORT_IDS), np.int64)
     hist = np.zeros((nch, SJ_BINS), np.int64)
-    _tet_check_kernel(np.ascontiguousarray(V, dtype=np.float64), T, tol, SJ_BINS, sj, counts, mins, first, hist)
+    flat = np.zeros(m, np.uint8) if rest_flat is None else rest_flat.view(np.uint8)
+    _tet_check_kernel(np.ascontiguousarray(V, dtype=np.float64), T, tol, flat, SJ_BINS, sj, counts, mins, first, hist)
     ids = np.concatenate([first[c, :min(int(counts[c, 0]), REPORT_IDS)] for c in range(nch)])[:REPORT_IDS]
     return CheckResult(int(counts[:, 0].sum()), ids, int(counts[:, 1].sum()), float(mins.min()),
                        _select_p01(sj, hist.sum(axis=0)), sj)
@@ -184,7 +192,12 @@ class ElementCheck:
         self.cells = cells
         self.T10 = T10
         self.valid_rest = node_jacobians(V0, T10).min(axis=1) > 0 if T10 is not None else None
+        self.rest_flat: np.ndarray | None = None
         rest = self.check(V0)
+        flat = np.abs(rest.sj) <= DEGENERATE_TOL
+        self.rest_flat = flat if flat.any() else None
+        #: Elements flat at rest (zero volume), reported apart from what a morph inverts.
+        self.degenerate_at_rest = np.flatnonzero(flat)
         self.sj_before = (rest.min_sj, rest.p01_sj)
 
     def check(self, P: np.ndarray, placement: Placement | None = None) -> CheckResult:
@@ -202,10 +215,12 @@ class ElementCheck:
         CheckResult
         """
         if not self.cells and self.T10 is None:
-            return tet_check(P, self.T)
+            return tet_check(P, self.T, rest_flat=self.rest_flat)
         vol6, sj = element_jacobians(P, self.T, self.cells)
         degenerate = np.abs(sj) <= DEGENERATE_TOL
         bad = (vol6 <= 0) | degenerate
+        if self.rest_flat is not None:
+            bad[self.rest_flat] = sj[self.rest_flat] < -DEGENERATE_TOL
         dj = None
         if self.T10 is not None:
             if placement is not None and placement.jacobians is not None and placement.P is P:
@@ -217,3 +232,105 @@ class ElementCheck:
         ids = np.flatnonzero(bad)
         return CheckResult(int(ids.size), ids[:REPORT_IDS], int(degenerate.sum()),
                            float(sj.min()) if sj.size else None, first_percentile(sj) if sj.size else None, sj, dj)
+
+
+def triangle_quality(V: np.ndarray, F: np.ndarray, N0: np.ndarray) -> np.ndarray:
+    """Signed shape quality of triangles against their rest normals: 1 equilateral, <= 0 flipped.
+
+    ``q = 4 sqrt(3) A / (l1^2 + l2^2 + l3^2)`` with ``A`` the area signed by the
+    side of the rest normal ``N0`` the current normal lies on: the triangle
+    analogue of the scaled Jacobian.
+
+    Parameters
+    ----------
+    V : (n, 3) float array
+    F : (k, 3) int array
+    N0 : (k, 3) float array
+        Unit rest normals.
+
+    Returns
+    -------
+    (k,) float array in [-1, 1]
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0.5, np.sqrt(3) / 2, 0]])
+    >>> F = np.array([[0, 1, 2]])
+    >>> up, down = np.array([[0., 0, 1]]), np.array([[0., 0, -1]])
+    >>> [round(float(triangle_quality(V, F, n)[0]), 12) for n in (up, down)]
+    [1.0, -1.0]
+    """
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    n = np.cross(b - a, c - a)
+    area2 = np.einsum("ij,ij->i", n, N0)  # twice the area, signed against the rest normal
+    e2 = ((b - a) ** 2).sum(1) + ((c - b) ** 2).sum(1) + ((a - c) ** 2).sum(1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q = 2.0 * np.sqrt(3.0) * area2 / e2
+    return np.clip(np.nan_to_num(q, nan=0.0), -1.0, 1.0)
+
+
+def enclosed_volumes(V: np.ndarray, F: np.ndarray, shell: np.ndarray, nshells: int) -> np.ndarray:
+    """Signed volume enclosed by each shell of a triangle surface (divergence theorem), (nshells,)."""
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    v = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    return np.bincount(shell, weights=v, minlength=nshells)
+
+
+class SurfaceCheck:
+    """The check of a triangle surface: triangles flipped against their rest normals, or degenerate.
+
+    A closed shell can turn inside out with every normal keeping its
+    direction (a mirror image); so the enclosed volume of each closed shell is
+    checked too, and all triangles of a shell whose volume changed sign
+    count as inverted (:attr:`CheckResult.count`).
+
+    Parameters
+    ----------
+    V0 : (n, 3) float array
+    F : (k, 3) int array
+    shell : (k,) int array, optional
+        Component of each triangle; with ``closed``, enables the volume test.
+    closed : (s,) bool array, optional
+        Which shells have no open edge.
+    """
+
+    valid_rest = None
+
+    def __init__(self, V0: np.ndarray, F: np.ndarray, shell: np.ndarray | None = None,
+                 closed: np.ndarray | None = None) -> None:
+        self.F = np.ascontiguousarray(F)
+        a, b, c = V0[F[:, 0]], V0[F[:, 1]], V0[F[:, 2]]
+        n = np.cross(b - a, c - a)
+        self.N0 = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        self.shell = shell if shell is not None else np.zeros(len(F), np.int64)
+        self.closed = closed if closed is not None else np.zeros(int(self.shell.max(initial=-1)) + 1, bool)
+        self.vol0 = enclosed_volumes(V0, self.F, self.shell, self.closed.size)
+        self.rest_flat: np.ndarray | None = None
+        rest = self.check(V0)
+        flat = np.abs(rest.sj) <= DEGENERATE_TOL
+        self.rest_flat = flat if flat.any() else None
+        #: Triangles of zero area at rest, reported apart from what a morph flips.
+        self.degenerate_at_rest = np.flatnonzero(flat)
+        self.sj_before = (rest.min_sj, rest.p01_sj)
+
+    def volume_ratios(self, P: np.ndarray) -> np.ndarray:
+        """Enclosed volume over rest volume of each closed shell (negative: inside out)."""
+        v = enclosed_volumes(P, self.F, self.shell, self.closed.size)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.closed, v / self.vol0, np.nan)
+
+    def check(self, P: np.ndarray, placement: Placement | None = None) -> CheckResult:
+        """Check every triangle at positions ``P``."""
+        q = triangle_quality(P, self.F, self.N0)
+        degenerate = np.abs(q) <= DEGENERATE_TOL
+        bad = (q <= 0) | degenerate
+        if self.rest_flat is not None:
+            bad[self.rest_flat] = q[self.rest_flat] < -DEGENERATE_TOL
+        if self.closed.any():
+            ratio = self.volume_ratios(P)
+            inside_out = np.flatnonzero(self.closed & ~(ratio > 0))
+            if inside_out.size:
+                bad |= np.isin(self.shell, inside_out)
+        ids = np.flatnonzero(bad)
+        return CheckResult(int(ids.size), ids[:REPORT_IDS], int(degenerate.sum()),
+                           float(q.min()) if q.size else None, first_percentile(q) if q.size else None, q)

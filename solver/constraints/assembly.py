@@ -88,8 +88,8 @@ def assemble(blocks: list[Block], umap: np.ndarray, N: int, vector: bool) -> Ass
             put(m + r, uu, cv)
             tag(np.full(k, b_i), keep_rows, np.full(k, -1))
             m += k
-        elif b.normal is not None:
-            nrm = b.normal[b.row[e]]  # (e, 3)
+        elif b.normal is not None or b.entry_normal is not None:
+            nrm = b.entry_normal[e] if b.entry_normal is not None else np.asarray(b.normal)[b.row[e]]  # (e, 3)
             put(np.repeat(m + r, 3), (3 * uu[:, None] + np.arange(3)).ravel(), (cv[:, None] * nrm).ravel())
             tag(np.full(k, b_i), keep_rows, np.full(k, -1))
             m += k

@@ -103,6 +103,8 @@ class Move:
         Scale factor ``s_f`` per SPEC ``features`` (missing: 1).
     motion : dict of str to (3,) array
         The point the plane or line of a SPEC ``motion`` passes through.
+    targets : dict of str to float
+        Amount per SPEC ``targets``: 0 rest, 1 on the target surface (missing: 0).
     """
 
     handles: dict[str, HandleMove]
@@ -110,6 +112,7 @@ class Move:
     relative: dict[str, dict[str, Any]] = field(default_factory=dict)
     features: dict[str, float] = field(default_factory=dict)
     motion: dict[str, np.ndarray] = field(default_factory=dict)
+    targets: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the MOVE as a JSON-compatible dict (rotations as axis and angle)."""
@@ -133,6 +136,8 @@ class Move:
             doc["features"] = {k: {"scale": v} for k, v in self.features.items()}
         if self.motion:
             doc["motion"] = {k: {"point": v.tolist()} for k, v in self.motion.items()}
+        if self.targets:
+            doc["targets"] = {k: {"amount": v} for k, v in self.targets.items()}
         return doc
 
 
@@ -205,7 +210,8 @@ def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
         else:
             relative[k] = {"scale": v["scale"] ** f}
     features = {k: v ** f for k, v in mv.features.items()}
-    return Move(handles, points, relative, features, motion)
+    targets = {k: f * v for k, v in mv.targets.items()}
+    return Move(handles, points, relative, features, motion, targets)
 
 
 def _scale(x: Any, where: str) -> float:
@@ -255,7 +261,7 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
         ``{"handles": {HANDLE: {"translation": [..], "rotation": {...}, "pivot": [..],
         "scale": s}}, "points": {POINT: [x, y, z]}, "relative": {NAME: {"offset": [..]}
         | {"scale": s}}, "features": {FEATURE: {"scale": s}}, "motion": {NAME:
-        {"point": [x, y, z]}}}``; every field is optional. A handle the MOVE
+        {"point": [x, y, z]}}, "targets": {NAME: {"amount": a}}}``; every field is optional. A handle the MOVE
         does not name stays at its rest position.
     handle_names : sequence of str
     names : dict, optional
@@ -284,7 +290,7 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     ...            ["h"]).to_dict()["handles"]["h"]["rotation"]["angle_deg"]
     10.0
     """
-    check_keys(doc, ("handles", "points", "relative", "features", "motion"), "MOVE")
+    check_keys(doc, ("handles", "points", "relative", "features", "motion", "targets"), "MOVE")
     names = names or {}
     tmax = bounds.translation if bounds is not None else 1e150
 
@@ -292,7 +298,7 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
         v = vec3(x, where, 1e150)
         return bounds.position(v, where) if bounds is not None else v
 
-    for key in ("points", "relative", "features", "motion"):
+    for key in ("points", "relative", "features", "motion", "targets"):
         val = doc.get(key, {})
         expect(isinstance(val, dict), f"MOVE.{key} must be an object", field=key)
         bad = sorted(set(val) - set(names.get(key, ())))
@@ -333,4 +339,9 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
         check_keys(v, ("point",), where)
         expect("point" in v, f"{where} needs a point", field=where)
         motion[k] = pos(v["point"], f"{where}.point")
-    return Move(out, points, relative, features, motion)
+    targets = {}
+    for k, v in doc.get("targets", {}).items():
+        where = f"MOVE.targets.{k}"
+        check_keys(v, ("amount",), where)
+        targets[k] = number(v.get("amount", 1.0), f"{where}.amount", -10.0, 10.0)
+    return Move(out, points, relative, features, motion, targets)

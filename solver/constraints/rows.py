@@ -35,6 +35,8 @@ from ..errors import SpecError, format_ids
 from ..mesh import Mesh
 from ..ops.boundary_facets import simplex_edges
 from ..ops.rotation import log_to_matrix, rotate_by_log
+from .correspondence import Correspondences
+from .matching import Matching
 from .move import Move
 from .spec import FeatureEntry, MotionEntry, PointDef, PointEntry, RelativeEntry, SlidingEntry, Spec
 
@@ -42,7 +44,8 @@ __all__ = ["Block", "KINDS", "TARGETS", "block_target", "check_ids", "point_weig
            "rotation_blocks", "fixed_rows", "handle_rows", "tie_rows", "point_rows", "relative_rows",
            "feature_rows", "motion_rows", "sliding_rows"]
 
-KINDS = ("fixed", "handle", "tie", "point", "relative", "feature", "motion", "sliding")
+KINDS = ("fixed", "handle", "target", "tie", "symmetry", "cyclic", "point", "relative", "feature", "motion",
+         "sliding")
 #: How many ids a REPORT or an error's details list.
 REPORT_IDS = 100
 
@@ -66,6 +69,9 @@ class Block:
         Entries: row ``row[e]`` has coefficient ``coeff[e]`` on vertex ``vert[e]``.
     normal : (nrows, 3) array or None
         For vector rows, the normal that multiplies each row's coefficients.
+    entry_normal : (e, 3) array or None
+        For vector rows that couple coordinates differently per vertex (mirror
+        and cyclic maps), the normal of each entry instead.
     rest : array
         What the target is made from: the rest positions of fixed and handle
         vertices (nrows, 3), a point's default target (3,), a relative
@@ -74,6 +80,8 @@ class Block:
         normal coordinates (nrows,); zeros for ties.
     pivot : (3,) array or None
         A handle's default pivot (the centroid of all its nodes).
+    aux : array or None
+        A target surface's projections (nrows, 3) of the rest positions.
     rot_vertex : int
         Boundary vertex whose rotation turns the target (relative ``rotate``,
         rigid features), or -1.
@@ -90,14 +98,16 @@ class Block:
     coeff: np.ndarray
     rest: np.ndarray = field(default_factory=lambda: np.zeros(0))
     normal: np.ndarray | None = None
+    entry_normal: np.ndarray | None = None
     pivot: np.ndarray | None = None
+    aux: np.ndarray | None = None
     rot_vertex: int = -1
     vertices: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def vector(self) -> bool:
         """Whether the rows couple the coordinates."""
-        return self.normal is not None
+        return self.normal is not None or self.entry_normal is not None
 
     @property
     def uses_rotation(self) -> bool:
@@ -145,6 +155,12 @@ def _feature_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
     return (s * b.rest) @ log_to_matrix(rot(np.array([b.rot_vertex]))[0]).T
 
 
+def _target_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+    a = mv.targets.get(b.name, 0.0)
+    assert b.aux is not None
+    return b.rest + a * (b.aux - b.rest)
+
+
 def _motion_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
     assert b.normal is not None
     return b.normal @ np.asarray(mv.motion.get(b.name, b.rest))
@@ -154,6 +170,7 @@ def _motion_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
 TARGETS: dict[str, Callable[[Block, Move, RotAt], np.ndarray]] = {
     "fixed": _fixed_target, "handle": _handle_target, "tie": _tie_target, "point": _point_target,
     "relative": _relative_target, "feature": _feature_target, "motion": _motion_target, "sliding": _fixed_target,
+    "target": _target_target, "symmetry": _fixed_target, "cyclic": _fixed_target,
 }
 
 
@@ -316,13 +333,75 @@ def sliding_rows(mesh: Mesh, k: int, e: SlidingEntry, ids: np.ndarray) -> Block:
                  rest=mesh.V[ids] @ n, normal=np.repeat(n[None, :], ids.size, axis=0), vertices=ids)
 
 
+def mapped_rows(kind: str, index: int, name: str, m: Matching, system: str = "positions") -> Block:
+    """``p_s = A sum_k w_k p_{m_k} + t`` for every matched slave: 3 coupled rows each.
+
+    ``system="rotations"``: the quaternion logarithms transform as axial
+    vectors, ``r_s = det(A) A sum_k w_k r_{m_k}`` (target 0).
+    """
+    s = m.slaves.size
+    sign = float(np.sign(np.linalg.det(m.A))) if system == "rotations" else 1.0
+    rows, verts, coef, nrm = [], [], [], []
+    eye = np.eye(3)
+    for e in range(3):
+        r = 3 * np.arange(s) + e
+        rows.append(r)
+        verts.append(m.slaves)
+        coef.append(np.ones(s))
+        nrm.append(np.repeat(eye[e][None, :], s, axis=0))
+        for k in range(3):
+            w = m.weights[:, k]
+            on = w != 0.0
+            rows.append(r[on])
+            verts.append(m.masters[on, k])
+            coef.append(-sign * w[on])
+            nrm.append(np.repeat(m.A[e][None, :], int(on.sum()), axis=0))
+    rest = np.tile(m.t, s) if system == "positions" else np.zeros(3 * s)
+    return Block(kind, index, name, 3 * s, np.concatenate(rows), np.concatenate(verts), np.concatenate(coef),
+                 rest=rest, entry_normal=np.concatenate(nrm), vertices=np.unique(np.r_[m.slaves, m.masters.ravel()]))
+
+
+def projected_rows(kind: str, index: int, name: str, ids: np.ndarray, N: np.ndarray, c: np.ndarray,
+                   system: str = "positions") -> Block:
+    """``N_k . p_i = N_k . c`` for every node (``N`` (r, 3) unit rows): nodes held on a plane or an axis.
+
+    ``system="rotations"``: ``N_k . r_i = 0``.
+    """
+    r = N.shape[0]
+    nrows = ids.size * r
+    rows = np.arange(nrows)
+    normal = np.tile(N, (ids.size, 1))
+    rest = np.tile(N @ c, ids.size) if system == "positions" else np.zeros(nrows)
+    return Block(kind, index, name, nrows, rows, np.repeat(ids, r), np.ones(nrows), rest=rest, normal=normal,
+                 vertices=ids)
+
+
+def tied_rows(name: str, index: int, m: Matching) -> Block:
+    """``p_s - sum_k w_k p_{m_k} = 0``: a non-matching tie, one replicated row per slave (rotations alike)."""
+    rows, verts, coef = [np.arange(m.slaves.size)], [m.slaves], [np.ones(m.slaves.size)]
+    for k in range(3):
+        w = m.weights[:, k]
+        on = w != 0.0
+        rows.append(np.flatnonzero(on))
+        verts.append(m.masters[on, k])
+        coef.append(-w[on])
+    return Block("tie", index, name, m.slaves.size, np.concatenate(rows), np.concatenate(verts), np.concatenate(coef),
+                 rest=np.zeros((m.slaves.size, 3)), vertices=np.unique(np.r_[m.slaves, m.masters.ravel()]))
+
+
+def target_rows(index: int, name: str, V0: np.ndarray, ids: np.ndarray, q: np.ndarray) -> Block:
+    """``p_i = p0_i + a (q_i - p0_i)``: nodes moved toward their target-surface points by the MOVE's amount."""
+    return Block("target", index, name, ids.size, np.arange(ids.size), ids, np.ones(ids.size), rest=V0[ids], aux=q,
+                 vertices=ids)
+
+
 def _corners(mesh: Mesh, ids: np.ndarray) -> np.ndarray:
     return ids[mesh.referenced[ids]]
 
 
 def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
                     handle_ids: dict[str, np.ndarray], handle_pivots: dict[str, np.ndarray],
-                    ties: np.ndarray | None = None) -> list[Block]:
+                    ties: np.ndarray | None = None, corr: Correspondences | None = None) -> list[Block]:
     """Rows of every hard positional constraint of ``spec``, in priority order.
 
     Parameters
@@ -336,6 +415,8 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
     handle_ids, handle_pivots : dict
         Corner nodes and default pivots of each handle.
     ties : (t, 2) int array, optional
+    corr : Correspondences, optional
+        Resolved symmetry, cyclic, surface-tie and target constraints.
 
     Returns
     -------
@@ -353,8 +434,16 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
         blocks.append(fixed_rows(V0, fixed))
     for h, (name, ids) in enumerate(handle_ids.items()):
         blocks.append(handle_rows(V0, h, name, ids, handle_pivots[name]))
+    corr = corr or Correspondences()
+    blocks += [target_rows(t.index, t.name, V0, t.ids, t.q) for t in corr.targets]
     if ties is not None and len(ties):
         blocks.append(tie_rows(ties))
+    blocks += [tied_rows(name, k, m) for k, (name, m) in enumerate(corr.surface_ties)]
+    for e in corr.mapped:
+        if e.matching.slaves.size:
+            blocks.append(mapped_rows(e.kind, e.index, e.name, e.matching))
+        if e.fixed_nodes.size:
+            blocks.append(projected_rows(e.kind, e.index, e.name, e.fixed_nodes, e.N, e.c))
     blocks += [point_rows(mesh, k, e, sel_ids) for k, e in enumerate(spec.points)]
     blocks += [relative_rows(mesh, k, e, sel_ids) for k, e in enumerate(spec.relative)]
     for k, f in enumerate(spec.features):
@@ -367,19 +456,25 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
 
 
 def rotation_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
-                    handle_ids: dict[str, np.ndarray], ties: np.ndarray | None = None
+                    handle_ids: dict[str, np.ndarray], ties: np.ndarray | None = None,
+                    corr: Correspondences | None = None, system: str = "rotations"
                     ) -> tuple[list[Block], list[np.ndarray]]:
     """Rows of the rotation system (ECLS eq. 26-29) and their targets per handle.
 
     The unknowns are the quaternion logarithms of the boundary vertices.
     Fixed vertices have ``r = 0``, handle ``h`` has ``r = c_h``; a rigid
     feature ties its boundary vertices' rotations together (``r_i - r_root =
-    0``) and a ``keep_direction`` feature holds them at ``r = 0``.
+    0``) and a ``keep_direction`` feature holds them at ``r = 0``; tied nodes
+    share their rotation. Mirror and cyclic symmetry map rotations as axial
+    vectors (:func:`mapped_rows`), which couples their coordinates:
+    ``system="scales"`` gives the scalar system of the log-scales instead,
+    where those become plain ties.
 
     Returns
     -------
     blocks : list of Block
-        Replicated rows over vertex ids (boundary vertices only).
+        Rows over vertex ids (boundary vertices only); replicated, except the
+        symmetry and cyclic ones in the rotation system.
     basis : list of (nrows, H) arrays
         Each block's targets as coefficients of the handles' logarithms.
     """
@@ -419,4 +514,32 @@ def rotation_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
             verts = np.stack([bids[1:], np.full(m, bids[0])], axis=1).ravel()
             blocks.append(Block("feature", k, e.name, m, r, verts, c, vertices=bids))
             basis.append(np.zeros((m, H)))
+    corr = corr or Correspondences()
+    for k, (name, mt) in enumerate(corr.surface_ties):
+        on = B[mt.slaves] & B[mt.masters].all(axis=1)
+        if on.any():
+            blocks.append(tied_rows(name, k, _subset(mt, on)))
+            basis.append(np.zeros((int(on.sum()), H)))
+    for me in corr.mapped:
+        mt = me.matching
+        if mt.slaves.size:
+            b = tied_rows(me.name, me.index, mt) if system == "scales" else mapped_rows(me.kind, me.index, me.name, mt,
+                                                                                      "rotations")
+            blocks.append(Block(me.kind, *_fields(b)) if system == "scales" else b)
+            basis.append(np.zeros((blocks[-1].nrows, H)))
+        if me.fixed_nodes.size and system == "rotations":
+            # on the plane only rotations about its normal are symmetric; on the axis, about the axis
+            N = _perp_pair(me.N[0]) if me.kind == "symmetry" else me.N
+            blocks.append(projected_rows(me.kind, me.index, me.name, me.fixed_nodes, N, np.zeros(3), "rotations"))
+            basis.append(np.zeros((blocks[-1].nrows, H)))
     return blocks, basis
+
+
+def _subset(m: Matching, keep: np.ndarray) -> Matching:
+    return Matching(m.slaves[keep], m.masters[keep], m.weights[keep], m.A, m.t, m.gap[keep])
+
+
+def _fields(b: Block) -> tuple:
+    """A block's fields after its kind (to rebuild it under another kind)."""
+    return (b.index, b.name, b.nrows, b.row, b.vert, b.coeff, b.rest, b.normal, b.entry_normal, b.pivot, b.aux,
+            b.rot_vertex, b.vertices)

@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import SpecError
 
 __all__ = ["Spec", "PointDef", "PointEntry", "RelativeEntry", "FeatureEntry", "MotionEntry", "SlidingEntry",
+           "SymmetryEntry", "CyclicEntry", "TargetEntry",
            "parse_spec", "SOLVE_MODES", "METHODS", "LAPLACIANS", "ROTATIONS", "INVERSION_POLICIES",
            "CONFLICT_POLICIES", "FEATURE_MODES", "RELATIVE_MODES", "MAX_PENALTY_WEIGHT", "MAX_ID"]
 
@@ -162,6 +163,80 @@ class SlidingEntry:
 
 
 @dataclass(frozen=True)
+class SymmetryEntry:
+    """Mirror symmetry across a plane (``SPEC.symmetry``): ``p_j = M p_i`` for mirrored boundary nodes.
+
+    ``M p = p - 2 n (n . (p - c))``. Each boundary node on the negative side of
+    the plane is tied to the mirror image of the positive side (its mirrored
+    node, or the point of the positive side's boundary faces nearest to its
+    mirror image); nodes on the plane keep their normal coordinate.
+    """
+
+    name: str
+    point: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    tolerance: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """SPEC form of the entry."""
+        out: dict[str, Any] = {"name": self.name, "plane": {"point": list(self.point), "normal": list(self.normal)}}
+        if self.tolerance is not None:
+            out["tolerance"] = self.tolerance
+        return out
+
+
+@dataclass(frozen=True)
+class CyclicEntry:
+    """Cyclic symmetry of a sector (``SPEC.cyclic``): ``p_b = R p_a`` between its two cut faces.
+
+    ``R`` turns by ``angle_deg`` about the axis through ``point`` along
+    ``direction``. Every node of face B is tied to the image under ``R`` of
+    face A (its matching node, or the nearest point of A's boundary faces).
+    """
+
+    name: str
+    point: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    angle_deg: float
+    faces: tuple[str, str]
+    tolerance: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """SPEC form of the entry."""
+        out: dict[str, Any] = {"name": self.name,
+                               "axis": {"point": list(self.point), "direction": list(self.direction)},
+                               "angle_deg": self.angle_deg, "faces": list(self.faces)}
+        if self.tolerance is not None:
+            out["tolerance"] = self.tolerance
+        return out
+
+
+@dataclass(frozen=True)
+class TargetEntry:
+    """A selection whose boundary nodes land on a target surface (``SPEC.targets``).
+
+    ``surface`` is a file path (STL, OBJ, PLY, OFF, any triangle mesh meshio
+    reads) or ``{"vertices": [[x, y, z], ...], "triangles": [[i, j, k], ...]}``.
+    ``method``: ``closest`` (each node to its closest point) or ``normal``
+    (along the node's rest normal, the closest point where no hit is found).
+    """
+
+    name: str
+    selection: str
+    surface: Any
+    method: str = "closest"
+    tolerance: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """SPEC form of the entry."""
+        out: dict[str, Any] = {"name": self.name, "selection": self.selection, "surface": self.surface,
+                               "method": self.method}
+        if self.tolerance is not None:
+            out["tolerance"] = self.tolerance
+        return out
+
+
+@dataclass(frozen=True)
 class Spec:
     """A parsed SPEC.
 
@@ -192,16 +267,21 @@ class Spec:
     points, relative, features, motion, sliding : tuple of entries
         The further hard constraints (:class:`PointEntry`, :class:`RelativeEntry`,
         :class:`FeatureEntry`, :class:`MotionEntry`, :class:`SlidingEntry`).
+    symmetry, cyclic, targets : tuple of entries
+        Mirror and cyclic symmetry (:class:`SymmetryEntry`, :class:`CyclicEntry`)
+        and target surfaces (:class:`TargetEntry`).
     conflicts : {"report", "reject"}
         What a conflicting constraint does: reported in the REPORT, or the
         SPEC (and any MOVE) that makes constraints conflict is refused.
     repair : bool
         Untangle inverted elements after each solve by moving free interior
         vertices near them (:mod:`solver.validity.repair`).
-    ties : "auto", False, {"tolerance": t} or list of [i, j]
+    ties : "auto", False, {"tolerance": t, "surface": [[A, B], ...], "surface_tolerance": s} or list of [i, j]
         Hard ties ``p_i = p_j`` (and equal rotations) between coincident nodes of
         different bodies (assemblies); ``"auto"`` finds them within 1e-9 of the
-        diagonal.
+        diagonal. ``surface`` pairs of selections tie every boundary node of A
+        to its closest point on B's boundary faces (non-matching interfaces),
+        next to the coincident-node ties.
     voids : {"volume", "refuse"}
         An internal void (a boundary shell with no fixed or handle vertex):
         positioned by the surrounding volume, or refused.
@@ -232,6 +312,9 @@ class Spec:
     features: tuple[FeatureEntry, ...] = ()
     motion: tuple[MotionEntry, ...] = ()
     sliding: tuple[SlidingEntry, ...] = ()
+    symmetry: tuple[SymmetryEntry, ...] = ()
+    cyclic: tuple[CyclicEntry, ...] = ()
+    targets: tuple[TargetEntry, ...] = ()
     conflicts: str = "report"
     repair: bool = False
     thin_walls: float = THIN_WALL_WEIGHT
@@ -242,7 +325,8 @@ class Spec:
     @property
     def names(self) -> dict[str, tuple[str, ...]]:
         """Names a MOVE may address, per category (``points``, ``relative``, ``features``, ``motion``)."""
-        return {k: tuple(e.name for e in getattr(self, k)) for k in ("points", "relative", "features", "motion")}
+        return {k: tuple(e.name for e in getattr(self, k))
+                for k in ("points", "relative", "features", "motion", "targets")}
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""
@@ -251,10 +335,11 @@ class Spec:
             "laplacian": self.laplacian,
             "constraints": {"method": self.method, "penalty_weight": self.penalty_weight},
             "solve": self.solve, "rotation": self.rotation, "inversion": self.inversion,
-            "conflicts": self.conflicts, "repair": self.repair, "thin_walls": self.thin_walls,
+            "conflicts": self.conflicts, "repair": self.repair,
+            "thin_walls": {"weight": self.thin_walls} if self.thin_walls > 0 else False,
             "ties": self.ties, "voids": self.voids, "precision": self.precision,
         }
-        for key in ("points", "relative", "features", "motion", "sliding"):
+        for key in ("points", "relative", "features", "motion", "sliding", "symmetry", "cyclic", "targets"):
             if getattr(self, key):
                 out[key] = [e.to_dict() for e in getattr(self, key)]
         return out
@@ -395,7 +480,8 @@ def parse_spec(doc: Any) -> Spec:
     """
     check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
                      "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
-                     "conflicts", "repair", "thin_walls", "ties", "voids", "precision"), "SPEC")
+                     "symmetry", "cyclic", "targets", "conflicts", "repair", "thin_walls", "ties", "voids",
+                     "precision"), "SPEC")
     sels = doc.get("selections", {})
     expect(isinstance(sels, dict) and len(sels) > 0, "SPEC.selections must name at least one selection",
            field="selections")
@@ -448,8 +534,19 @@ def parse_spec(doc: Any) -> Spec:
     out["thin_walls"] = float(tw)
     ties = doc.get("ties", "auto")
     if isinstance(ties, dict):
-        check_keys(ties, ("tolerance",), "SPEC.ties")
-        number(ties.get("tolerance"), "SPEC.ties.tolerance", 0.0, MAX_COORDINATE)
+        check_keys(ties, ("tolerance", "surface", "surface_tolerance"), "SPEC.ties")
+        expect("tolerance" in ties or "surface" in ties, "SPEC.ties needs a tolerance or surface pairs", field="ties")
+        if "tolerance" in ties:
+            number(ties["tolerance"], "SPEC.ties.tolerance", 0.0, MAX_COORDINATE)
+        if "surface_tolerance" in ties:
+            number(ties["surface_tolerance"], "SPEC.ties.surface_tolerance", 0.0, MAX_COORDINATE)
+        pairs = ties.get("surface", [])
+        expect(isinstance(pairs, list) and all(isinstance(p, list) and len(p) == 2 for p in pairs),
+               "SPEC.ties.surface must be a list of [SELECTION_A, SELECTION_B] pairs", field="ties.surface")
+        for k, (a, b) in enumerate(pairs):
+            for nm in (a, b):
+                expect(isinstance(nm, str) and nm in selections, f"SPEC.ties.surface[{k}]: unknown selection "
+                       f"{nm!r}; defined: {sorted(selections)}", field="ties.surface")
     elif isinstance(ties, list):
         for k, pair in enumerate(ties):
             int_list(pair, f"SPEC.ties[{k}]", 2)
@@ -580,5 +677,60 @@ def _parse_constraint_lists(doc: dict[str, Any], selections: dict[str, Any]) -> 
                field=where)
         nrm = nonzero(vec3(e.get("normal"), f"{where}.normal"), f"{where}.normal")
         sl.append(SlidingEntry(e["selection"], tuple(nrm.tolist())))  # type: ignore[arg-type]
+    sym = []
+    for k, e in enumerate(_list(doc, "symmetry")):
+        where = f"SPEC.symmetry[{k}]"
+        check_keys(e, ("name", "plane", "tolerance"), where)
+        check_keys(e.get("plane"), ("point", "normal"), f"{where}.plane")
+        c = vec3(e["plane"].get("point"), f"{where}.plane.point")
+        nrm = nonzero(vec3(e["plane"].get("normal"), f"{where}.plane.normal"), f"{where}.plane.normal")
+        tol = number(e["tolerance"], f"{where}.tolerance", 0.0, MAX_COORDINATE) if "tolerance" in e else None
+        sym.append(SymmetryEntry(_name(e, where), tuple(c.tolist()), tuple(nrm.tolist()), tol))  # type: ignore
+    _names(sym, "symmetry")
+    cyc = []
+    for k, e in enumerate(_list(doc, "cyclic")):
+        where = f"SPEC.cyclic[{k}]"
+        check_keys(e, ("name", "axis", "angle_deg", "faces", "tolerance"), where)
+        check_keys(e.get("axis"), ("point", "direction"), f"{where}.axis")
+        c = vec3(e["axis"].get("point"), f"{where}.axis.point")
+        t = nonzero(vec3(e["axis"].get("direction"), f"{where}.axis.direction"), f"{where}.axis.direction")
+        ang = math.fmod(number(e.get("angle_deg"), f"{where}.angle_deg"), 360.0)
+        expect(ang != 0.0, f"{where}.angle_deg must not be a multiple of 360", field=f"{where}.angle_deg")
+        faces = e.get("faces")
+        expect(isinstance(faces, list) and len(faces) == 2 and all(isinstance(f, str) and f in selections
+                                                                    for f in faces),
+               f"{where}.faces must name two selections; defined: {sorted(selections)}", field=f"{where}.faces")
+        tol = number(e["tolerance"], f"{where}.tolerance", 0.0, MAX_COORDINATE) if "tolerance" in e else None
+        cyc.append(CyclicEntry(_name(e, where), tuple(c.tolist()), tuple(t.tolist()), ang,  # type: ignore
+                               (faces[0], faces[1]), tol))
+    _names(cyc, "cyclic")
+    tgs = []
+    for k, e in enumerate(_list(doc, "targets")):
+        where = f"SPEC.targets[{k}]"
+        check_keys(e, ("name", "selection", "surface", "method", "tolerance"), where)
+        expect(isinstance(e.get("selection"), str) and e.get("selection") in selections,
+               f"{where}.selection: unknown selection {e.get('selection')!r}; defined: {sorted(selections)}",
+               field=where)
+        surf = e.get("surface")
+        if isinstance(surf, dict):
+            check_keys(surf, ("vertices", "triangles", "mesh_id"), f"{where}.surface")
+            expect("mesh_id" not in surf, f"{where}.surface: a stored surface (mesh_id) is resolved by the "
+                   "service; the library takes a file path or vertices and triangles", field=f"{where}.surface")
+            expect(isinstance(surf.get("vertices"), list) and isinstance(surf.get("triangles"), list),
+                   f"{where}.surface needs vertices and triangles", field=f"{where}.surface")
+        else:
+            expect(isinstance(surf, str) and surf != "", f"{where}.surface must be a file path or "
+                   "{\"vertices\", \"triangles\"}", field=f"{where}.surface")
+        method = e.get("method", "closest")
+        expect(method in ("closest", "normal"), f"{where}.method must be 'closest' or 'normal'", field=where)
+        tol = number(e["tolerance"], f"{where}.tolerance", 0.0, MAX_COORDINATE) if "tolerance" in e else None
+        tgs.append(TargetEntry(_name(e, where), e["selection"], surf, method, tol))
+    _names(tgs, "targets")
     return {"points": tuple(pts), "relative": tuple(rel), "features": tuple(feats), "motion": tuple(mot),
-            "sliding": tuple(sl)}
+            "sliding": tuple(sl), "symmetry": tuple(sym), "cyclic": tuple(cyc), "targets": tuple(tgs)}
+
+
+def _list(doc: dict[str, Any], key: str) -> list[Any]:
+    val = doc.get(key, [])
+    expect(isinstance(val, list), f"SPEC.{key} must be a list", field=key)
+    return val

@@ -36,7 +36,7 @@ def tie_pairs(mesh: Mesh, ties: Any) -> np.ndarray:
         return np.zeros((0, 2), np.int64)
     V = mesh.V[ref]
     diag = float(np.linalg.norm(V.max(0) - V.min(0)))
-    tol = float(ties["tolerance"]) if isinstance(ties, dict) else TIE_TOL * diag
+    tol = float(ties.get("tolerance", TIE_TOL * diag)) if isinstance(ties, dict) else TIE_TOL * diag
     pairs = cKDTree(V).query_pairs(tol, output_type="ndarray")
     if not len(pairs):
         return np.zeros((0, 2), np.int64)

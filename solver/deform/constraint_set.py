@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..constraints.assembly import Assembly, assemble, block_targets, describe
+from ..constraints.correspondence import Correspondences, correspondences
 from ..constraints.move import Move, MoveBounds, RestTargets
 from ..constraints.rows import REPORT_IDS, Block, point_weights, position_blocks, rotation_blocks
 from ..constraints.selection import select
@@ -62,6 +63,13 @@ class ConstraintSet:
         Rows of the position and the rotation system.
     rbasis : list of (nrows, H) arrays
         Rotation targets per unit handle rotation.
+    rvector : bool
+        Whether the rotation system couples coordinates (mirror and cyclic symmetry): its
+        unknowns are 3 per vertex, and the log-scales get their own scalar system.
+    sblocks, sbasis, sasm, sra : the log-scale system's rows, targets, assembly and rank
+        analysis when ``rvector`` (else empty and None).
+    corr : Correspondences
+        Resolved symmetry, cyclic, surface-tie and target constraints.
     vector : bool
         Whether the position system couples coordinates (3 unknowns per vertex).
     mode : {"split", "joint"}
@@ -102,6 +110,12 @@ class ConstraintSet:
     blocks: list[Block]
     rblocks: list[Block]
     rbasis: list[np.ndarray]
+    rvector: bool
+    sblocks: list[Block]
+    sbasis: list[np.ndarray]
+    sasm: Assembly | None
+    sra: RankAnalysis | None
+    corr: Correspondences
     vector: bool
     mode: str
     diag: float
@@ -120,8 +134,8 @@ class ConstraintSet:
 
     @property
     def pinned_mid(self) -> np.ndarray:
-        """Every mid-side node held by a fixed or handle selection, sorted."""
-        return _union([self.fixed_mid, *self.handle_mid.values()])
+        """Every mid-side node held by a fixed, handle or target selection, sorted."""
+        return _union([self.fixed_mid, *self.handle_mid.values(), *[t.mid_ids for t in self.corr.targets]])
 
 
 def entry_text(e: dict[str, Any]) -> str:
@@ -190,15 +204,23 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
                             handle=name, selection=spec.handles[name])
         pivots[name] = V0[ids].mean(axis=0)
     constrained_mask = (owner != -1) & corner
-    ties = tie_pairs(mesh, spec.ties)
-    free_shell = free_shells(mesh, constrained_mask, ties, spec.voids)
-    blocks = position_blocks(mesh, spec, sel_ids, fixed, handle_ids, pivots, ties)
-    rblocks, rbasis = rotation_blocks(mesh, spec, sel_ids, fixed, handle_ids, ties)
-    vector = any(b.vector for b in blocks)
-    mode = _solve_mode(mesh, spec, blocks, free_shell)
     ref = mesh.referenced
     diag = float(np.linalg.norm(V0[ref].max(0) - V0[ref].min(0))) if ref.any() else 0.0
     center = 0.5 * (V0[ref].max(0) + V0[ref].min(0)) if ref.any() else np.zeros(3)
+    ties = tie_pairs(mesh, spec.ties)
+    corr = correspondences(mesh, spec, sel_ids, diag)
+    for t in corr.targets:  # target nodes are held (by the surface) like handle nodes
+        constrained_mask[t.ids] = True
+    free_shell = free_shells(mesh, constrained_mask, np.r_[ties, corr.links].astype(np.int64), spec.voids)
+    for t in corr.targets:
+        constrained_mask[t.ids] = owner[t.ids] != -1
+    blocks = position_blocks(mesh, spec, sel_ids, fixed, handle_ids, pivots, ties, corr)
+    rblocks, rbasis = rotation_blocks(mesh, spec, sel_ids, fixed, handle_ids, ties, corr)
+    rvector = any(b.vector for b in rblocks)
+    sblocks, sbasis = rotation_blocks(mesh, spec, sel_ids, fixed, handle_ids, ties, corr, "scales") if rvector \
+        else ([], [])
+    vector = any(b.vector for b in blocks)
+    mode = _solve_mode(mesh, spec, blocks, free_shell)
     conflict_tol = CONFLICT_TOL * max(diag, 1e-300)
     bidx = np.flatnonzero(mesh.boundary)
     unknowns = bidx if mode == "split" else np.flatnonzero(mesh.referenced)
@@ -209,12 +231,15 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
         pasm = assemble(blocks, umap, unknowns.size, vector)
         pra = rank_analysis(pasm.C)
     rbidx = bidx[~free_shell[bidx]]
-    rasm = rra = None
+    rasm = rra = sasm = sra = None
     if handle_names and rbidx.size:
         umap = np.full(n, -1, np.int64)
         umap[rbidx] = np.arange(rbidx.size)
-        rasm = assemble(rblocks, umap, rbidx.size, vector=False)
+        rasm = assemble(rblocks, umap, rbidx.size, vector=rvector)
         rra = rank_analysis(rasm.C)
+        if rvector:
+            sasm = assemble(sblocks, umap, rbidx.size, vector=False)
+            sra = rank_analysis(sasm.C)
     rest_constraints = _rest_constraints(blocks, rblocks, pasm, pra, rasm, rra, conflict_tol)
     conflicting = rest_constraints["conflicting_constraints"]
     if conflicting and spec.conflicts == "reject":
@@ -235,7 +260,8 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
         sel_ids=sel_ids, fixed=fixed, fixed_mid=fixed_mid, owner=owner, handle_names=handle_names,
         handle_ids=handle_ids, handle_mid=handle_mid, handle_pivots=pivots,
         constrained=np.flatnonzero(constrained_mask), ties=ties, free_shell=free_shell, blocks=blocks,
-        rblocks=rblocks, rbasis=rbasis, vector=vector, mode=mode, diag=diag, conflict_tol=conflict_tol, bidx=bidx,
+        rblocks=rblocks, rbasis=rbasis, rvector=rvector, sblocks=sblocks, sbasis=sbasis, sasm=sasm, sra=sra,
+        corr=corr, vector=vector, mode=mode, diag=diag, conflict_tol=conflict_tol, bidx=bidx,
         unknowns=unknowns, pasm=pasm, pra=pra, rbidx=rbidx, rasm=rasm, rra=rra, rest_constraints=rest_constraints,
         movable=movable, rest=rest, bounds=MoveBounds(center, diag))
 
@@ -247,7 +273,7 @@ def _point_at(mesh: Mesh, sel_ids: dict[str, np.ndarray], p: Any) -> np.ndarray:
 
 def _solve_mode(mesh: Mesh, spec: Spec, blocks: list[Block], free_shell: np.ndarray) -> str:
     """Split where it is exact, else joint (module docstring of :mod:`solver.deform.positions`)."""
-    general = [b for b in blocks if b.kind not in ("fixed", "handle")]
+    general = [b for b in blocks if b.kind not in ("fixed", "handle", "target")]
     touches_interior = any(mesh.interior[b.vert].any() for b in general)
     if free_shell.any():
         on_void = [b for b in blocks if free_shell[b.vert].any()]

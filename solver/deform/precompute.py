@@ -79,8 +79,14 @@ class DeformData:
                                 p.system is not None, move)
 
     def pinned_targets(self, move: Move) -> np.ndarray:
-        """Targets (p, 3) of the fixed and handle mid-side nodes."""
-        return handle_targets(self.mesh, self.constraints, move, self.pinned_mid)
+        """Targets (p, 3) of the fixed, handle and target-surface mid-side nodes (``pinned_mid`` order)."""
+        U = handle_targets(self.mesh, self.constraints, move, self.pinned_mid)
+        for t in self.constraints.corr.targets:
+            if t.mid_ids.size:
+                a = move.targets.get(t.name, 0.0)
+                rows = np.searchsorted(self.pinned_mid, t.mid_ids)
+                U[rows] = self.mesh.V[t.mid_ids] + a * (t.mid_q - self.mesh.V[t.mid_ids])
+        return U
 
     @property
     def nbytes(self) -> int:

@@ -86,12 +86,13 @@ class Report:
     mean_value_residual: float | None = None
     interior_refined: bool | None = None
     enclosed_volume_ratio: float | None = None
+    targets: dict[str, Any] | None = None
     timings: dict[str, Any] = field(default_factory=dict)
 
     #: Optional keys: left out when None (``midside_relaxed`` is kept for quadratic meshes).
     OPTIONAL = ("element_order", "min_jacobian_ratio", "invalid_at_rest_elements", "safe_fraction_solves",
                 "applied_fraction", "inverted_elements_unclamped", "repair", "quality", "interior_precision",
-                "mean_value_residual", "interior_refined", "enclosed_volume_ratio")
+                "mean_value_residual", "interior_refined", "enclosed_volume_ratio", "targets")
 
     def with_(self, **changes: Any) -> Report:
         """A copy with ``changes``."""
@@ -185,8 +186,7 @@ def constraint_report(cs: ConstraintSet, system: Any, rotation: RotationField, P
         redundant += describe(cs.blocks, cs.pasm, drop[~bad], "positions")
         conflicting += describe(cs.blocks, cs.pasm, drop[bad], "positions", res[drop[bad]])
     if rotation.system is not None and cs.rasm is not None:
-        C, s = rotation.handle_logs(move)
-        rres = np.linalg.norm(rotation.unit_residuals @ np.column_stack([C, s]), axis=1) \
+        rres = np.linalg.norm(rotation.unit_residuals @ rotation.unit_vector(move), axis=1) \
             if rotation.unit_residuals.shape[0] else np.zeros(0)
         kept = rotation.system.kept
         rows["rows"] += int(kept.size)

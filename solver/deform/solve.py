@@ -125,6 +125,12 @@ def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move)
     if data.midside is not None and data.check is not None:
         placement = data.midside.place(P, data.check.valid_rest, data.pinned_mid, pinned_at)
         P = placement.P
+        mapped = [e.midside for e in data.constraints.corr.mapped if e.midside is not None and e.midside.slaves.size]
+        if mapped:  # mid-side nodes of a mirrored or cyclic face: the image of the master side, exactly
+            P = P.copy()
+            for m in mapped:
+                P[m.slaves] = np.einsum("sk,skj->sj", m.weights, P[m.masters]) @ m.A.T + m.t
+            placement = Placement(P, None, placement.relaxed)
     return Solved(P, rhs.U, rhs.d, pinned_at, placement, ps.interior_residual, ps.refined)
 
 
@@ -161,6 +167,15 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
     before = data.check.sj_before if data.check is not None else (None, None)
     disp = np.linalg.norm(solved.P - data.mesh.V, axis=1)
     flat = data.check.degenerate_at_rest if data.check is not None else np.zeros(0, np.int64)
+    targets = None
+    if cs.corr.targets:
+        targets = {}
+        for t in cs.corr.targets:
+            nodes = np.r_[t.ids, t.mid_ids]
+            dist = t.surface.closest(solved.P[nodes]).dist  # re-projected: how far the solve left them
+            targets[t.name] = {"amount": float(move.targets.get(t.name, 0.0)), "nodes": int(nodes.size),
+                               "iterations": 1, "max_distance": float(dist.max()),
+                               "mean_distance": float(dist.mean())}
     ratio = None
     if isinstance(data.check, SurfaceCheck) and data.check.closed.any():
         ratio = float(np.nanmin(data.check.volume_ratios(solved.P)))
@@ -177,4 +192,5 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         finite=bool(np.isfinite(solved.P).all()), midside_relaxed=relaxed,
         interior_precision=data.positions.interior_precision, mean_value_residual=solved.interior_residual,
         interior_refined=solved.interior_refined if solved.interior_residual is not None else None,
-        degenerate_at_rest={"count": int(flat.size), "ids": flat[:REPORT_IDS].tolist()}, enclosed_volume_ratio=ratio)
+        degenerate_at_rest={"count": int(flat.size), "ids": flat[:REPORT_IDS].tolist()}, enclosed_volume_ratio=ratio,
+        targets=targets)

@@ -1,0 +1,114 @@
+"""Parts meshed by gmsh for the constraint tests: a mirror-symmetric bar, a periodic sector, two blocks.
+
+Each returns ``(V, T)`` arrays (positively oriented tets) and is deterministic
+for a given gmsh version and size.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _arrays(gmsh) -> tuple[np.ndarray, np.ndarray]:
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    V = xyz.reshape(-1, 3)
+    _, en = gmsh.model.mesh.getElementsByType(4)
+    idx = np.zeros(int(tags.max()) + 1, np.int64)
+    idx[tags.astype(np.int64)] = np.arange(len(tags))
+    T = idx[en.reshape(-1, 4).astype(np.int64)]
+    used = np.unique(T)
+    comp = np.full(len(V), -1, np.int64)
+    comp[used] = np.arange(used.size)
+    return V[used], comp[T]
+
+
+def symmetric_bar(size: float = 4.0) -> tuple[np.ndarray, np.ndarray]:
+    """A 100 x 20 x 10 bar with two bolt holes, exactly mirror-symmetric about x = 50.
+
+    The half x <= 50 is meshed by gmsh and mirrored; nodes on the plane are shared.
+    """
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        box = occ.addBox(0, 0, 0, 50, 20, 10)
+        hole = occ.addCylinder(30, 10, -1, 0, 0, 12, 5)
+        occ.cut([(3, box)], [(3, hole)])
+        occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.model.mesh.generate(3)
+        V, T = _arrays(gmsh)
+    finally:
+        gmsh.finalize()
+    Vm = V.copy()
+    Vm[:, 0] = 100.0 - Vm[:, 0]
+    on = np.abs(V[:, 0] - 50.0) < 1e-9
+    n = len(V)
+    remap = np.arange(n) + n
+    remap[on] = np.flatnonzero(on)
+    VV = np.vstack([V, Vm])
+    TT = np.vstack([T, remap[T][:, [0, 2, 1, 3]]])  # mirrored tets change orientation
+    used = np.unique(TT)
+    comp = np.full(len(VV), -1, np.int64)
+    comp[used] = np.arange(used.size)
+    return VV[used], comp[TT]
+
+
+def periodic_sector(size: float = 2.0, angle_deg: float = 30.0) -> tuple[np.ndarray, np.ndarray]:
+    """A sector of an annulus (radii 8 and 20, height 8) whose two cut faces are meshed alike
+    (gmsh periodic meshing): face B (at ``angle_deg``) is face A (y = 0) turned about z."""
+    import gmsh
+
+    a = math.radians(angle_deg)
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        outer = occ.addCylinder(0, 0, 0, 0, 0, 8, 20, angle=a)
+        inner = occ.addCylinder(0, 0, -1, 0, 0, 10, 8, angle=a)
+        occ.cut([(3, outer)], [(3, inner)])
+        occ.synchronize()
+        fa = fb = None
+        for _, tag in gmsh.model.getEntities(2):
+            c = occ.getCenterOfMass(2, tag)
+            if abs(c[1]) < 1e-6:
+                fa = tag
+            elif abs(c[1] * math.cos(a) - c[0] * math.sin(a)) < 1e-6:
+                fb = tag
+        R = [math.cos(a), -math.sin(a), 0, 0, math.sin(a), math.cos(a), 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+        gmsh.model.mesh.setPeriodic(2, [fb], [fa], R)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.model.mesh.generate(3)
+        return _arrays(gmsh)
+    finally:
+        gmsh.finalize()
+
+
+def two_blocks(size_low: float = 3.0, size_high: float = 2.3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Two 40 x 20 x 10 blocks stacked at z = 10, meshed independently (non-matching interface).
+
+    Returns ``(V, T, body)`` with ``body`` (n,) 0 for the lower block's nodes, 1 for the upper's.
+    """
+    import gmsh
+
+    parts = []
+    for z0, size in ((0.0, size_low), (10.0, size_high)):
+        gmsh.initialize()
+        try:
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.model.occ.addBox(0, 0, z0, 40, 20, 10)
+            gmsh.model.occ.synchronize()
+            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+            gmsh.model.mesh.generate(3)
+            parts.append(_arrays(gmsh))
+        finally:
+            gmsh.finalize()
+    (V1, T1), (V2, T2) = parts
+    V = np.vstack([V1, V2])
+    T = np.vstack([T1, T2 + len(V1)])
+    body = np.r_[np.zeros(len(V1), np.int64), np.ones(len(V2), np.int64)]
+    return V, T, body

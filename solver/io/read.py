@@ -19,7 +19,7 @@ from .formats import SURFACE_FORMATS, format_of
 from .patchers import patcher_for
 from .tetgen import read_tetgen, tetgen_paths
 
-__all__ = ["read_mesh", "mesh_from_meshio", "REGION_KEYS", "SET_PREFIX"]
+__all__ = ["read_mesh", "read_surface", "mesh_from_meshio", "REGION_KEYS", "SET_PREFIX"]
 
 
 #: Integer cell data that label material regions of volume elements (Medit references,
@@ -174,6 +174,49 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
             with open(cp, "rb") as fh:
                 mesh.companions[ext] = fh.read()
     return mesh
+
+
+def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles of a surface file, for :func:`solver.io.tetrahedralize.tetrahedralize`.
+
+    Parameters
+    ----------
+    path : str or path
+        STL, OBJ, OFF, PLY, or any mesh file with triangle (or quad) cells.
+    file_format : str, optional
+
+    Returns
+    -------
+    V : (n, 3) float64 array
+    F : (k, 3) int64 array
+        Triangles; quads are split in two.
+
+    Raises
+    ------
+    UnreadableFileError
+        As :func:`read_mesh` for the file itself; ``no_triangles`` for a file
+        without surface cells, ``not_a_surface`` for a volume mesh.
+    """
+    path = os.fspath(path)
+    name = os.path.basename(path)
+    fmt = format_of(path, file_format)
+    if not os.path.isfile(path):
+        raise UnreadableFileError(f"no such file: {path}", code="file_not_found", file=name)
+    check_file(path, fmt)
+    assert fmt is not None
+    check_complete(path, fmt)
+    m = _read(path, fmt)
+    counts = {c.type: len(c.data) for c in m.cells if len(c.data)}
+    if any(t in VOLUME_CELLS or t in MIXED_TYPES for t in counts):
+        raise UnreadableFileError(f"{name!r} is a volume mesh already ({counts}): morph it directly",
+                                  code="not_a_surface", file=name, cells=counts)
+    parts = [np.asarray(c.data, np.int64) for c in m.cells if c.type == "triangle"]
+    parts += [np.asarray(c.data, np.int64)[:, k] for c in m.cells if c.type == "quad"
+              for k in ([0, 1, 2], [0, 2, 3])]
+    if not parts or not sum(len(x) for x in parts):
+        raise UnreadableFileError(f"{name!r} has no triangles (its cells: {counts or 'none'})",
+                                  code="no_triangles", file=name, cells=counts)
+    return _points(m), np.concatenate(parts)
 
 
 def _read(path: str, fmt: str) -> meshio.Mesh:

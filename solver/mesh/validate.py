@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import InvalidMeshError, TopologyError, format_ids
-from ..ops.boundary_facets import TET_FACES, boundary_facets, face_keys
+from ..ops.boundary_facets import boundary_facets
 from ..ops.elements import LINEAR_TYPES, boundary_faces, corner_jacobians, element_blocks
 from ..validity.quality import degenerate_mask, signed_volumes
 
@@ -305,19 +305,23 @@ def fan_counts(F: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def link_euler(T: np.ndarray, n: int) -> np.ndarray:
+def link_euler(T: np.ndarray, n: int, F: np.ndarray | None = None) -> np.ndarray:
     """Euler characteristic of each vertex's link in a tet mesh.
 
     1 for a boundary vertex whose link is a disk, 2 for an interior vertex
     whose link is a sphere, 0 for unused vertices.
 
     The link of ``v`` has a vertex per edge at ``v``, an edge per face at ``v``
-    and a triangle per tet at ``v``.
+    and a triangle per tet at ``v``. With every face in one or two tets, the
+    faces at ``v`` number ``(3 tets(v) + boundary faces(v)) / 2``, so
+    ``chi(v) = edges(v) - (tets(v) + boundary faces(v)) / 2``.
 
     Parameters
     ----------
     T : (m, 4) int array
     n : int
+    F : (k, 3) int array, optional
+        The boundary faces (:func:`solver.ops.boundary_facets.boundary_facets`).
 
     Returns
     -------
@@ -329,17 +333,15 @@ def link_euler(T: np.ndarray, n: int) -> np.ndarray:
     [2, 1, 1, 1, 1, 1, 1]
     """
     T = np.asarray(T, np.int64)
-    pairs = np.concatenate([T[:, [a, b]] for a in range(4) for b in range(a + 1, 4)])
-    pairs.sort(axis=1)
-    e = np.unique(pairs[:, 0] * n + pairs[:, 1])
-    deg = np.bincount(e // n, minlength=n) + np.bincount(e % n, minlength=n)
-    allF = np.sort(T[:, TET_FACES].reshape(-1, 3), axis=1)
-    keys = face_keys(allF, n)
-    _, first = np.unique(keys, return_index=True)
-    uf = allF[first]
-    faces = np.bincount(uf.ravel(), minlength=n)
+    if F is None:
+        F = boundary_facets(T, n)[0]
+    a = np.concatenate([T[:, i] for i in (0, 0, 0, 1, 1, 2)])
+    b = np.concatenate([T[:, j] for j in (1, 2, 3, 2, 3, 3)])
+    e = np.unique(np.minimum(a, b) * n + np.maximum(a, b))
+    edges = np.bincount(e // n, minlength=n) + np.bincount(e % n, minlength=n)
     tets = np.bincount(T.ravel(), minlength=n)
-    return (deg - faces + tets).astype(np.int64)
+    bf = np.bincount(np.asarray(F, np.int64).ravel(), minlength=n)
+    return (edges - (tets + bf) // 2).astype(np.int64)
 
 
 def _check_manifold_vertices(F: np.ndarray, n: int, T: np.ndarray | None, used: np.ndarray) -> None:
@@ -355,7 +357,7 @@ def _check_manifold_vertices(F: np.ndarray, n: int, T: np.ndarray | None, used: 
             code="non_manifold_vertex", vertices=bad[:100].tolist(), count=int(bad.size), kind="boundary_fans")
     if T is None:
         return
-    chi = link_euler(T, n)
+    chi = link_euler(T, n, F)
     on_boundary = np.zeros(n, bool)
     on_boundary[F.ravel()] = True
     want = np.where(on_boundary, 1, 2)

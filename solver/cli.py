@@ -1,7 +1,19 @@
-"""``tetmorph`` command line: inspect and morph FE meshes in pipelines.
+"""``tetmorph`` command line: inspect, tetrahedralize and morph FE meshes in pipelines.
 
-Exit codes: 0 success, 1 a typed tetmorph error (message on stderr, and the
-error document in the REPORT file when one was asked for), 2 usage errors.
+Standard output carries only the JSON documents a command produces (``info``,
+``features``, and ``--report -``); everything meant for people (what was
+written, timings, progress of a set-up that takes longer than a second, what a
+lossy write dropped) goes to standard error.
+
+Exit codes:
+
+* 0 -- success;
+* 1 -- a typed tetmorph error: unreadable or invalid mesh, bad SPEC or MOVE, a
+  write refused because the format would lose something (message on stderr;
+  the error document in the REPORT when one was asked for);
+* 2 -- usage: unknown command or option, missing argument (argparse);
+* 3 -- ``morph``: at least one MOVE was rejected (inversion policy ``reject``);
+  the others were written.
 """
 
 from __future__ import annotations
@@ -10,16 +22,35 @@ import argparse
 import json
 import os
 import sys
+import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from .deform.deformer import precompute
 from .errors import InversionError, SolverError
 from .io import read_mesh, write_mesh
 
-__all__ = ["main"]
+__all__ = ["main", "EXIT_OK", "EXIT_ERROR", "EXIT_USAGE", "EXIT_REJECTED"]
+
+EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_REJECTED = 0, 1, 2, 3
+#: Set-up progress is printed once it has lasted this long (seconds).
+PROGRESS_AFTER = 1.0
+
+
+def _say(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("tetmorph")
+    except Exception:  # not installed: the package's own number
+        from . import __version__
+
+        return __version__
 
 
 def _load_json(path: str, what: str) -> Any:
@@ -35,24 +66,56 @@ def _load_json(path: str, what: str) -> Any:
 def _dump(obj: Any, path: str | None) -> None:
     text = json.dumps(obj, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o))
     if path is None or path == "-":
-        print(text)
+        sys.stdout.write(text + "\n")
+        sys.stdout.flush()
     else:
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(text + "\n")
 
 
+def _progress(after: float | None = None) -> Callable[[str, float], None]:
+    """A ``progress(stage, fraction)`` callback that prints ``setup: stage fraction`` on stderr.
+
+    Silent until set-up has lasted ``after`` seconds (:data:`PROGRESS_AFTER`).
+    """
+    t0 = time.monotonic()
+    after = PROGRESS_AFTER if after is None else after
+
+    def report(stage: str, fraction: float) -> None:
+        elapsed = time.monotonic() - t0
+        if elapsed >= after:
+            _say(f"setup: {stage} {100 * fraction:.0f}% ({elapsed:.1f} s)")
+
+    return report
+
+
+def _dropped(w: Any, what: str) -> None:
+    for d in w.dropped:
+        _say(f"{what}: dropped {d['kind'].replace('_', ' ')} {d['name']!r} ({d['count']}): {d['reason']}")
+    for old, new in w.renamed.items():
+        _say(f"{what}: set {old!r} written as {new!r}")
+    for s in w.skipped:
+        _say(f"{what}: not written: {s}")
+
+
 def cmd_info(args: argparse.Namespace) -> int:
     mesh = read_mesh(args.mesh, args.format)
     _dump(mesh.info(), None)
-    return 0
+    return EXIT_OK
 
 
 def cmd_morph(args: argparse.Namespace) -> int:
+    from .deform.deformer import Deformer
+
     if (args.move is None) == (args.moves is None):
         raise SolverError("give exactly one of --move MOVE.json or --moves MOVES.json", code="usage")
     mesh = read_mesh(args.mesh, args.format)
     spec = _load_json(args.spec, "SPEC")
+    if args.repair:
+        if not isinstance(spec, dict):
+            raise SolverError(f"{args.spec} must hold a JSON object (the SPEC)", code="invalid_json")
+        spec = {**spec, "repair": True}
     if args.move is not None:
         moves = [_load_json(args.move, "MOVE")]
     else:
@@ -63,7 +126,7 @@ def cmd_morph(args: argparse.Namespace) -> int:
         if len(moves) > 1 and "{i}" not in args.output:
             raise SolverError("with several moves, --output needs '{i}' (e.g. out_{i}.vtu)",
                               code="usage")
-    deformer = precompute(mesh, spec)
+    deformer = Deformer(mesh, spec, progress=_progress())
     reports = []
     for i, mv in enumerate(moves):
         out = args.output.replace("{i}", str(i))
@@ -71,25 +134,26 @@ def cmd_morph(args: argparse.Namespace) -> int:
             res = deformer.solve(mv, args.inversion, "full" if args.quality else "basic")
         except InversionError as e:
             reports.append({"move": i, "output": None, **e.report, "error": e.to_dict()})
-            print(f"move {i}: rejected, {e.message}", file=sys.stderr)
+            _say(f"move {i}: rejected, {e.message}")
             continue
         os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-        write_mesh(mesh, res.V, out, args.output_format, quality=args.quality)
-        rep = {"move": i, "output": out, **res.report}
+        w = write_mesh(mesh, res.V, out, args.output_format, quality=args.quality, lossy=args.lossy)
+        _dropped(w, f"move {i}")
+        rep = {"move": i, "output": out, **res.report, "written": w.to_dict()}
         reports.append(rep)
         t = rep["timings"]["update"]
         if rep.get("clamped"):
-            print(f"move {i}: clamped to {rep['applied_fraction']:.4f} of the move "
-                  f"({rep['inverted_elements_unclamped']} elements inverted at full size)", file=sys.stderr)
-        print(f"move {i}: wrote {out}  inverted={rep['inverted_elements']}  "
-              f"min_sj={rep['min_scaled_jacobian']}  residual={rep['constraint_residual_max']:.3g}  "
-              f"update={t['total_ms']:.1f} ms")
-    print(f"setup {deformer.setup_timings['total_ms']:.0f} ms ({deformer.solve_mode} solve, "
-          f"{deformer.factorizations} factorizations for {len(moves)} moves)")
+            _say(f"move {i}: clamped to {rep['applied_fraction']:.4f} of the move "
+                 f"({rep['inverted_elements_unclamped']} elements inverted at full size)")
+        _say(f"move {i}: wrote {out}  inverted={rep['inverted_elements']}  "
+             f"min_sj={rep['min_scaled_jacobian']}  residual={rep['constraint_residual_max']:.3g}  "
+             f"update={t['total_ms']:.1f} ms")
+    _say(f"setup {deformer.setup_timings['total_ms']:.0f} ms ({deformer.solve_mode} solve, "
+         f"{deformer.factorizations} factorizations for {len(moves)} moves)")
     if args.report:
         _dump(reports[0] if args.move is not None else reports, args.report)
     rejected = sum(r["output"] is None for r in reports)
-    return 1 if rejected else 0
+    return EXIT_REJECTED if rejected else EXIT_OK
 
 
 def cmd_features(args: argparse.Namespace) -> int:
@@ -121,18 +185,47 @@ def cmd_features(args: argparse.Namespace) -> int:
             if not args.ids:
                 c.pop("selection")
     if args.write:
-        write_mesh(mesh, mesh.V, args.write, args.output_format, point_sets=sets)
-        out["written"] = {"path": args.write, "sets": sorted(sets)}
+        w = write_mesh(mesh, mesh.V, args.write, args.output_format, point_sets=sets, lossy=args.lossy)
+        _dropped(w, args.write)
+        out["written"] = {"path": args.write, "sets": sorted(sets), **w.to_dict()}
     _dump(out, None)
-    return 0
+    return EXIT_OK
+
+
+def cmd_tetrahedralize(args: argparse.Namespace) -> int:
+    from .io.read import read_surface
+    from .io.tetrahedralize import tetrahedralize
+
+    V, F = read_surface(args.surface, args.format)
+    t0 = time.perf_counter()
+    _say(f"tetrahedralizing {os.path.basename(args.surface)}: {len(V)} vertices, {len(F)} triangles (fTetWild)")
+    mesh, info = tetrahedralize(V, F, edge_length=args.edge_length, edge_length_fac=args.edge_length_fac,
+                                epsilon=args.epsilon, optimize=not args.no_optimize, allow_open=args.allow_open,
+                                retry=not args.no_retry, log=_say)
+    os.makedirs(os.path.dirname(os.path.abspath(args.output)), exist_ok=True)
+    w = write_mesh(mesh, mesh.V, args.output, args.output_format)
+    used = info["used"]
+    _say(f"wrote {args.output}: {mesh.n} vertices, {len(mesh.T)} tetrahedra in {time.perf_counter() - t0:.1f} s "
+         f"(epsilon {used['epsilon']:g}, edge length "
+         + (f"{used['edge_length']:g}" if used["edge_length"] else f"{used['edge_length_fac']:g} of the diagonal")
+         + (", after a retry" if info["retried"] else "") + ")")
+    if args.report:
+        _dump({"source": args.surface, "output": args.output, "vertices": mesh.n, "tetrahedra": int(len(mesh.T)),
+               **info, "written": w.to_dict()}, args.report)
+    return EXIT_OK
 
 
 def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.ArgumentParser:
     """The ``tetmorph`` parser; ``extend(subparsers)`` may add commands (``serve``)."""
-    p = argparse.ArgumentParser(prog="tetmorph", description="Deform tetrahedral FE meshes with exact "
-                                "hard constraints (mean curvature normals + mean value coordinates).")
+    p = argparse.ArgumentParser(
+        prog="tetmorph", description="Deform tetrahedral FE meshes with exact hard constraints (mean "
+        "curvature normals + mean value coordinates).", epilog="Exit codes: 0 success, 1 a typed error "
+        "(message on stderr), 2 usage, 3 a MOVE rejected by the inversion policy. JSON goes to stdout, "
+        "messages and progress to stderr.")
+    p.add_argument("--version", action="version", version=f"tetmorph {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
-    pi = sub.add_parser("info", help="counts, element types, boundary/interior vertices, sets, quality")
+    pi = sub.add_parser("info", help="counts, element types, boundary/interior vertices, sets, quality, "
+                        "flat elements at rest")
     pi.add_argument("mesh")
     pi.add_argument("--format", help="meshio format name when the extension does not tell")
     pi.set_defaults(func=cmd_info)
@@ -142,7 +235,7 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pm.add_argument("--move", help="MOVE.json: one handle update")
     pm.add_argument("--moves", help="MOVES.json: a list of MOVE documents (one factorization)")
     pm.add_argument("--output", required=True, help="output mesh; '{i}' is replaced by the move index")
-    pm.add_argument("--report", help="write the REPORT (a list with --moves) as JSON")
+    pm.add_argument("--report", help="write the REPORT (a list with --moves) as JSON; '-' for stdout")
     pm.add_argument("--format", help="input meshio format name")
     pm.add_argument("--output-format", help="output meshio format name")
     pm.add_argument("--quality", action="store_true", help="REPORT quality summaries before/after "
@@ -150,6 +243,10 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pm.add_argument("--inversion", choices=["warn", "reject", "clamp"],
                     help="override the SPEC's inversion policy; 'clamp' writes the largest safe "
                     "fraction of an inverting MOVE")
+    pm.add_argument("--repair", action="store_true", help="untangle inverted elements after each solve "
+                    "(the SPEC's repair: true)")
+    pm.add_argument("--lossy", action="store_true", help="write even when the output format cannot hold "
+                    "everything the input carries (sets, element types, data); what is dropped is listed")
     pm.set_defaults(func=cmd_morph)
     pf = sub.add_parser("features", help="form-feature candidates (holes, bosses, planes) or the "
                         "min-cut feature region inside a band")
@@ -164,7 +261,24 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pf.add_argument("--write", help="write the mesh with the features as node sets")
     pf.add_argument("--format", help="input meshio format name")
     pf.add_argument("--output-format", help="output meshio format name")
+    pf.add_argument("--lossy", action="store_true", help="write --write even when its format drops something")
     pf.set_defaults(func=cmd_features)
+    pt = sub.add_parser("tetrahedralize", help="fill a closed surface (STL, OBJ, OFF, PLY) with tetrahedra "
+                        "(fTetWild), retrying once with a tighter envelope when the result is not a valid "
+                        "manifold mesh")
+    pt.add_argument("surface")
+    pt.add_argument("--output", required=True, help="the tet mesh to write (.vtu, .msh, .inp, ...)")
+    pt.add_argument("--edge-length", type=float, help="absolute target edge length")
+    pt.add_argument("--edge-length-fac", type=float, default=0.05,
+                    help="target edge length / bounding-box diagonal (default 0.05)")
+    pt.add_argument("--epsilon", type=float, default=1e-3, help="envelope / bounding-box diagonal (default 1e-3)")
+    pt.add_argument("--no-optimize", action="store_true", help="skip fTetWild's quality optimisation (faster)")
+    pt.add_argument("--allow-open", action="store_true", help="accept a surface with border edges")
+    pt.add_argument("--no-retry", action="store_true", help="do not retry with epsilon / 2")
+    pt.add_argument("--report", help="write what was done (settings used, attempts) as JSON; '-' for stdout")
+    pt.add_argument("--format", help="surface meshio format name")
+    pt.add_argument("--output-format", help="output meshio format name")
+    pt.set_defaults(func=cmd_tetrahedralize)
     if extend is not None:
         extend(sub)
     return p
@@ -183,16 +297,16 @@ def main(argv: list[str] | None = None, extend: Callable[[Any], None] | None = N
     Returns
     -------
     int
-        The exit code.
+        The exit code (module docstring).
     """
     args = build_parser(extend).parse_args(argv)
     try:
         return int(args.func(args))
     except SolverError as e:
-        print(f"tetmorph: error [{e.code}]: {e.message}", file=sys.stderr)
+        _say(f"tetmorph: error [{e.code}]: {e.message}")
         if getattr(args, "report", None):
             _dump({"error": e.to_dict()}, args.report)
-        return 1
+        return EXIT_ERROR
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -13,6 +13,9 @@ __all__ = [
     "SolverError",
     "InvalidMeshError",
     "UnsupportedElementError",
+    "UnreadableFileError",
+    "TopologyError",
+    "LossyWriteError",
     "SpecError",
     "ConstraintError",
     "FactorizationError",
@@ -81,6 +84,45 @@ class UnsupportedElementError(InvalidMeshError):
     """The mesh holds element types that tetmorph does not deform yet."""
 
     default_code = "unsupported_element"
+
+
+class UnreadableFileError(InvalidMeshError):
+    """A mesh file cannot be read, and the message says why.
+
+    Empty, truncated, another format than its name says, a surface where a
+    volume mesh is expected, or a deck that names nodes it never defines.
+
+    Codes: ``empty_file``, ``truncated_file``, ``wrong_format`` (details ``detected``, the
+    format the content looks like, or None), ``surface_not_volume``, ``undefined_node``
+    (details ``element``, ``node``, ``line``), ``no_nodes``, ``unsupported_coordinate_system``,
+    ``unreadable_file`` (anything else; the reader's own words are in the message).
+    """
+
+    default_code = "unreadable_file"
+
+
+class TopologyError(InvalidMeshError):
+    """The elements do not form a manifold body.
+
+    Edges or vertices where the boundary pinches, or coincident nodes that split a body.
+
+    Codes: ``non_manifold_boundary`` (edges in more than two boundary faces),
+    ``non_manifold_vertex`` (details ``vertices``), ``duplicate_nodes`` (details ``pairs``),
+    ``inconsistent_orientation``.
+    """
+
+    default_code = "non_manifold"
+
+
+class LossyWriteError(InvalidMeshError):
+    """Writing to the target format would drop something the mesh carries.
+
+    Elements, an element type, set names, data arrays: ``details["losses"]`` lists each item.
+
+    Pass ``lossy=True`` to :func:`solver.io.write_mesh` (CLI ``--lossy``) to accept the loss.
+    """
+
+    default_code = "lossy_write"
 
 
 class SpecError(SolverError, ValueError):

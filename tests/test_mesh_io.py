@@ -98,7 +98,7 @@ def test_unreadable_and_missing_files(tmp_path):
     bad.write_text("garbage")
     with pytest.raises(InvalidMeshError) as e:
         read_mesh(bad)
-    assert e.value.code == "unreadable_file"
+    assert e.value.code == "wrong_format"  # not Gmsh's $MeshFormat: tests/solver/io/test_read.py
 
 
 def test_each_validation_error_names_the_defect():

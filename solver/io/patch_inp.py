@@ -39,7 +39,7 @@ def node_line_count(data: bytes) -> int:
 
 
 def patch_inp(data: bytes, V: np.ndarray) -> bytes:
-    """The deck ``data`` with the coordinates of its nodes replaced by ``V``.
+    r"""The deck ``data`` with the coordinates of its nodes replaced by ``V``.
 
     Parameters
     ----------
@@ -51,8 +51,9 @@ def patch_inp(data: bytes, V: np.ndarray) -> bytes:
     Returns
     -------
     bytes
-        Identical to ``data`` except for the coordinate fields of node lines
-        (written with 17 significant digits, so they read back exactly).
+        Identical to ``data`` except for the coordinate fields of the node lines
+        whose node moved (written with 17 significant digits, so they read back
+        exactly); the lines of unmoved nodes keep their text.
 
     Raises
     ------
@@ -62,11 +63,11 @@ def patch_inp(data: bytes, V: np.ndarray) -> bytes:
 
     Examples
     --------
-    >>> deck = b"*Heading\\n*NODE\\n1, 0.0, 0.0, 0.0\\n2, 1.0, 0.0, 0.0\\n*ELEMENT, TYPE=T3D2\\n1, 1, 2\\n"
+    >>> deck = b"*Heading\n*NODE\n1, 0.0, 0.0, 0.0\n2, 1.0, 0.0, 0.0\n*ELEMENT, TYPE=T3D2\n1, 1, 2\n"
     >>> print(patch_inp(deck, np.array([[0, 0, 0], [2.5, 0, 0]])).decode())
     *Heading
     *NODE
-    1, 0, 0, 0
+    1, 0.0, 0.0, 0.0
     2, 2.5, 0, 0
     *ELEMENT, TYPE=T3D2
     1, 1, 2
@@ -83,6 +84,12 @@ def patch_inp(data: bytes, V: np.ndarray) -> bytes:
         fields = body.split(b",")
         if len(fields) < 4:
             raise ValueError(f"line {k + 1}: a node line needs an id and three coordinates: {body[:80]!r}")
+        try:
+            old = [float(f.replace(b"d", b"e").replace(b"D", b"e")) for f in fields[1:4]]
+        except ValueError:
+            old = None
+        if old is not None and all(o == float(x) for o, x in zip(old, V[row], strict=True)):
+            continue  # unmoved: the line keeps its text
         coords = [format(float(x), ".17g").encode() for x in V[row]]
         lead = [f[: len(f) - len(f.lstrip())] for f in fields[1:4]]  # keep each field's leading blanks
         fields[1:4] = [sp + c for sp, c in zip(lead, coords, strict=True)]

@@ -8,18 +8,18 @@ __all__ = ["patch_msh"]
 
 
 def patch_msh(data: bytes, V: np.ndarray) -> bytes | None:
-    """An ASCII Gmsh 2.2 or 4.1 file with the coordinates of its ``$Nodes`` replaced by ``V``.
+    r"""An ASCII Gmsh 2.2 or 4.1 file with the coordinates of its ``$Nodes`` replaced by ``V``.
 
     Everything else (elements, physical names, entities, formatting of other
-    lines) is copied byte for byte. Nodes are numbered in order of appearance,
+    lines, the lines of unmoved nodes) is copied byte for byte. Nodes are numbered in order of appearance,
     as meshio reads them. Returns ``None`` for files it cannot patch (binary
     Gmsh files, node counts that differ from ``V``); the caller then writes
     through meshio.
 
     Examples
     --------
-    >>> msh = (b"$MeshFormat\\n4.1 0 8\\n$EndMeshFormat\\n$Nodes\\n1 2 1 2\\n3 1 0 2\\n1\\n2\\n"
-    ...        b"0 0 0\\n1 0 0\\n$EndNodes\\n")
+    >>> msh = (b"$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2 1 2\n3 1 0 2\n1\n2\n"
+    ...        b"0 0 0\n1 0 0\n$EndNodes\n")
     >>> patch_msh(msh, np.array([[0, 0, 0], [2, 0, 0.5]])).decode().splitlines()[9]
     '2 0 0.5'
     """
@@ -41,6 +41,12 @@ def patch_msh(data: bytes, V: np.ndarray) -> bytes | None:
         line = lines[i]
         body = line.rstrip(b"\r\n")
         parts = body.split()
+        new = V[count] if count < V.shape[0] else None
+        if new is not None and len(parts) >= keep_tail + 3 and all(
+                float(o) == float(x) for o, x in zip(parts[keep_tail:keep_tail + 3], new, strict=True)):
+            next(out_rows)
+            count += 1
+            return  # unmoved: the line keeps its text
         lines[i] = (b" ".join(parts[:keep_tail]) + (b" " if keep_tail else b"") + fmt(next(out_rows))
                     + (b" " + b" ".join(parts[keep_tail + 3:]) if len(parts) > keep_tail + 3 else b"")
                     + line[len(body):])

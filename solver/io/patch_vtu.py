@@ -16,7 +16,8 @@ def patch_vtu(data: bytes, V: np.ndarray) -> bytes | None:
     """A VTK XML unstructured grid with its ``<Points>`` array re-encoded from ``V``.
 
     Everything outside that one array (cells, point and cell data, field data,
-    comments) is copied byte for byte; the array keeps its type (Float32 or
+    comments) is copied byte for byte, and in ASCII arrays so are the values of
+    unmoved points; the array keeps its type (Float32 or
     Float64) and encoding (ascii, or base64 binary with or without zlib
     compression, UInt32 or UInt64 headers). Returns ``None`` for what it does
     not handle (appended data, other compressors); the caller writes through
@@ -31,9 +32,10 @@ def patch_vtu(data: bytes, V: np.ndarray) -> bytes | None:
     head = data[: data.find(b">", data.find(b"<VTKFile")) + 1]
     file_attrs = dict(_ATTR.findall(head))
     attrs = dict(_ATTR.findall(m.group(1)))
-    if attrs.get(b"NumberOfComponents", b"3") != b"3" or file_attrs.get(b"byte_order", b"LittleEndian") != b"LittleEndian":
+    little = file_attrs.get(b"byte_order", b"LittleEndian") == b"LittleEndian"
+    if attrs.get(b"NumberOfComponents", b"3") != b"3" or not little:
         return None
-    dtype = {b"Float32": "<f4", b"Float64": "<f8"}.get(attrs.get(b"type"))
+    dtype = {b"Float32": "<f4", b"Float64": "<f8"}.get(attrs.get(b"type", b""))
     if dtype is None:
         return None
     arr = np.ascontiguousarray(V, dtype=dtype)
@@ -42,7 +44,17 @@ def patch_vtu(data: bytes, V: np.ndarray) -> bytes | None:
     lead = body[: len(body) - len(body.lstrip())]
     trail = body[len(body.rstrip()):]
     if fmt == b"ascii":
-        text = b" ".join(repr(float(x)).encode() for x in arr.ravel())
+        spans = [t.span() for t in re.finditer(rb"\S+", body)]
+        if len(spans) != arr.size:
+            return None
+        old = np.array([float(body[a:b]) for a, b in spans], dtype=dtype).reshape(arr.shape)
+        parts, last = [], 0
+        for row in np.flatnonzero((old != arr).any(1)):  # unmoved points keep their text
+            for j in range(3):
+                a, b = spans[3 * row + j]
+                parts += [body[last:a], repr(float(arr[row, j])).encode()]
+                last = b
+        return data[: m.start(2)] + b"".join(parts) + body[last:] + data[m.end(2):]
     elif fmt == b"binary":
         hdr = {b"UInt32": "<u4", b"UInt64": "<u8"}.get(file_attrs.get(b"header_type", b"UInt32"))
         comp = file_attrs.get(b"compressor")

@@ -15,8 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .patch_bdf import grid_count, patch_bdf
 from .patch_inp import node_line_count, patch_inp
 from .patch_msh import patch_msh
+from .patch_node import node_count, patch_node
 from .patch_vtu import patch_vtu
 
 __all__ = ["Patcher", "PATCHERS", "register", "patcher_for"]
@@ -38,7 +40,13 @@ class Patcher:
         ``accepts(raw, n) -> bool``: whether the original bytes can be patched
         for a mesh of ``n`` points (sniffs the header, counts node lines).
     patch : callable
-        ``patch(raw, V) -> bytes | None``.
+        ``patch(raw, V) -> bytes | None``; raises ValueError or returns None
+        when the file cannot be patched.
+    main : str, optional
+        For a format spread over several files, the extension of the one that
+        holds the coordinates and is patched (TetGen: ``"node"``).
+    companions : tuple of str
+        Extensions of the other files, kept byte for byte (TetGen: ``("ele",)``).
     """
 
     name: str
@@ -46,6 +54,23 @@ class Patcher:
     extensions: tuple[str, ...]
     accepts: Callable[[bytes, int], bool]
     patch: Callable[[bytes, np.ndarray], bytes | None]
+    main: str | None = None
+    companions: tuple[str, ...] = ()
+
+    def files(self, path: str) -> tuple[str, dict[str, str]]:
+        """The patched file and the companion files (by extension) of a mesh named ``path``.
+
+        Examples
+        --------
+        >>> PATCHERS["tetgen"].files("out/beam.ele")
+        ('out/beam.node', {'ele': 'out/beam.ele'})
+        >>> PATCHERS["abaqus"].files("deck.inp")
+        ('deck.inp', {})
+        """
+        if self.main is None:
+            return path, {}
+        stem = path.rsplit(".", 1)[0] if "." in path.rsplit("/", 1)[-1] else path
+        return f"{stem}.{self.main}", {ext: f"{stem}.{ext}" for ext in self.companions}
 
 
 #: Patchers by meshio format name.
@@ -62,6 +87,9 @@ register(Patcher("abaqus", ("inp",), ("inp",), lambda raw, n: node_line_count(ra
 register(Patcher("gmsh", ("msh",), ("msh",), lambda raw, n: raw.lstrip().startswith(b"$MeshFormat"),
                  patch_msh))
 register(Patcher("vtu", (), ("vtu",), lambda raw, n: b"<VTKFile" in raw[:400], patch_vtu))
+register(Patcher("nastran", ("bdf", "nas"), ("bdf", "nas", "fem"), lambda raw, n: grid_count(raw) == n, patch_bdf))
+register(Patcher("tetgen", ("node", "ele"), ("node", "ele"), lambda raw, n: node_count(raw) == n, patch_node,
+                 main="node", companions=("ele",)))
 
 
 def patcher_for(path: str, file_format: str | None = None) -> Patcher | None:
@@ -71,6 +99,8 @@ def patcher_for(path: str, file_format: str | None = None) -> Patcher | None:
     --------
     >>> patcher_for("deck.INP").name, patcher_for("x.bin", "gmsh").name, patcher_for("a.stl")
     ('abaqus', 'gmsh', None)
+    >>> patcher_for("m.bdf").name, patcher_for("beam.ele").name
+    ('nastran', 'tetgen')
     """
     if file_format is not None:
         fmt = file_format.lower()

@@ -2,22 +2,53 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
+import warnings
+from collections.abc import Iterator
+from typing import Any
 
 import meshio
 import numpy as np
 
-from ..errors import InvalidMeshError, UnsupportedElementError
+from ..errors import InvalidMeshError, UnreadableFileError, UnsupportedElementError
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
-from ..mesh.validate import validate
 from ..ops.elements import LINEAR_TYPES, oriented
+from .diagnose import check_complete, check_file, diagnose
+from .formats import SURFACE_FORMATS, format_of
 from .patchers import patcher_for
+from .tetgen import read_tetgen, tetgen_paths
 
-__all__ = ["read_mesh", "mesh_from_meshio"]
+__all__ = ["read_mesh", "read_surface", "mesh_from_meshio", "REGION_KEYS", "SET_PREFIX"]
+
+
+#: Integer cell data that label material regions of volume elements (Medit references,
+#: VTK/Exodus block ids, sfepy material ids, Nastran property ids, TetGen region attributes).
+REGION_KEYS = ("medit:ref", "CellEntityIds", "MaterialIds", "mat_id", "nastran:ref", "tetgen:ref")
+#: Prefix of the 0/1 point and cell data arrays that hold named sets in formats without
+#: sets (VTU, VTK): ``set:FIXED`` (see :mod:`solver.io.conversion`).
+SET_PREFIX = "set:"
+#: Topological dimension of meshio cell types (Gmsh physical groups are named per dimension).
+CELL_DIM = {"vertex": 0, "line": 1, "line3": 1, "triangle": 2, "triangle6": 2, "quad": 2, "quad8": 2,
+            "quad9": 2}
+
+
+def integral(a: np.ndarray) -> bool:
+    """Whether an array holds integers (as integers, or as whole floats: Gmsh element data).
+
+    Examples
+    --------
+    >>> integral(np.array([1, 2])), integral(np.array([1.0, 2.0])), integral(np.array([0.5]))
+    (True, True, False)
+    """
+    a = np.asarray(a)
+    if np.issubdtype(a.dtype, np.integer):
+        return True
+    return bool(np.issubdtype(a.dtype, np.floating) and np.isfinite(a).all() and (a == np.round(a)).all())
 
 
 def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
-    """Node sets, element sets (their nodes) and physical groups of a meshio mesh."""
+    """Node sets, element sets (their nodes), physical groups and material regions of a meshio mesh."""
     sets: dict[str, np.ndarray] = {}
     for name, ids in (m.point_sets or {}).items():
         sets[name] = np.unique(np.asarray(ids, dtype=np.int64))
@@ -29,34 +60,50 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
                  if ix is not None and np.ndim(ix) == 1 and len(ix) and b < len(m.cells)]
         if nodes and name not in sets:
             sets[name] = np.unique(np.concatenate(nodes))
-    # gmsh physical groups: cell data "gmsh:physical" with names in field_data
+    for key, vals in m.point_data.items():  # sets kept as 0/1 arrays (VTU, VTK)
+        v = np.asarray(vals)
+        if key.startswith(SET_PREFIX) and v.ndim == 1 and v.size == len(m.points) and np.isin(v, (0, 1)).all():
+            sets.setdefault(key[len(SET_PREFIX):], np.flatnonzero(v).astype(np.int64))
+    for key, per_block in m.cell_data.items():
+        if not key.startswith(SET_PREFIX):
+            continue
+        parts = [np.asarray(c.data)[np.asarray(v).ravel() == 1].ravel()
+                 for c, v in zip(m.cells, per_block, strict=False) if np.asarray(v).ravel().size == len(c.data)]
+        if parts and np.concatenate(parts).size:
+            sets.setdefault(key[len(SET_PREFIX):], np.unique(np.concatenate(parts)).astype(np.int64))
+    # gmsh physical groups: cell data "gmsh:physical", names in field_data as [tag, dim]
     phys = m.cell_data.get("gmsh:physical")
     if phys is not None:
-        names = {int(v[0]): k for k, v in (m.field_data or {}).items() if len(v) >= 1}
+        named = {(int(v[0]), int(v[1]) if len(v) > 1 else -1): k for k, v in (m.field_data or {}).items()
+                 if np.ndim(v) == 1 and len(v) >= 1}
+        by_tag = {t: k for (t, _), k in named.items()}
         groups: dict[str, list[np.ndarray]] = {}
-        for block, tags in zip(m.cells, phys):
+        for block, tags in zip(m.cells, phys, strict=False):
+            dim = CELL_DIM.get(block.type, 3)
+            tags = np.asarray(tags).ravel()
             for tag in np.unique(tags):
-                label = names.get(int(tag), f"physical:{int(tag)}")
+                if tag == 0 and (0, dim) not in named:
+                    continue  # Gmsh's tag 0: in no physical group
+                label = named.get((int(tag), dim), by_tag.get(int(tag), f"physical:{int(tag)}"))
                 groups.setdefault(label, []).append(np.asarray(block.data)[tags == tag].ravel())
         for label, parts in groups.items():
             sets.setdefault(label, np.unique(np.concatenate(parts)))
-    # material regions of volume elements as integer cell data (Medit references,
-    # VTK/Exodus-style block ids): a node set per value, e.g. "medit:ref=2"
-    for key in ("medit:ref", "CellEntityIds", "MaterialIds"):
+    # material regions: a node set per value, e.g. "medit:ref=2"
+    for key in REGION_KEYS:
         data = m.cell_data.get(key)
         if data is None:
             continue
         regions: dict[int, list[np.ndarray]] = {}
         for block, vals in zip(m.cells, data, strict=False):
             vals = np.asarray(vals).ravel()
-            if block.type not in VOLUME_CELLS or vals.shape[0] != len(block.data) \
-                    or not np.issubdtype(vals.dtype, np.integer):
+            if block.type not in VOLUME_CELLS or vals.shape[0] != len(block.data) or not integral(vals):
                 continue
-            for v in np.unique(vals):
-                regions.setdefault(int(v), []).append(np.asarray(block.data)[vals == v].ravel())
+            vals = vals.astype(np.int64)
+            for value in np.unique(vals):
+                regions.setdefault(int(value), []).append(np.asarray(block.data)[vals == value].ravel())
         if len(regions) > 1:  # one value everywhere is no region
-            for v, parts in regions.items():
-                sets.setdefault(f"{key}={v}", np.unique(np.concatenate(parts)))
+            for label, parts in regions.items():
+                sets.setdefault(f"{key}={label}", np.unique(np.concatenate(parts)))
     return sets
 
 
@@ -64,46 +111,179 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
 VOLUME_CELLS = {"tetra", "tetra10", "hexahedron", "wedge", "pyramid"}
 
 
-def read_mesh(path: str | os.PathLike[str], file_format: str | None = None) -> Mesh:
-    """Read and validate a linear tet mesh (or a triangle surface) with meshio.
+def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volume: bool = False) -> Mesh:
+    """Read and validate a tet mesh (linear, quadratic or mixed) or a triangle surface.
 
     Parameters
     ----------
     path : str or path
-        Any format meshio reads: ``.msh``, ``.vtu``, ``.vtk``, ``.mesh``,
-        ``.inp``, ``.node``/``.ele`` (TetGen), ``.bdf``/``.nas`` (Nastran), ...
+        Any format meshio reads: ``.msh`` (Gmsh), ``.vtu``, ``.vtk``, ``.mesh``,
+        ``.inp``, ``.node``/``.ele`` (TetGen), ``.bdf``/``.nas`` (Nastran),
+        ``.stl``/``.obj``/``.off``/``.ply`` (surfaces), ...
     file_format : str, optional
-        meshio format name when the extension does not tell.
+        meshio format name (or extension) when the extension does not tell.
+    volume : bool
+        Refuse a triangle surface (``surface_not_volume``, pointing to
+        ``tetmorph tetrahedralize``) where a volume mesh is expected.
 
     Returns
     -------
     Mesh
+        With ``raw`` (and ``companions``) kept when the format has an in-place
+        writer (:mod:`solver.io.patchers`).
 
     Raises
     ------
+    UnreadableFileError
+        The file is missing, empty, truncated, of another format than its
+        name says, names undefined nodes, defines no nodes, or (with
+        ``volume``) holds a surface; every message names the defect.
     InvalidMeshError
-        The file cannot be read, has no tets or triangles, or fails :func:`validate`.
+        The mesh fails :func:`validate`.
     UnsupportedElementError
-        The file holds quadratic or non-tet volume elements.
+        The file holds element types tetmorph does not deform.
     """
     path = os.fspath(path)
+    name = os.path.basename(path)
+    fmt = format_of(path, file_format)
+    if fmt == "tetgen":
+        path = tetgen_paths(path)[0]
     if not os.path.isfile(path):
-        raise InvalidMeshError(f"no such file: {path}", code="file_not_found")
-    try:
-        m = meshio.read(path, file_format=file_format)
-    except FileNotFoundError as e:
-        raise InvalidMeshError(f"no such file: {path}", code="file_not_found") from e
-    except (Exception, SystemExit) as e:  # meshio raises many types, and sys.exit()s on
-        # files that no reader of the extension accepts: never let that end the process
-        raise InvalidMeshError(f"cannot read {os.path.basename(path)!r} "
-                               f"(format {file_format or 'from extension'}): {e}",
-                               code="unreadable_file") from e
+        raise UnreadableFileError(f"no such file: {path}", code="file_not_found", file=name)
+    check_file(path, fmt)
+    assert fmt is not None  # check_file refuses unknown extensions
+    check_complete(path, fmt)
+    m = _read(path, fmt)
+    if np.asarray(m.points).size == 0:
+        raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",
+                                  code="no_nodes", file=name)
+    if fmt == "nastran":
+        _check_basic_coordinates(m, name)
+    if volume and fmt in SURFACE_FORMATS | {"obj"}:
+        raise _surface_error(name, m)
     mesh = mesh_from_meshio(m)
+    if volume and mesh.is_surface:
+        raise _surface_error(name, m)
     mesh.path = path
-    if patcher_for(path, file_format) is not None:  # kept to be written back in place
-        with open(path, "rb") as fh:
+    p = patcher_for(path, fmt)
+    if p is not None:  # kept to be written back in place
+        main, companions = p.files(path)
+        with open(main, "rb") as fh:
             mesh.raw = fh.read()
+        for ext, cp in companions.items():
+            with open(cp, "rb") as fh:
+                mesh.companions[ext] = fh.read()
     return mesh
+
+
+def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles of a surface file, for :func:`solver.io.tetrahedralize.tetrahedralize`.
+
+    Parameters
+    ----------
+    path : str or path
+        STL, OBJ, OFF, PLY, or any mesh file with triangle (or quad) cells.
+    file_format : str, optional
+
+    Returns
+    -------
+    V : (n, 3) float64 array
+    F : (k, 3) int64 array
+        Triangles; quads are split in two.
+
+    Raises
+    ------
+    UnreadableFileError
+        As :func:`read_mesh` for the file itself; ``no_triangles`` for a file
+        without surface cells, ``not_a_surface`` for a volume mesh.
+    """
+    path = os.fspath(path)
+    name = os.path.basename(path)
+    fmt = format_of(path, file_format)
+    if not os.path.isfile(path):
+        raise UnreadableFileError(f"no such file: {path}", code="file_not_found", file=name)
+    check_file(path, fmt)
+    assert fmt is not None
+    check_complete(path, fmt)
+    m = _read(path, fmt)
+    counts = {c.type: len(c.data) for c in m.cells if len(c.data)}
+    if any(t in VOLUME_CELLS or t in MIXED_TYPES for t in counts):
+        raise UnreadableFileError(f"{name!r} is a volume mesh already ({counts}): morph it directly",
+                                  code="not_a_surface", file=name, cells=counts)
+    parts = [np.asarray(c.data, np.int64) for c in m.cells if c.type == "triangle"]
+    parts += [np.asarray(c.data, np.int64)[:, k] for c in m.cells if c.type == "quad"
+              for k in ([0, 1, 2], [0, 2, 3])]
+    if not parts or not sum(len(x) for x in parts):
+        raise UnreadableFileError(f"{name!r} has no triangles (its cells: {counts or 'none'})",
+                                  code="no_triangles", file=name, cells=counts)
+    return _points(m), np.concatenate(parts)
+
+
+def _read(path: str, fmt: str) -> meshio.Mesh:
+    """The file through its reader; the reader's failures become typed errors (:func:`diagnose`)."""
+    if fmt == "tetgen":
+        return read_tetgen(path)
+    reader = meshio._helpers.reader_map.get(fmt)
+    if reader is None:
+        raise UnreadableFileError(f"tetmorph cannot read {fmt!r} files ({os.path.basename(path)!r})",
+                                  code="unknown_format", file=os.path.basename(path), format=fmt)
+    try:
+        with warnings.catch_warnings(), _gmsh22_cell_data():
+            warnings.simplefilter("ignore")
+            return reader(path)
+    except (Exception, SystemExit) as e:  # meshio raises many types, and sys.exit()s: never end the process
+        raise diagnose(path, fmt, e) from e
+
+
+@contextlib.contextmanager
+def _gmsh22_cell_data() -> Iterator[None]:
+    """Split Gmsh 2.2 ``$ElementData`` per cell block right while a file is read.
+
+    meshio 5.3's Gmsh 2.2 reader splits it at the lengths of its ``(type, cells)``
+    tuples (2) instead of their cells, so a file with data and two cell types fails.
+    """
+    from meshio.gmsh import _gmsh22
+
+    original = _gmsh22.cell_data_from_raw
+
+    def split(cells: list[Any], raw: dict[str, np.ndarray]) -> dict[str, list[np.ndarray]]:
+        sizes = [len(c[1]) if isinstance(c, tuple) else len(c) for c in cells]
+        return {k: np.split(v, np.cumsum(sizes)[:-1]) for k, v in raw.items()}
+
+    _gmsh22.cell_data_from_raw = split
+    try:
+        yield
+    finally:
+        _gmsh22.cell_data_from_raw = original
+
+
+def _where_nodes(fmt: str) -> str:
+    return {"abaqus": "no *NODE data lines", "nastran": "no GRID cards after BEGIN BULK",
+            "gmsh": "an empty $Nodes section", "medit": "no Vertices"}.get(fmt, "no points")
+
+
+def _surface_error(name: str, m: meshio.Mesh) -> UnreadableFileError:
+    counts = {c.type: len(c.data) for c in m.cells}
+    stem = name.rsplit(".", 1)[0]
+    return UnreadableFileError(
+        f"{name!r} holds a triangle surface ({counts}), not a volume mesh: fill it with tetrahedra first, "
+        f"e.g. `tetmorph tetrahedralize {name} --output {stem}.vtu` (or POST /v1/tetrahedralize)",
+        code="surface_not_volume", file=name, cells=counts)
+
+
+def _check_basic_coordinates(m: meshio.Mesh, name: str) -> None:
+    """Refuse GRID cards in a local coordinate system: meshio reads their fields as basic coordinates."""
+    cp = m.point_data.pop("nastran:ref", None)  # meshio's name for the GRID CP field
+    if cp is None:
+        return
+    bad = np.flatnonzero(np.asarray(cp) != 0)
+    if bad.size:
+        gid = getattr(m, "points_id", np.arange(1, len(m.points) + 1))
+        raise UnreadableFileError(
+            f"{name!r}: {bad.size} GRID cards give their position in a local coordinate system (CP field), "
+            f"e.g. GRID {int(gid[bad[0]])} in system {int(cp[bad[0]])}; tetmorph reads positions in the basic "
+            "system only. Export the deck with positions in the basic system.",
+            code="unsupported_coordinate_system", grids=[int(g) for g in gid[bad[:100]]], count=int(bad.size))
 
 
 def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
@@ -144,8 +324,12 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
         pass  # out-of-range indices: validate() names them
     tris = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "triangle"]
     surface = np.concatenate(tris) if (tris and not len(T) and not cells) else np.zeros((0, 3), np.int64)
-    validate(V, T, surface, cells)
-    return Mesh(V=V, T=T, surface=surface, sets=_named_sets(m), source=m, cells=cells)
+    if not len(T) and not cells and not len(surface):
+        counts = {c.type: len(c.data) for c in m.cells}
+        raise InvalidMeshError(
+            f"the mesh has no tetrahedra, other volume elements or triangles (its cells: {counts or 'none'}); "
+            "tetmorph morphs volume meshes and triangle surfaces", code="no_elements", cells=counts)
+    return Mesh.validated(V, T, surface, cells, sets=_named_sets(m), source=m)
 
 
 def _points(m: meshio.Mesh) -> np.ndarray:
@@ -167,10 +351,10 @@ def _quadratic_from_meshio(m: meshio.Mesh) -> Mesh:
     T10 = np.concatenate([np.asarray(c.data, np.int64) for c in m.cells if c.type == "tetra10"])
     V = _points(m)
     T = np.ascontiguousarray(T10[:, :4])
-    validate(V, T, None)
+    mesh = Mesh.validated(V, T, None, sets=_named_sets(m), source=m, T10=T10)
     mid = np.setdiff1d(np.unique(T10[:, 4:]), np.unique(T))
     if mid.size != np.unique(T10[:, 4:]).size:
         raise InvalidMeshError("some tetra10 mid-side nodes are also corner nodes", code="bad_connectivity")
-    return Mesh(V=V, T=T, sets=_named_sets(m), source=m, T10=T10)
+    return mesh
 
 

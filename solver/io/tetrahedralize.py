@@ -1,12 +1,14 @@
 """Tetrahedralize a closed triangle surface with fTetWild (pytetwild).
 
 The result is a validated :class:`~solver.mesh.Mesh` with every tetrahedron
-positively oriented.
+positively oriented; an output that is not a manifold tet mesh is retried once
+with a tighter envelope.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -44,9 +46,16 @@ def open_edges(F: np.ndarray) -> np.ndarray:
 
 
 def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length_fac: float = 0.05,
-                   epsilon: float = 1e-3, optimize: bool = True,
-                   allow_open: bool = False) -> tuple[Mesh, dict[str, Any]]:
-    """Fill a closed surface with tetrahedra (fTetWild).
+                   epsilon: float = 1e-3, optimize: bool = True, allow_open: bool = False, retry: bool = True,
+                   log: Callable[[str], None] | None = None) -> tuple[Mesh, dict[str, Any]]:
+    """Fill a closed surface with tetrahedra (fTetWild), checked as a manifold tet mesh.
+
+    fTetWild's output is validated like any input mesh (:func:`solver.mesh.validate`).
+    When it is not a valid manifold tet mesh (edges in more than two boundary
+    faces, pinched vertices, coincident nodes: 42400-IDGH.stl at the defaults
+    gives boundary edges in four faces), it is run once more with half the
+    envelope ``epsilon``, which follows the input surface closer and keeps thin
+    walls apart; ``info["attempts"]`` says what each run gave.
 
     Parameters
     ----------
@@ -66,19 +75,26 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
     allow_open : bool
         Accept a surface with border or non-manifold edges (fTetWild fills
         it by winding number); refused by default.
+    retry : bool
+        Run once more with ``epsilon / 2`` when the output is not a valid mesh.
+    log : callable, optional
+        ``log(message)`` is told about a retry.
 
     Returns
     -------
     mesh : Mesh
         The tetrahedral mesh, positively oriented.
     info : dict
-        ``{"surface_vertices", "surface_triangles", "flipped_elements", "open_edges"}``.
+        ``{"surface_vertices", "surface_triangles", "flipped_elements", "open_edges",
+        "used": {"edge_length", "edge_length_fac", "epsilon", "optimize"}, "retried",
+        "attempts": [{"epsilon", "result", "message"}, ...]}``.
 
     Raises
     ------
     InvalidMeshError
         Bad arrays, an open surface (unless allowed), bad options, or a
-        tetrahedralization that produced no valid elements.
+        tetrahedralization that is not a valid mesh after the retry
+        (``tetrahedralization_failed``, with the attempts).
     """
     try:
         V = np.ascontiguousarray(V, dtype=np.float64)
@@ -105,6 +121,38 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
             f"the surface is not closed: {len(opened)} edges are not shared by exactly two "
             f"triangles (first {opened[:3].tolist()}); close it, or pass allow_open",
             code="open_surface", open_edges=int(len(opened)))
+    attempts: list[dict[str, Any]] = []
+    tries = (epsilon, epsilon / 2) if retry else (epsilon,)
+    mesh, flipped = None, 0
+    for k, eps in enumerate(tries):
+        Vt, Tt = _ftetwild(V, F, edge_length, edge_length_fac, eps, optimize)
+        try:
+            mesh, flipped = _checked(Vt, Tt)
+        except InvalidMeshError as e:
+            attempts.append({"epsilon": eps, "result": e.code, "message": e.message})
+            if k + 1 < len(tries):
+                if log is not None:
+                    log(f"fTetWild's output at epsilon {eps:g} is not a valid manifold tet mesh ({e.code}: "
+                        f"{e.message[:160]}); retrying once with epsilon {tries[k + 1]:g}")
+                continue
+            raise InvalidMeshError(
+                "fTetWild's output is not a valid manifold tet mesh at "
+                + " nor at ".join(f"epsilon {a['epsilon']:g} ({a['result']})" for a in attempts)
+                + f"; last: {e.message}. Try a smaller edge length (--edge-length-fac) or a smaller epsilon.",
+                code="tetrahedralization_failed", attempts=attempts) from e
+        attempts.append({"epsilon": eps, "result": "ok", "message": f"{len(mesh.T)} tetrahedra"})
+        break
+    assert mesh is not None
+    used = {"edge_length": edge_length, "edge_length_fac": edge_length_fac, "epsilon": attempts[-1]["epsilon"],
+            "optimize": optimize}
+    return mesh, {"surface_vertices": int(len(V)), "surface_triangles": int(len(F)),
+                  "flipped_elements": flipped, "open_edges": int(len(opened)), "used": used,
+                  "retried": len(attempts) > 1, "attempts": attempts}
+
+
+def _ftetwild(V: np.ndarray, F: np.ndarray, edge_length: float | None, edge_length_fac: float, epsilon: float,
+              optimize: bool) -> tuple[np.ndarray, np.ndarray]:
+    """One fTetWild run: its points and tets."""
     import pytetwild  # heavy; only needed here
 
     stray = os.path.join(os.getcwd(), TRACKED_SURFACE)
@@ -118,15 +166,18 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
     finally:
         if not had_stray and os.path.exists(stray):
             os.unlink(stray)  # fTetWild leaves its tracked surface in the working directory
-    Tt = np.asarray(Tt, dtype=np.int64)
+    return np.asarray(Vt, dtype=np.float64), np.asarray(Tt, dtype=np.int64)
+
+
+def _checked(Vt: np.ndarray, Tt: np.ndarray) -> tuple[Mesh, int]:
+    """Orient, compact and validate fTetWild's output; also return how many tets were flipped."""
     if Tt.size == 0:
         raise InvalidMeshError("fTetWild produced no tetrahedra", code="tetrahedralization_failed")
     vol = signed_volumes(Vt, Tt)
     neg = vol < 0
+    Tt = Tt.copy()
     Tt[neg] = Tt[neg][:, [0, 2, 1, 3]]
     used = np.unique(Tt)
     remap = np.full(len(Vt), -1, np.int64)
     remap[used] = np.arange(used.size)
-    mesh = mesh_from_arrays(np.asarray(Vt)[used], remap[Tt])
-    return mesh, {"surface_vertices": int(len(V)), "surface_triangles": int(len(F)),
-                  "flipped_elements": int(neg.sum()), "open_edges": int(len(opened))}
+    return mesh_from_arrays(Vt[used], remap[Tt]), int(neg.sum())

@@ -34,8 +34,9 @@ VOLUME_TYPES = {"tetra4", "hexahedron20", "hexahedron27", "wedge15", "pyramid13"
 
 @dataclass(eq=False)
 class Mesh:
-    """A volume mesh (tetrahedra, optionally with other linear elements), or a triangle
-    surface, with its source file.
+    """A volume mesh or a triangle surface, with its source file.
+
+    Tetrahedra, optionally with other linear elements (hexahedra, wedges, pyramids).
 
     Parameters
     ----------
@@ -51,8 +52,12 @@ class Mesh:
     source : meshio.Mesh, optional
         The mesh as read, written back by :func:`write_mesh`.
     raw : bytes, optional
-        The file's bytes, kept for Abaqus decks so that :func:`write_mesh`
+        The file's bytes, kept for formats with an in-place writer (Abaqus,
+        Gmsh, VTU, Nastran, TetGen ``.node``) so that :func:`write_mesh`
         changes only node coordinates (:mod:`solver.io.patchers`).
+    companions : dict of str to bytes
+        Other files of a format spread over several, by extension, kept byte
+        for byte (TetGen: ``{"ele": ...}``).
     T10 : (m, 10) int64 array, optional
         For quadratic tetrahedra (tetra10 / C3D10): every element's ten nodes in
         VTK order (four corners, then the mid-side nodes of edges 01, 12, 02,
@@ -62,6 +67,15 @@ class Mesh:
         Linear hexahedra, wedges and pyramids (meshio/VTK node order), per type
         in file order. Elements are numbered tets first, then these in
         :data:`solver.ops.elements.LINEAR_TYPES` order (report ids, cell data).
+    degenerate_at_rest : (k,) int64 array
+        Ids (numbered as :attr:`blocks`) of the tetrahedra that are flat at rest
+        (zero volume, :func:`solver.validity.quality.degenerate_mask`), found by
+        :func:`validate`. They are loaded and morphed, and reported apart from
+        the elements a morph inverts; tetrahedra of negative volume are refused
+        (``inverted_input``).
+    coincident_nodes : (p, 2) int64 array
+        Pairs of used vertices at the same position, in bodies that are
+        otherwise manifold (parts of an assembly; the SPEC's ties join them).
     """
 
     V: np.ndarray
@@ -73,6 +87,23 @@ class Mesh:
     T10: np.ndarray | None = None
     raw: bytes | None = field(default=None, repr=False)
     cells: dict[str, np.ndarray] = field(default_factory=dict)
+    degenerate_at_rest: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    coincident_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
+    companions: dict[str, bytes] = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def validated(cls, V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None,
+                  cells: dict[str, np.ndarray] | None = None, **fields: Any) -> Mesh:
+        """A mesh of arrays that pass :func:`validate`, with what validation found.
+
+        Raises
+        ------
+        InvalidMeshError
+        """
+        found = validate(V, T, surface, cells)
+        kw: dict[str, Any] = {"surface": surface} if surface is not None else {}
+        return cls(V=V, T=T, cells=cells or {}, degenerate_at_rest=found.degenerate_at_rest,
+                   coincident_nodes=found.coincident_nodes, **kw, **fields)
 
     @property
     def n(self) -> int:
@@ -132,6 +163,28 @@ class Mesh:
         return self.referenced & ~self.boundary
 
     @cached_property
+    def rim_edges(self) -> np.ndarray:
+        """(e, 2) sorted vertex pairs of the open edges of a triangle surface.
+
+        Edges in one face: the rim of a sheet and of its holes. Empty for volume
+        meshes and closed surfaces.
+        """
+        if not self.is_surface or not self.surface.size:
+            return np.zeros((0, 2), np.int64)
+        F, n = self.surface, self.n
+        He = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+        uniq, counts = np.unique(He[:, 0] * n + He[:, 1], return_counts=True)
+        once = uniq[counts == 1]
+        return np.stack([once // n, once % n], 1).astype(np.int64)
+
+    @cached_property
+    def rim(self) -> np.ndarray:
+        """(n,) bool: vertices on the open rim of a triangle surface (:attr:`rim_edges`)."""
+        r = np.zeros(self.n, bool)
+        r[self.rim_edges.ravel()] = True
+        return r
+
+    @cached_property
     def body_labels(self) -> np.ndarray:
         """(n,) int: connected component (body) of each vertex, -1 if unreferenced."""
         E = self.surface if self.is_surface else (self.edges if self.cells else self.T)
@@ -159,7 +212,13 @@ class Mesh:
                            if self.source is not None else {}),
             "element_order": 2 if self.T10 is not None else 1,
             "sets": {k: int(len(v)) for k, v in sorted(self.sets.items())},
+            "degenerate_at_rest": {"count": int(self.degenerate_at_rest.size),
+                                   "ids": self.degenerate_at_rest[:1000].tolist()},
+            "coincident_nodes": int(len(self.coincident_nodes)),
         }
+        if self.is_surface:
+            out["open_edges"] = int(len(self.rim_edges))
+            out["rim_vertices"] = int(self.rim.sum())
         if not self.is_surface:
             from ..validity.quality import element_quality
 
@@ -216,8 +275,7 @@ def mesh_from_arrays(V: Any, T: Any = None, surface: Any = None,
                 raise InvalidMeshError(f"{name} must hold integer vertex indices", code="bad_shape")
     T = T.astype(np.int64).reshape(-1, 4) if T.size else np.zeros((0, 4), np.int64)
     surface = surface.astype(np.int64).reshape(-1, 3) if surface.size else np.zeros((0, 3), np.int64)
-    validate(V, T, surface)
     ids = {k: np.unique(np.asarray(v, dtype=np.int64)) for k, v in (sets or {}).items()}
-    return Mesh(V=V, T=T, surface=surface if not T.shape[0] else np.zeros((0, 3), np.int64), sets=ids)
+    return Mesh.validated(V, T, surface if not T.shape[0] else np.zeros((0, 3), np.int64), sets=ids)
 
 

@@ -79,7 +79,9 @@ def test_uploaded_file_downloads_byte_for_byte_and_converts(client, tc):
     msh = client.download_mesh(mesh["id"], file_format="msh")
     assert msh[:11] == b"$MeshFormat"  # tets + faces: written as Gmsh 2.2
     r = tc.get(f"/v1/meshes/{mesh['id']}/file", params={"format": "tetgen"})
-    assert r.headers["content-type"] == "application/zip"  # .node + .ele in one archive
+    # TetGen holds neither the deck's named sets nor its CPS3 faces: refused, saying what would be lost
+    assert r.status_code == 422 and err(r)["code"] == "lossy_write"
+    assert {x["name"] for x in err(r)["details"]["losses"]} >= {"FIXED", "LOAD", "triangle"}
 
 
 def test_tetgen_upload_needs_its_ele(tc):

@@ -191,7 +191,7 @@ def shape_bounds(deformer: Deformer, shapes: Shapes, *, lo: float | None = None,
     block : int
         Probes per stacked solve.
     progress : callable, optional
-        ``progress(searches_done, searches_total)`` after each round (2 searches per shape).
+        ``progress(searches_done, searches_total)`` when searches finish (2 searches per shape).
     cancelled : callable, optional
         ``cancelled() -> bool`` before each round.
 
@@ -228,9 +228,19 @@ def shape_bounds(deformer: Deformer, shapes: Shapes, *, lo: float | None = None,
                 for k in range(K) for s, end in ((1.0, hi), (-1.0, lo))]
     solves = probes = 0
     stopped = False
+    reported = -1
+
+    def report() -> None:
+        nonlocal reported
+        done = sum(s.done for s in searches)
+        if progress is not None and done != reported:
+            progress(done, len(searches))
+        reported = done
+
     for _ in range(MAX_ROUNDS):
         todo = [(s, x) for s in searches if (x := s.probe(tol)) is not None]
         if not todo:
+            report()
             break
         if cancelled is not None and cancelled():
             stopped = True
@@ -257,8 +267,7 @@ def shape_bounds(deformer: Deformer, shapes: Shapes, *, lo: float | None = None,
                         count = max(count, 1)
                     s.record(x, count)
             probes += len(chunk)
-        if progress is not None:
-            progress(sum(s.done for s in searches), len(searches))
+        report()
     else:  # pragma: no cover - the rounds above are bounded by the bracket widths
         raise RuntimeError("bounds search did not converge")
     out = []

@@ -54,7 +54,7 @@ from ..ops.rotation import rotate_by_log
 from .shapes import Shapes, variant_move
 
 __all__ = ["Sensitivities", "shape_sensitivities", "write_sensitivities", "left_jacobian", "rotation_derivative",
-           "TARGET_STEP"]
+           "TARGET_STEP", "ANALYTIC"]
 
 #: Central-difference step (parameter units) for hard-row kinds without an analytic derivative.
 TARGET_STEP = 1e-3
@@ -114,8 +114,8 @@ def left_jacobian(phi: np.ndarray, psi: np.ndarray) -> np.ndarray:
     a2 = a * a
     small = a < 1e-4
     safe = np.where(small, 1.0, a)
-    # (1 - cos a) / a^2 and (a - sin a) / a^3, by their series below 1e-4 (error < 1e-17)
-    f1 = np.where(small, 0.5 - a2 / 24.0, (1.0 - np.cos(safe)) / (safe * safe))
+    # (1 - cos a) / a^2 = 2 sin^2(a/2) / a^2 (no cancellation) and (a - sin a) / a^3, by series below 1e-4
+    f1 = np.where(small, 0.5 - a2 / 24.0, 2.0 * np.sin(0.5 * safe) ** 2 / (safe * safe))
     f2 = np.where(small, 1.0 / 6.0 - a2 / 120.0, (safe - np.sin(safe)) / (safe * safe * safe))
     c = np.cross(phi, psi)
     return psi + f1 * c + f2 * np.cross(phi, c)
@@ -173,53 +173,77 @@ def _layout(blocks: list[Block], asm: Assembly, per: dict[int, np.ndarray]) -> n
     return d
 
 
-def _block_derivative(b: Block, k: int, shapes: Shapes, mv: Move, r: np.ndarray, dr: np.ndarray,
-                      bpos: np.ndarray, shifted: Callable[[float], tuple[Move, np.ndarray]]
-                      ) -> np.ndarray:
-    """Derivative of one hard-row block's targets along shape ``k``."""
-    def rot_at(rr: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-        return lambda ids: rr[bpos[ids]]
+@dataclass(frozen=True, eq=False)
+class _Along:
+    """What a block derivative needs: the shape ``k``, the variant, its rotation field and the field's derivative."""
 
-    t = np.asarray(block_target(b, mv, rot_at(r)), np.float64)
-    if b.kind in ("fixed", "tie", "sliding"):
+    k: int
+    shapes: Shapes
+    move: Move
+    r: np.ndarray
+    dr: np.ndarray
+    bpos: np.ndarray
+
+
+def _zero(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
+    return np.zeros_like(t)
+
+
+def _d_handle(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
+    hm = a.move.handles.get(b.name)
+    if hm is None:
         return np.zeros_like(t)
-    if b.kind == "handle":
-        return _handle_block(b, k, shapes, mv, t)
-    if b.kind == "point":
-        p = shapes.points.get(b.name)
-        return np.zeros_like(t) if p is None else p.step[k][None, :].copy()
-    if b.kind == "motion":
-        m = shapes.motion.get(b.name)
-        assert b.normal is not None
-        return np.zeros_like(t) if m is None else b.normal @ m.step[k]
-    if b.kind in ("relative", "feature"):
-        if b.kind == "relative" and b.name in shapes.offsets:
-            return shapes.offsets[b.name].step[k][None, :].copy()
-        logs = shapes.relative_log_scale if b.kind == "relative" else shapes.feature_log_scale
-        out = (logs[b.name][k] * t) if b.name in logs else np.zeros_like(t)
-        if b.uses_rotation:
-            v = bpos[b.rot_vertex]
-            out = out + rotation_derivative(t, r[v], dr[v])
-        return out
-    # a kind without an analytic derivative here: central difference in the MOVE (exact when linear)
+    h = a.shapes.handles.index(b.name)
+    assert b.pivot is not None
+    w = t - (b.pivot if hm.pivot is None else hm.pivot) - hm.translation
+    return (a.shapes.translation[a.k, h] + a.shapes.log_scale[a.k, h] * w
+            + rotation_derivative(w, hm.log_rotation, a.shapes.log_rotation[a.k, h]))
+
+
+def _d_point(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
+    p = a.shapes.points.get(b.name)
+    return np.zeros_like(t) if p is None else p.step[a.k][None, :].copy()
+
+
+def _d_motion(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
+    m = a.shapes.motion.get(b.name)
+    assert b.normal is not None
+    return np.zeros_like(t) if m is None else b.normal @ m.step[a.k]
+
+
+def _d_scaled(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
+    """Relative and feature targets ``s R(r_v) v0``: log-scale and rotation at the block's rotation vertex."""
+    if b.kind == "relative" and b.name in a.shapes.offsets:
+        return a.shapes.offsets[b.name].step[a.k][None, :].copy()
+    logs = a.shapes.relative_log_scale if b.kind == "relative" else a.shapes.feature_log_scale
+    out = logs[b.name][a.k] * t if b.name in logs else np.zeros_like(t)
+    if b.uses_rotation:
+        v = a.bpos[b.rot_vertex]
+        out = out + rotation_derivative(t, a.r[v], a.dr[v])
+    return out
+
+
+#: Analytic derivative of each hard-row kind's targets (:data:`solver.constraints.rows.TARGETS`).
+ANALYTIC: dict[str, Callable[[Block, np.ndarray, _Along], np.ndarray]] = {
+    "fixed": _zero, "tie": _zero, "sliding": _zero, "handle": _d_handle, "point": _d_point,
+    "motion": _d_motion, "relative": _d_scaled, "feature": _d_scaled,
+}
+
+
+def _block_derivative(b: Block, a: _Along, shifted: Callable[[float], tuple[Move, np.ndarray]]) -> np.ndarray:
+    """Derivative of one hard-row block's targets along shape ``a.k``."""
+    def rot_at(rr: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        return lambda ids: rr[a.bpos[ids]]
+
+    rule = ANALYTIC.get(b.kind)
+    if rule is not None:
+        return rule(b, np.asarray(block_target(b, a.move, rot_at(a.r)), np.float64), a)
+    # a kind without an analytic rule: central difference in the MOVE (exact for kinds linear in it)
     mp, rp = shifted(TARGET_STEP)
     mm, rm = shifted(-TARGET_STEP)
     tp = np.asarray(block_target(b, mp, rot_at(rp)), np.float64)
     tm = np.asarray(block_target(b, mm, rot_at(rm)), np.float64)
     return (tp - tm) / (2.0 * TARGET_STEP)
-
-
-def _handle_block(b: Block, k: int, shapes: Shapes, mv: Move, t: np.ndarray) -> np.ndarray:
-    """Derivative of a handle block's targets ``t`` (its rows are its nodes' positions)."""
-    h = shapes.handles.index(b.name)
-    hm = mv.handles.get(b.name)
-    if hm is None:
-        return np.zeros_like(t)
-    assert b.pivot is not None
-    c = b.pivot if hm.pivot is None else hm.pivot
-    w = t - c - hm.translation
-    return (shapes.translation[k, h] + shapes.log_scale[k, h] * w
-            + rotation_derivative(w, hm.log_rotation, shapes.log_rotation[k, h]))
 
 
 def shape_sensitivities(deformer: Deformer, shapes: Shapes, theta: Any = None,
@@ -286,8 +310,8 @@ def shape_sensitivities(deformer: Deformer, shapes: Shapes, theta: Any = None,
             dc = np.vstack([dc, dW])
         dd = None
         if asm is not None and rest.d is not None:
-            per = {int(b_i): _block_derivative(cs.blocks[int(b_i)], k, shapes, mv, r, dr, bpos, shifted(k))
-                   for b_i in np.unique(asm.block)}
+            along = _Along(k, shapes, mv, r, dr, bpos)
+            per = {int(b_i): _block_derivative(cs.blocks[int(b_i)], along, shifted(k)) for b_i in np.unique(asm.block)}
             dd = rest.d + _layout(cs.blocks, asm, per)
         rhss.append(RightHandSides(rest.U + dU, rest.c + dc, dd))
     solves = data.positions.solve_many(mesh.V, cs.constrained, rhss)

@@ -1,0 +1,187 @@
+"""The ``doe``, ``bounds`` and ``sensitivities`` commands.
+
+::
+
+    tetmorph doe MESH --spec SPEC --shapes SHAPES --plan PLAN --output 'out_{i}.inp' --summary SUMMARY.csv
+    tetmorph bounds MESH --spec SPEC --shapes SHAPES [--range LO HI]
+    tetmorph sensitivities MESH --spec SPEC --shapes SHAPES [--plan PLAN --at ROW] --output SENS.vtu
+
+:func:`add_commands` registers them on an ``argparse`` subparsers object;
+:func:`main` runs them alone (``python -m solver.workflows``). Exit codes as
+``tetmorph``'s: 0 success, 1 a typed error (message on stderr) or a plan row
+rejected, 2 usage errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from typing import Any
+
+import numpy as np
+
+from ..deform.deformer import Deformer, precompute
+from ..errors import SolverError
+from ..io import read_mesh
+from ..mesh import Mesh
+from .bounds import MAX_VALUE, TOL, shape_bounds
+from .doe import BLOCK, deck_writer, run_doe, write_summary
+from .plan import plan_values, read_plan
+from .sensitivities import shape_sensitivities, write_sensitivities
+from .shapes import Shapes, parse_shapes
+
+__all__ = ["add_commands", "build_parser", "main"]
+
+
+def _load_json(path: str, what: str) -> Any:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh)
+    except FileNotFoundError:
+        raise SolverError(f"{what} file not found: {path}", code="file_not_found") from None
+    except json.JSONDecodeError as e:
+        raise SolverError(f"{what} file {path} is not valid JSON: {e}", code="invalid_json") from None
+
+
+def _dump(obj: Any, path: str | None) -> None:
+    text = json.dumps(obj, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o))
+    if path is None or path == "-":
+        print(text)
+        return
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(text + "\n")
+
+
+def _setup(args: argparse.Namespace) -> tuple[Mesh, Deformer, Shapes]:
+    """Read the mesh, factor the SPEC, parse the shapes (in that order of cost: documents first)."""
+    spec = _load_json(args.spec, "SPEC")
+    shapes_doc = _load_json(args.shapes, "SHAPES")
+    mesh = read_mesh(args.mesh, args.format)
+    deformer = precompute(mesh, spec)
+    return mesh, deformer, parse_shapes(shapes_doc, deformer)
+
+
+def cmd_doe(args: argparse.Namespace) -> int:
+    """``tetmorph doe``: one deck per plan row and a summary CSV."""
+    plan = read_plan(args.plan)
+    if plan.rows > 1 and "{i}" not in args.output:
+        raise SolverError("with several plan rows, --output needs '{i}' (the plan row, from 1), "
+                          "e.g. out_{i}.inp", code="usage")
+    mesh, deformer, shapes = _setup(args)
+    writer = deck_writer(mesh, args.output, args.output_format)
+
+    def output(row: int, res: Any) -> str | None:
+        path = writer(row, res)
+        r = res.report
+        print(f"row {row}: wrote {path}  inverted={r['inverted_elements']}  min_sj={r['min_scaled_jacobian']}  "
+              f"residual={r['constraint_residual_max']:.3g}")
+        return path
+
+    result = run_doe(deformer, shapes, plan, block=args.block, output=output, inversion=args.inversion)
+    for v in result.variants:
+        if v.status != "ok":
+            print(f"row {v.row}: {v.status}, inverted={v.inverted}; no deck written", file=sys.stderr)
+    write_summary(result, args.summary)
+    t = result.timings
+    nb = -(-plan.rows // args.block)
+    print(f"setup {deformer.setup_timings['total_ms']:.0f} ms ({deformer.solve_mode} solve, "
+          f"{deformer.factorizations} factorizations); {plan.rows} rows in {nb} blocks of <= {args.block}: "
+          f"solve {t['solve_ms']:.0f} ms ({t['per_variant_ms']:.1f} ms per variant), writing "
+          f"{t['output_ms']:.0f} ms; summary {args.summary}")
+    if args.report:
+        _dump({**result.to_dict(), "reports": [v.report for v in result.variants]}, args.report)
+    return 1 if any(v.status != "ok" for v in result.variants) else 0
+
+
+def cmd_bounds(args: argparse.Namespace) -> int:
+    """``tetmorph bounds``: per shape, the largest positive and negative value inverting nothing (JSON)."""
+    lo, hi = (args.range if args.range is not None else (None, None))
+    _, deformer, shapes = _setup(args)
+    result = shape_bounds(deformer, shapes, lo=lo, hi=hi, tol=args.tol)
+    _dump(result.to_dict(), args.output)
+    return 0
+
+
+def cmd_sensitivities(args: argparse.Namespace) -> int:
+    """``tetmorph sensitivities``: ``d_<shape>`` vectors per node at a plan row (default: rest)."""
+    if (args.at is None) != (args.plan is None):
+        raise SolverError("--at ROW and --plan PLAN go together (without them: the rest shape)", code="usage")
+    plan = read_plan(args.plan) if args.plan is not None else None
+    mesh, deformer, shapes = _setup(args)
+    theta, where = np.zeros(shapes.count), "rest"
+    if plan is not None:
+        if not 1 <= args.at <= plan.rows:
+            raise SolverError(f"--at {args.at}: the plan has rows 1..{plan.rows}", code="usage")
+        theta, where = plan_values(plan, shapes)[args.at - 1], plan.where(args.at - 1)
+    sens = shape_sensitivities(deformer, shapes, theta, where)
+    write_sensitivities(mesh, sens, args.output, args.output_format)
+    norms = {n: float(np.sqrt((sens.derivatives[k] ** 2).sum(axis=1)).max()) for k, n in enumerate(shapes.names)}
+    print(f"wrote {args.output}: d_<shape> at {where} ({sens.method}); largest |dX/dtheta| per shape: "
+          + ", ".join(f"{n} {v:.4g}" for n, v in norms.items()))
+    return 0
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("mesh")
+    p.add_argument("--spec", required=True, help="SPEC.json: selections, fixed, handles, options")
+    p.add_argument("--shapes", required=True, help="SHAPES.json: {\"shapes\": {NAME: MOVE, ...}}, each MOVE "
+                   "at parameter value 1")
+    p.add_argument("--format", help="input meshio format name when the extension does not tell")
+
+
+def add_commands(subparsers: Any) -> None:
+    """Register ``doe``, ``bounds`` and ``sensitivities`` on an ``argparse`` subparsers object.
+
+    Each sets ``func`` (``func(args) -> exit code``, raising
+    :class:`~solver.errors.SolverError` for typed errors).
+    """
+    pd = subparsers.add_parser("doe", help="morph every row of a PLAN (CSV, one column per shape): one deck "
+                               "per row and a summary CSV, one factorization, rows stacked per back-substitution")
+    _common(pd)
+    pd.add_argument("--plan", required=True, help="PLAN.csv: header of shape names, one variant per row")
+    pd.add_argument("--output", required=True, help="output mesh per row; '{i}' is the plan row (from 1)")
+    pd.add_argument("--summary", required=True, help="SUMMARY.csv: row, parameters, inverted, "
+                    "min_scaled_jacobian, max_displacement, constraint_residual_max, file, status")
+    pd.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")
+    pd.add_argument("--inversion", choices=["warn", "reject", "clamp"], help="override the SPEC's inversion "
+                    "policy; 'reject' writes no deck for an inverting row")
+    pd.add_argument("--report", help="write every row's REPORT as JSON")
+    pd.add_argument("--output-format", help="output meshio format name")
+    pd.set_defaults(func=cmd_doe)
+    pb = subparsers.add_parser("bounds", help="per shape, the largest positive and negative parameter with 0 "
+                               "inverted elements (bisection on back-substitutions), as JSON")
+    _common(pb)
+    pb.add_argument("--range", nargs=2, type=float, metavar=("LO", "HI"), help="search LO <= value <= HI "
+                    f"(LO <= 0 <= HI); default: 1, 2, 4, ... up to {MAX_VALUE:g} each way")
+    pb.add_argument("--tol", type=float, default=TOL, help=f"final bracket width (default {TOL:g})")
+    pb.add_argument("--output", help="write the JSON here (default: standard output)")
+    pb.set_defaults(func=cmd_bounds)
+    ps = subparsers.add_parser("sensitivities", help="dX/dtheta per node for every shape (analytic), as point "
+                               "data d_<shape> of the variant's mesh")
+    _common(ps)
+    ps.add_argument("--plan", help="PLAN.csv with the row to differentiate at")
+    ps.add_argument("--at", type=int, metavar="ROW", help="plan row (from 1); default: the rest shape")
+    ps.add_argument("--output", required=True, help="output mesh with point data (VTU: .vtu)")
+    ps.add_argument("--output-format", help="output meshio format name")
+    ps.set_defaults(func=cmd_sensitivities)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """A parser with the three commands alone (``python -m solver.workflows``)."""
+    p = argparse.ArgumentParser(prog="python -m solver.workflows", description="Shape variables: DOE plans, "
+                                "safe bounds and sensitivities of tetmorph morphs.")
+    add_commands(p.add_subparsers(dest="command", required=True))
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run one command; typed errors print ``tetmorph: error [code]: message`` and return 1."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except SolverError as e:
+        print(f"tetmorph: error [{e.code}]: {e.message}", file=sys.stderr)
+        return 1

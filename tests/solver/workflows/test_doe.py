@@ -1,0 +1,153 @@
+"""DOE on the plate deck: each row's deck against morph of its MOVE composed by hand."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from solver import SpecError, read_mesh
+from solver.cli import main as tetmorph
+from solver.workflows.doe import SUMMARY_FIELDS, deck_writer, run_doe, write_summary
+from solver.workflows.plan import parse_plan, read_plan
+from solver.workflows.shapes import parse_shapes
+from tests.solver.workflows.conftest import PLAN, PLATE, plate_shapes, plate_spec
+
+
+def hand_move(bend: float, hole1_x: float, hole2_y: float, upper_x: float) -> dict:
+    """The README shapes' variant, composed by hand from plate_shapes.json."""
+    return {"handles": {
+        "end": {"translation": [0, 0, 8 * bend], "rotation": {"axis": [0, 1, 0], "angle_deg": -6 * bend}},
+        "hole1": {"translation": [4 * hole1_x, 0, 0]},
+        "hole2": {"translation": [0, 4 * hole2_y, 0]},
+        "hole3": {"translation": [-3 * upper_x, 0, 0]},
+        "hole4": {"translation": [3 * upper_x, 0, 0]}}}
+
+
+def node_lines_differ_only_in_coordinates(a: bytes, b: bytes, tol: float) -> int:
+    """Compare two decks line by line: equal bytes, or node lines with one id and coordinates within ``tol``.
+
+    Returns the number of node lines that differ.
+    """
+    la, lb = a.splitlines(keepends=True), b.splitlines(keepends=True)
+    assert len(la) == len(lb)
+    differing = 0
+    for x, y in zip(la, lb, strict=True):
+        if x == y:
+            continue
+        fx, fy = x.split(b","), y.split(b",")
+        assert len(fx) == len(fy) == 4 and fx[0] == fy[0], (x, y)
+        assert np.abs(np.array([float(v) for v in fx[1:]]) - np.array([float(v) for v in fy[1:]])).max() <= tol
+        differing += 1
+    return differing
+
+
+@pytest.fixture(scope="module")
+def shapes_exact(plate_exact):
+    return parse_shapes(plate_shapes(), plate_exact)
+
+
+def test_each_deck_is_morph_of_the_hand_composed_move(tmp_path, plate_exact, shapes_exact):
+    d = plate_exact
+    plan = read_plan(PLAN)
+    res = run_doe(d, shapes_exact, plan, block=3, output=deck_writer(d.mesh, str(tmp_path / "out_{i}.inp")))
+    assert [v.row for v in res.variants] == list(range(1, plan.rows + 1))
+    assert all(v.status == "ok" for v in res.variants)
+    original = PLATE.read_bytes()
+    diag = d.data.constraints.diag
+    spec_path = tmp_path / "spec.json"
+    spec_path.write_text(json.dumps(plate_spec(precision="exact")))
+    for v in res.variants:
+        row = plan.values[v.row - 1]
+        hand = hand_move(*row)
+        one = d.solve(hand)
+        back = read_mesh(v.file)  # read the written deck back
+        assert np.abs(back.V - one.V).max() <= 1e-10 * diag
+        assert v.inverted == one.report["inverted_elements"] == 0
+        assert v.max_displacement == pytest.approx(one.report["max_displacement"], rel=1e-9)
+        assert v.min_scaled_jacobian == pytest.approx(one.report["min_scaled_jacobian"], rel=1e-9)
+        written = open(v.file, "rb").read()
+        moved = node_lines_differ_only_in_coordinates(original, written, tol=2 * diag)  # byte-faithful but nodes
+        assert moved > 0 or not row.any()
+        if v.row in (2, 7):  # the deck tetmorph morph writes for the hand-composed MOVE
+            mv_path = tmp_path / f"move_{v.row}.json"
+            mv_path.write_text(json.dumps(hand))
+            out = tmp_path / f"morph_{v.row}.inp"
+            assert tetmorph(["morph", str(PLATE), "--spec", str(spec_path), "--move", str(mv_path),
+                             "--output", str(out)]) == 0
+            node_lines_differ_only_in_coordinates(out.read_bytes(), written, tol=1e-10 * diag)
+
+
+def test_block_size_does_not_change_results(plate_exact, shapes_exact):
+    plan = read_plan(PLAN)
+    keep: dict[int, list] = {}
+
+    def grab(block):
+        def out(row, r):
+            keep.setdefault(block, []).append(r.V)
+            return None
+        return out
+
+    for block in (1, 8):
+        run_doe(plate_exact, shapes_exact, plan, block=block, output=grab(block))
+    diff = max(np.abs(a - b).max() for a, b in zip(keep[1], keep[8], strict=True))
+    assert diff <= 1e-10 * plate_exact.data.constraints.diag
+
+
+def test_progress_cancel_and_summary(tmp_path, plate_deformer):
+    shapes = parse_shapes(plate_shapes(), plate_deformer)
+    plan = read_plan(PLAN)
+    seen = []
+    res = run_doe(plate_deformer, shapes, plan, block=3, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(3, 8), (6, 8), (8, 8)]
+    asked = []
+
+    def cancelled():
+        asked.append(1)
+        return len(asked) > 1  # stop before the second block
+
+    part = run_doe(plate_deformer, shapes, plan, block=3, cancelled=cancelled)
+    assert part.cancelled and [v.row for v in part.variants] == [1, 2, 3]
+    path = tmp_path / "sub" / "summary.csv"
+    write_summary(res, path)
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == ["row", *shapes.names, *SUMMARY_FIELDS]
+    for r, v in zip(rows, res.variants, strict=True):
+        assert int(r["row"]) == v.row
+        assert [float(r[n]) for n in shapes.names] == plan.values[v.row - 1].tolist()
+        assert int(r["inverted"]) == v.inverted
+        assert float(r["max_displacement"]) == v.max_displacement  # 17 digits read back exactly
+        assert float(r["min_scaled_jacobian"]) == v.min_scaled_jacobian
+        assert float(r["constraint_residual_max"]) == v.constraint_residual_max
+        assert r["file"] == "" and r["status"] == "ok"
+
+
+def test_reject_writes_no_deck_and_clamp_writes_the_safe_fraction(plate_deformer):
+    shapes = parse_shapes(plate_shapes(), plate_deformer)
+    plan = parse_plan([{"hole2_y": 0.5}, {"hole2_y": 4.0}, {"bend": 1}])  # hole 2 moved 16 mm folds its ligament
+    written = []
+    res = run_doe(plate_deformer, shapes, plan, inversion="reject", output=lambda i, r: written.append(i) or "f")
+    assert [v.status for v in res.variants] == ["ok", "rejected", "ok"]
+    assert written == [1, 3] and res.variants[1].file is None and res.variants[1].inverted > 0
+    clamp = run_doe(plate_deformer, shapes, plan, inversion="clamp")
+    rep = clamp.variants[1].report
+    assert clamp.variants[1].status == "ok" and clamp.variants[1].inverted == 0
+    assert rep["clamped"] and 0 < rep["applied_fraction"] < 1 and rep["inverted_elements_unclamped"] > 0
+
+
+def test_invalid_rows_stop_the_run_before_any_solve(plate_deformer):
+    doc = plate_shapes()
+    doc["shapes"]["spin"] = {"handles": {"end": {"rotation": {"axis": [1, 0, 0], "angle_deg": 120}}}}
+    shapes = parse_shapes(doc, plate_deformer)
+    calls = []
+    plan = parse_plan([{"bend": 1}, {"spin": 1}, {"spin": 3.5}])
+    with pytest.raises(SpecError, match="plan row 3: handle 'end' turns by 420 degrees"):
+        run_doe(plate_deformer, shapes, plan, output=lambda i, r: calls.append(i))
+    assert calls == []
+    with pytest.raises(SpecError, match="name no shape"):
+        run_doe(plate_deformer, shapes, parse_plan([{"bent": 1}]))
+    with pytest.raises(SpecError, match="block must be a positive integer"):
+        run_doe(plate_deformer, shapes, plan, block=0)

@@ -10,9 +10,7 @@ Examples
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
-import json
 import logging
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -21,15 +19,19 @@ from typing import Any
 from fastapi import FastAPI
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
-from starlette.exceptions import HTTPException
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from .api import meshes, sessions, stream, tetrahedralize
+from .api import health, meshes, sessions, stream, tetrahedralize
+from .api.handlers import install_handlers
+from .api.responses import JSONResponse
 from .demo import load_demo
-from .errors import envelope, install_handlers
-from .registry import Registry
-from .security import Authenticator, RateLimiter
+from .middleware import BodyLimit, ErrorShield
+from .models.error import ErrorEnvelope
+from .observability import Metrics, RequestContext
+from .security import Authenticator, ConnectionSlots, RateLimiter, load_secret
 from .settings import Settings
+from .state.jobs import JobRunner
+from .state.registry import Registry
+from .state.sweeper import Sweeper
 
 __all__ = ["create_app"]
 
@@ -45,46 +47,6 @@ compact binary frame, or any mesh format) with a REPORT that counts inverted
 elements. Every error has the body
 `{"error": {"status", "code", "type", "message", "details"}}`.
 """
-
-
-class BodyLimit:
-    """ASGI middleware: answer 413 for request bodies over ``limit`` bytes."""
-
-    def __init__(self, app: ASGIApp, limit: int) -> None:
-        self.app = app
-        self.limit = limit
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        declared = dict(scope.get("headers") or []).get(b"content-length")
-        if declared is not None and declared.isdigit() and int(declared) > self.limit:
-            await _send_413(send, int(declared), self.limit)
-            return
-        seen = 0
-
-        async def counting_receive() -> Message:
-            nonlocal seen
-            msg = await receive()
-            if msg["type"] == "http.request":
-                seen += len(msg.get("body", b""))
-                if seen > self.limit:
-                    raise HTTPException(413, f"request body exceeds the limit of {self.limit} bytes")
-            return msg
-
-        await self.app(scope, counting_receive, send)
-
-
-async def _send_413(send: Send, size: int, limit: int) -> None:
-    body = json.dumps(envelope(413, "payload_too_large",
-                               f"request body of {size} bytes exceeds the limit of {limit} bytes",
-                               {"bytes": size, "limit": limit})).encode()
-    await send({"type": "http.response.start", "status": 413,
-                "headers": [(b"content-type", b"application/json"),
-                            (b"content-length", str(len(body)).encode()),
-                            (b"connection", b"close")]})
-    await send({"type": "http.response.body", "body": body})
 
 
 def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
@@ -105,45 +67,55 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
         settings = Settings(**overrides)
     elif overrides:
         settings = Settings(**{**settings.model_dump(), **overrides})
+    reg = Registry(settings)
+    auth = Authenticator(settings, load_secret(settings.data_dir))
+    moved = sum(reg.store.rename_owner(old, new) for old, new in auth.migrations().items())
+    if moved:
+        log.info("moved %d records to the salted owner ids of the configured keys", moved)
+        reg = Registry(settings)  # reload the records with their new owners
+    removed = reg.store.remove_orphans()
+    if removed:
+        log.info("removed %d leftovers of interrupted uploads: %s", len(removed), removed[:10])
+    metrics = Metrics()
+    reg.observe_solve = metrics.solve_seconds.observe
+    reg.builder.observe_build = metrics.build_seconds.observe
+    sweeper = Sweeper(reg.sweep, settings.sweep_interval_s)
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        reg: Registry = app.state.registry
-        if reg._closed:
-            reg.start()
-
-        async def sweeper() -> None:
-            while True:
-                await asyncio.sleep(settings.sweep_interval_s)
-                reg.sweep()
-
-        task = asyncio.create_task(sweeper())
+        reg.start()
+        app.state.jobs.closed = False
+        sweeper.start()
         if settings.demo:
-            owner = settings.api_keys[0] if settings.api_keys else None
-            await load_demo(reg, app.state.auth.owner({"x-api-key": owner} if owner else {}, {}))
+            owner = app.state.auth.owner({"x-api-key": settings.api_keys[0].partition("=")[2] or
+                                          settings.api_keys[0]} if settings.api_keys else {})
+            await load_demo(reg, owner)
         try:
             yield
         finally:
-            task.cancel()
+            await sweeper.stop()
+            await app.state.jobs.close()
             reg.close()
 
-    app = FastAPI(title="tetmorph", version=_version(), description=DESCRIPTION, lifespan=lifespan)
+    app = FastAPI(title="tetmorph", version=_version(), description=DESCRIPTION, lifespan=lifespan,
+                  default_response_class=JSONResponse,
+                  responses={422: {"model": ErrorEnvelope, "description": "invalid request: the error "
+                                   "names the field (code invalid_request)"}})
     app.state.settings = settings
-    app.state.registry = Registry(settings)
-    app.state.auth = Authenticator(settings)
+    app.state.registry = reg
+    app.state.auth = auth
     app.state.limiter = RateLimiter(settings.rate_limit_per_s, settings.rate_burst)
+    app.state.connections = ConnectionSlots(settings.max_connections_per_key)
+    app.state.jobs = JobRunner(settings.tetra_workers, settings.tetra_time_limit_s)
+    app.state.metrics = metrics
+    app.state.sweeper = sweeper
     install_handlers(app)
     app.add_middleware(BodyLimit, limit=settings.max_upload_bytes)
+    app.add_middleware(ErrorShield)
+    app.add_middleware(RequestContext, metrics=metrics)
     for mod in (meshes, tetrahedralize, sessions, stream):
         app.include_router(mod.router, prefix="/v1")
-
-    @app.get("/health", tags=["service"], summary="Liveness and cache figures (no key needed)")
-    def health() -> dict[str, Any]:
-        reg: Registry = app.state.registry
-        return {"status": "ok", "version": app.version, "sessions": len(reg.sessions),
-                "cached_sessions": reg.cached_sessions, "cache_bytes": reg.cache_bytes,
-                "cache_budget_bytes": settings.cache_budget_bytes, "evictions": reg.evictions}
-
+    app.include_router(health.router)
     _mount_editor(app)
     return app
 

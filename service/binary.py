@@ -123,7 +123,7 @@ def encode_bundle(arrays: dict[str, np.ndarray], header: dict[str, Any]) -> byte
     # offsets depend on the header length, which depends on the offsets: iterate to a fixed point
     offsets = [0] * len(blobs)
     for _ in range(4):
-        hb = json.dumps({**header, "arrays": [dict(e, offset=o) for e, o in zip(entries, offsets)]},
+        hb = json.dumps({**header, "arrays": [dict(e, offset=o) for e, o in zip(entries, offsets, strict=True)]},
                         separators=(",", ":")).encode()
         pos = 8 + len(hb) + ((-(8 + len(hb))) % 8)
         new = []
@@ -134,7 +134,7 @@ def encode_bundle(arrays: dict[str, np.ndarray], header: dict[str, Any]) -> byte
             break
         offsets = new
     out = bytearray(BUNDLE_MAGIC + struct.pack("<I", len(hb)) + hb)
-    for o, b in zip(offsets, blobs):
+    for o, b in zip(offsets, blobs, strict=True):
         out += b"\0" * (o - len(out))
         out += b
     return bytes(out)

@@ -1,25 +1,54 @@
 """The ``tetmorph`` command: the solver's commands plus ``serve``.
 
-``tetmorph serve [--host] [--port] [--data-dir] [--demo]`` runs the REST
-service with uvicorn (one worker process; sessions live in its memory).
+``tetmorph info`` and ``tetmorph morph`` need only the base install (the
+numerics). ``tetmorph serve [--host] [--port] [--data-dir] [--demo]`` runs the
+REST service with uvicorn (one worker process; sessions live in its memory)
+and needs the ``service`` extra; without it, it says so and exits with
+:data:`EXIT_NO_SERVICE`. Nothing of the web stack is imported before ``serve``
+runs.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 from typing import Any
 
 from solver.cli import main as solver_main
 
-__all__ = ["main"]
+__all__ = ["main", "EXIT_NO_SERVICE", "missing_service_packages"]
+
+#: Exit code of ``tetmorph serve`` when the ``service`` extra is not installed.
+EXIT_NO_SERVICE = 3
+#: Modules of the ``service`` extra that ``serve`` imports.
+SERVICE_MODULES = ("fastapi", "uvicorn", "pydantic", "pydantic_settings", "multipart", "httpx",
+                   "prometheus_client")
+
+
+def missing_service_packages() -> list[str]:
+    """The modules of the ``service`` extra that cannot be imported here."""
+    out = []
+    for m in SERVICE_MODULES:
+        try:
+            if importlib.util.find_spec(m) is None:
+                out.append(m)
+        except (ImportError, ValueError):
+            out.append(m)
+    return out
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
     """Run the service until interrupted."""
+    missing = missing_service_packages()
+    if missing:
+        print(f"tetmorph: error [missing_extra]: 'tetmorph serve' needs the service extra (missing: "
+              f"{', '.join(missing)}); install it with: pip install 'tetmorph[service]'", file=sys.stderr)
+        return EXIT_NO_SERVICE
     import uvicorn
 
     from .app import create_app
+    from .observability import configure_logging
     from .settings import Settings
 
     overrides: dict[str, Any] = {"demo": args.demo}
@@ -27,6 +56,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         overrides["data_dir"] = args.data_dir
     settings = Settings(**overrides)
     settings.data_dir.mkdir(parents=True, exist_ok=True)
+    configure_logging(args.log_level, settings.log_json)
     app = create_app(settings)
     url = f"http://{args.host}:{args.port}"
     print(f"tetmorph service on {url}  (browser editor: {url}/ ; OpenAPI docs: {url}/docs)", flush=True)
@@ -36,14 +66,14 @@ def cmd_serve(args: argparse.Namespace) -> int:
               f"  curl -X POST '{url}/v1/sessions/s_demo/deform?result=report' "
               "-H 'content-type: application/json' "
               "-d '{\"handles\": {\"tip\": {\"translation\": [0, 0, 0.2]}}}'", flush=True)
-    uvicorn.run(app, host=args.host, port=args.port, workers=1, log_level=args.log_level,
-                ws_max_size=64 * 1024 * 1024)
+    uvicorn.run(app, host=args.host, port=args.port, workers=1, log_level=args.log_level, log_config=None,
+                access_log=False, ws_max_size=settings.max_frame_bytes + 1024)
     return 0
 
 
 def add_serve(sub: Any) -> None:
     """Add the ``serve`` subcommand to the solver's parser."""
-    ps = sub.add_parser("serve", help="run the REST service (uvicorn, one worker)")
+    ps = sub.add_parser("serve", help="run the REST service (uvicorn, one worker; needs the service extra)")
     ps.add_argument("--host", default="127.0.0.1")
     ps.add_argument("--port", type=int, default=8000)
     ps.add_argument("--data-dir", help="where meshes and sessions persist (TETMORPH_DATA_DIR)")

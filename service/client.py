@@ -25,18 +25,22 @@ from typing import Any
 import httpx
 import numpy as np
 
-from .binary import MEDIA_TYPE, decode_frame
+from .binary import MEDIA_TYPE, FrameError, decode_frame
 
-__all__ = ["Client", "TetmorphError"]
+__all__ = ["Client", "TetmorphError", "BuildTimeout"]
 
 
 class TetmorphError(Exception):
-    """An error answered by the service (the JSON error envelope).
+    """Any failure of a call: an error the service answered, or no usable answer at all.
 
     Attributes
     ----------
     status : int
+        The HTTP status; 0 when no answer came (``code`` is then
+        ``connection_failed`` or ``timeout``).
     code : str
+        The service's error code; ``http_error`` for an answer that is not the
+        service's envelope (a proxy's page), ``bad_frame`` for a corrupt binary body.
     message : str
     details : dict
     """
@@ -47,6 +51,17 @@ class TetmorphError(Exception):
         self.code = code
         self.message = message
         self.details = details
+
+
+class BuildTimeout(TetmorphError, TimeoutError):
+    """A session build or a job still running when the client stopped waiting."""
+
+
+def _frame(r: httpx.Response) -> tuple[np.ndarray, dict[str, Any]]:
+    try:
+        return decode_frame(r.content)
+    except (FrameError, ValueError, KeyError) as e:
+        raise TetmorphError(r.status_code, "bad_frame", f"the binary body is not a tetmorph frame: {e}", {}) from e
 
 
 class Client:
@@ -66,11 +81,14 @@ class Client:
     """
 
     def __init__(self, base_url: str = "http://127.0.0.1:8000", api_key: str | None = None,
-                 timeout: float = 120.0, http: httpx.Client | None = None) -> None:
+                 timeout: float = 120.0, http: httpx.Client | None = None, retries: int = 2,
+                 backoff_s: float = 0.2) -> None:
         headers = {"X-API-Key": api_key} if api_key else {}
         self._own = http is None
         self.http = http or httpx.Client(base_url=base_url, timeout=timeout)
         self.headers = headers
+        self.retries = retries
+        self.backoff_s = backoff_s
 
     def __enter__(self) -> Client:
         return self
@@ -84,9 +102,26 @@ class Client:
             self.http.close()
 
     # ----------------------------------------------------------------- plumbing
-    def _request(self, method: str, url: str, **kw: Any) -> httpx.Response:
+    def _request(self, method: str, url: str, idempotent: bool | None = None, **kw: Any) -> httpx.Response:
+        """One call; transport failures and 502/503/504 of idempotent calls are retried."""
         headers = {**self.headers, **kw.pop("headers", {})}
-        r = self.http.request(method, url, headers=headers, **kw)
+        again = method in ("GET", "HEAD", "DELETE", "PUT") if idempotent is None else idempotent
+        attempts = 1 + (self.retries if again else 0)
+        for k in range(attempts):
+            last = k == attempts - 1
+            try:
+                r = self.http.request(method, url, headers=headers, **kw)
+            except httpx.TimeoutException as e:
+                if last:
+                    raise TetmorphError(0, "timeout", f"{method} {url}: no answer in time ({e})", {}) from e
+            except httpx.TransportError as e:
+                if last:
+                    raise TetmorphError(0, "connection_failed", f"{method} {url}: {type(e).__name__}: {e}",
+                                        {}) from e
+            else:
+                if r.status_code not in (502, 503, 504) or last:
+                    break
+            time.sleep(self.backoff_s * 2**k)
         if r.status_code >= 400:
             try:
                 err = r.json()["error"]
@@ -118,12 +153,30 @@ class Client:
                 "name": name}
         return self._request("POST", "/v1/meshes/arrays", json=body).json()
 
-    def tetrahedralize(self, path: str | os.PathLike[str], **options: Any) -> dict[str, Any]:
-        """Tetrahedralize a closed surface file (edge_length, edge_length_fac, epsilon, ...)."""
+    def tetrahedralize(self, path: str | os.PathLike[str], poll: float = 0.5, timeout: float = 3600.0,
+                       **options: Any) -> dict[str, Any]:
+        """Tetrahedralize a closed surface file (edge_length, edge_length_fac, epsilon, ...).
+
+        Waits for the job (polling) and returns the stored mesh's document.
+        """
         path = Path(path)
         data = {k: str(v).lower() if isinstance(v, bool) else str(v) for k, v in options.items()}
-        return self._request("POST", "/v1/tetrahedralize",
-                             files=[("file", (path.name, path.read_bytes()))], data=data).json()
+        r = self._request("POST", "/v1/tetrahedralize", files=[("file", (path.name, path.read_bytes()))],
+                          data=data)
+        if r.status_code == 201:
+            return r.json()
+        job = r.json()
+        deadline = time.monotonic() + timeout
+        while job["status"] in ("queued", "running"):
+            if time.monotonic() > deadline:
+                raise BuildTimeout(0, "timeout", f"job {job['id']} still running after {timeout} s",
+                                   {"job_id": job["id"]})
+            time.sleep(poll)
+            job = self._request("GET", f"/v1/jobs/{job['id']}").json()
+        if job["status"] != "done":
+            err = job.get("error") or {}
+            raise TetmorphError(422, err.get("code", "job_failed"), err.get("message", ""), err.get("details", {}))
+        return job["mesh"]
 
     def mesh(self, mesh_id: str) -> dict[str, Any]:
         """Describe a stored mesh."""
@@ -156,7 +209,8 @@ class Client:
         deadline = time.monotonic() + timeout
         while wait and doc["status"] == "building":
             if time.monotonic() > deadline:
-                raise TimeoutError(f"session {doc['id']} still building after {timeout} s")
+                raise BuildTimeout(0, "timeout", f"session {doc['id']} still building after {timeout} s",
+                                   {"session_id": doc["id"]})
             time.sleep(poll)
             doc = self.session(doc["id"])
         if doc["status"] == "failed":
@@ -183,7 +237,7 @@ class Client:
         r = self._request("POST", f"/v1/sessions/{session_id}/deform", params=params,
                           content=json.dumps(move), headers={"content-type": "application/json",
                                                             "accept": MEDIA_TYPE})
-        X, header = decode_frame(r.content)
+        X, header = _frame(r)
         return X, header["report"]
 
     def deform_mesh(self, session_id: str, move: dict[str, Any], path: str | os.PathLike[str],
@@ -206,11 +260,11 @@ class Client:
         """The session's current positions (float64)."""
         r = self._request("GET", f"/v1/sessions/{session_id}/positions",
                           params={"result": "binary"})
-        return decode_frame(r.content)[0]
+        return _frame(r)[0]
 
     def reset(self, session_id: str) -> dict[str, Any]:
         """Back to the rest shape."""
-        return self._request("POST", f"/v1/sessions/{session_id}/reset").json()
+        return self._request("POST", f"/v1/sessions/{session_id}/reset", idempotent=True).json()
 
     def delete_session(self, session_id: str) -> None:
         """Delete a session."""

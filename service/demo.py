@@ -6,7 +6,7 @@ import json
 import logging
 from pathlib import Path
 
-from .registry import Registry
+from .state.registry import Registry
 
 __all__ = ["DEMO_DIR", "DEMO_MESH", "DEMO_SESSION", "load_demo"]
 

@@ -1,4 +1,4 @@
-"""One JSON error envelope for every error the service returns.
+"""Errors of the service: one JSON envelope, and one table from error to HTTP status.
 
 Every non-2xx answer has the body::
 
@@ -6,6 +6,9 @@ Every non-2xx answer has the body::
                "message": "...", "details": {...}}}
 
 Solver errors keep their typed ``code`` and ``details`` (counts, ids, shapes).
+The HTTP status of every error is decided here and nowhere else:
+:data:`CODE_STATUS` by error code first, then :data:`TYPE_STATUS` by exception
+type, else 500.
 """
 
 from __future__ import annotations
@@ -13,51 +16,117 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
-from starlette.exceptions import HTTPException as StarletteHTTPException
+from solver.errors import (
+    ConstraintError,
+    FactorizationError,
+    InvalidMeshError,
+    InversionError,
+    SolverError,
+    SpecError,
+)
 
-from solver.errors import SolverError
-
-__all__ = ["ServiceError", "NotFound", "envelope", "error_body", "error_response",
-           "install_handlers"]
+__all__ = ["ServiceError", "NotFound", "CODE_STATUS", "TYPE_STATUS", "HTTP_CODES", "status_of",
+           "envelope", "error_body", "error_from_dict"]
 
 log = logging.getLogger("tetmorph.service")
 
-_HTTP_CODES = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found",
-               405: "method_not_allowed", 406: "not_acceptable", 409: "conflict",
-               413: "payload_too_large", 415: "unsupported_media_type", 422: "unprocessable",
-               429: "too_many_requests", 500: "internal_error", 503: "unavailable"}
+#: The HTTP status of each error code. Codes not listed take the status of their exception type.
+CODE_STATUS: dict[str, int] = {
+    # 401: who is asking
+    "missing_api_key": 401, "invalid_api_key": 401,
+    # 404: unknown resources (or another key's), unknown routes
+    "mesh_not_found": 404, "session_not_found": 404, "job_not_found": 404, "not_found": 404,
+    "method_not_allowed": 405,
+    # 409: the resource's state forbids the request
+    "mesh_in_use": 409, "session_exists": 409, "job_finished": 409,
+    # 410: a session removed after its idle time
+    "session_expired": 410,
+    "payload_too_large": 413,
+    # 422: the request's documents, files or parameters
+    "invalid_request": 422, "invalid_message": 422, "unknown_format": 422, "unknown_metric": 422,
+    "too_many_elements": 422, "too_many_triangles": 422, "non_finite_result": 422,
+    "out_of_range": 422, "index_out_of_range": 422, "job_time_limit": 422,
+    # 429: limits per key
+    "rate_limited": 429, "session_limit": 429, "connection_limit": 429,
+    # 5xx: faults of the server, never of the request
+    "internal_error": 500, "build_failed": 500, "worker_failed": 500,
+    "unknown_backend": 500,  # TETMORPH_SOLVER names a backend this installation lacks
+}
+
+#: The HTTP status by exception type, for codes not in :data:`CODE_STATUS` (first match wins).
+TYPE_STATUS: tuple[tuple[type[BaseException], int], ...] = (
+    (InversionError, 422),  # policy 'reject' and an inverting MOVE
+    (ConstraintError, 422),  # constraints undetermined or conflicting
+    (SpecError, 422),  # malformed SPEC or MOVE
+    (InvalidMeshError, 422),  # the uploaded mesh or surface
+    (FactorizationError, 422),  # a singular system: what the SPEC leaves unconstrained
+    (SolverError, 422),
+)
+
+#: Error code of a bare HTTP status (routing errors, middleware answers).
+HTTP_CODES: dict[int, str] = {400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found",
+                              405: "method_not_allowed", 406: "not_acceptable", 409: "conflict",
+                              410: "gone", 413: "payload_too_large", 415: "unsupported_media_type",
+                              422: "invalid_request", 429: "too_many_requests", 500: "internal_error",
+                              503: "unavailable"}
 
 
 class ServiceError(Exception):
-    """An error with an HTTP status, a stable code and JSON details.
+    """An error of the service with a stable code and JSON details.
+
+    Its HTTP status comes from :data:`CODE_STATUS`.
 
     Parameters
     ----------
-    status : int
+    code : str
+        A key of :data:`CODE_STATUS`.
     message : str
-    code : str, optional
     **details
         JSON-serialisable facts backing the message.
+
+    Examples
+    --------
+    >>> ServiceError("session_limit", "too many").status
+    429
     """
 
-    def __init__(self, status: int, message: str, code: str | None = None, **details: Any) -> None:
+    def __init__(self, code: str, message: str, **details: Any) -> None:
         super().__init__(message)
-        self.status = status
+        self.code = code
         self.message = message
-        self.code = code or _HTTP_CODES.get(status, "error")
         self.details = details
         self.headers: dict[str, str] = {}
+
+    @property
+    def status(self) -> int:
+        """The HTTP status of this error."""
+        return status_of(self)
 
 
 class NotFound(ServiceError):
     """A resource that does not exist, or belongs to another API key."""
 
     def __init__(self, kind: str, ident: str) -> None:
-        super().__init__(404, f"no {kind} with id {ident!r}", code=f"{kind}_not_found",
-                         **{f"{kind}_id": ident})
+        super().__init__(f"{kind}_not_found", f"no {kind} with id {ident!r}", **{f"{kind}_id": ident})
+
+
+def status_of(e: BaseException) -> int:
+    """The HTTP status of an exception: by its code, then by its type, else 500.
+
+    Examples
+    --------
+    >>> status_of(SpecError("bad")), status_of(FactorizationError("x", code="unknown_backend"))
+    (422, 500)
+    >>> status_of(KeyError("x"))
+    500
+    """
+    code = getattr(e, "code", None)
+    if isinstance(code, str) and code in CODE_STATUS:
+        return CODE_STATUS[code]
+    for kind, status in TYPE_STATUS:
+        if isinstance(e, kind):
+            return status
+    return 500
 
 
 def envelope(status: int, code: str, message: str, details: dict[str, Any] | None = None,
@@ -67,52 +136,37 @@ def envelope(status: int, code: str, message: str, details: dict[str, Any] | Non
                       "message": message, "details": details or {}}}
 
 
-def error_body(e: Exception) -> tuple[int, dict[str, Any]]:
-    """HTTP status and envelope of any exception (HTTP responses and WebSocket frames)."""
-    if isinstance(e, ServiceError):
-        return e.status, envelope(e.status, e.code, e.message, e.details, type(e).__name__)
-    if isinstance(e, SolverError):
-        # every solver error is a defect of the request's mesh, SPEC or MOVE
-        return 422, envelope(422, e.code, e.message, e.details, type(e).__name__)
-    log.exception("unhandled error", exc_info=e)
-    return 500, envelope(500, "internal_error", f"internal error: {type(e).__name__}: {e}")
+def error_body(e: BaseException) -> tuple[int, dict[str, Any]]:
+    """HTTP status and envelope of any exception (HTTP responses and WebSocket frames).
+
+    Unexpected exceptions are logged with their traceback and answered with a
+    generic message that names the exception type only.
+    """
+    status = status_of(e)
+    if isinstance(e, (ServiceError, SolverError)):
+        return status, envelope(status, e.code, e.message, e.details, type(e).__name__)
+    log.error("unhandled error", exc_info=e)
+    return 500, envelope(500, "internal_error", f"internal error ({type(e).__name__})",
+                         {"exception": type(e).__name__})
 
 
-def error_response(e: Exception) -> JSONResponse:
-    """Map any exception to a JSONResponse carrying the envelope."""
-    status, body = error_body(e)
-    return JSONResponse(body, status_code=status, headers=getattr(e, "headers", None))
+def error_from_dict(doc: dict[str, Any], prefix: str = "") -> Exception:
+    """Rebuild an error recorded as ``{"type", "code", "message", "details"}`` (a failed build or job).
 
+    Solver errors come back as their own type, so their status is theirs.
 
-def install_handlers(app: FastAPI) -> None:
-    """Register the envelope for service, solver, HTTP, validation and unexpected errors."""
+    Examples
+    --------
+    >>> e = error_from_dict({"type": "SpecError", "code": "empty_selection", "message": "m", "details": {}})
+    >>> type(e).__name__, status_of(e)
+    ('SpecError', 422)
+    """
+    import solver.errors as se
 
-    @app.exception_handler(ServiceError)
-    async def _service(request: Request, e: ServiceError) -> JSONResponse:
-        return error_response(e)
-
-    @app.exception_handler(SolverError)
-    async def _solver(request: Request, e: SolverError) -> JSONResponse:
-        return error_response(e)
-
-    @app.exception_handler(StarletteHTTPException)
-    async def _http(request: Request, e: StarletteHTTPException) -> JSONResponse:
-        code = _HTTP_CODES.get(e.status_code, "error")
-        msg = e.detail if isinstance(e.detail, str) else code.replace("_", " ")
-        if e.status_code == 404 and msg == "Not Found":
-            msg = f"no route {request.method} {request.url.path}"
-        return JSONResponse(envelope(e.status_code, code, msg), status_code=e.status_code,
-                            headers=getattr(e, "headers", None))
-
-    @app.exception_handler(RequestValidationError)
-    async def _validation(request: Request, e: RequestValidationError) -> JSONResponse:
-        errors = [{"loc": [str(x) for x in err.get("loc", ())], "msg": err.get("msg", ""),
-                   "type": err.get("type", "")} for err in e.errors()]
-        where = "; ".join(f"{'.'.join(x['loc'])}: {x['msg']}" for x in errors[:5])
-        return JSONResponse(envelope(422, "invalid_request", f"invalid request: {where}",
-                                     {"errors": errors}, "RequestValidationError"),
-                            status_code=422)
-
-    @app.exception_handler(Exception)
-    async def _unexpected(request: Request, e: Exception) -> JSONResponse:
-        return error_response(e)
+    code, msg, details = doc.get("code"), prefix + str(doc.get("message", "")), dict(doc.get("details") or {})
+    cls = getattr(se, str(doc.get("type", "")), None)
+    if isinstance(cls, type) and issubclass(cls, SolverError) and cls is not InversionError:
+        return cls(msg, code=code, **details)
+    if isinstance(code, str) and code in CODE_STATUS:
+        return ServiceError(code, msg, **details)
+    return ServiceError("internal_error", msg, **details)

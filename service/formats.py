@@ -1,4 +1,9 @@
-"""File formats the service reads and writes, by extension or meshio name.
+"""File formats the service reads and writes, by extension or meshio name, and what each keeps.
+
+A format is offered only when the libraries its meshio reader and writer
+import are installed (:data:`NEEDS`); :func:`capabilities` measures what each
+offered format really round-trips (node sets, quadratic tetrahedra, mixed
+elements) by writing and reading small meshes.
 
 Examples
 --------
@@ -10,23 +15,29 @@ Examples
 
 from __future__ import annotations
 
+import functools
+import importlib.util
 import io
 import os
+import re
 import tempfile
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import meshio
 import numpy as np
 
-from solver.io import write_mesh
+from solver.errors import SolverError
+from solver.io import read_mesh, write_mesh
 from solver.mesh import Mesh
 
 from .errors import ServiceError
 
-__all__ = ["resolve_format", "export_mesh", "MESH_FORMATS", "SURFACE_FORMATS"]
+__all__ = ["resolve_format", "export_mesh", "MESH_FORMATS", "SURFACE_FORMATS", "NEEDS", "available",
+           "capabilities", "scrubbed", "offered"]
 
-#: Preferred extension of each meshio format the service offers.
+#: Preferred extension of each meshio format the service knows.
 MESH_FORMATS = {
     "abaqus": ".inp", "gmsh": ".msh", "gmsh22": ".msh", "vtu": ".vtu", "vtk": ".vtk",
     "medit": ".mesh", "tetgen": ".node", "nastran": ".bdf", "xdmf": ".xdmf", "ansys": ".msh",
@@ -34,10 +45,27 @@ MESH_FORMATS = {
     "med": ".med", "netgen": ".vol", "permas": ".dato", "su2": ".su2", "ugrid": ".ugrid",
     "cgns": ".cgns", "h5m": ".h5m", "hmf": ".hmf", "tecplot": ".dat",
 }
+#: The library meshio needs for a format (beyond meshio's own dependencies).
+NEEDS = {"xdmf": "h5py", "med": "h5py", "h5m": "h5py", "cgns": "h5py", "hmf": "h5py", "exodus": "netCDF4"}
 #: Closed-surface formats accepted by the tetrahedralize resource.
 SURFACE_FORMATS = {"stl": ".stl", "obj": ".obj", "ply": ".ply", "off": ".off"}
+#: Formats written under one name and read under another.
+_READ_AS = {"gmsh22": "gmsh"}
 #: Preferred format of an ambiguous extension.
 _PREFERRED = {".msh": "gmsh"}
+
+
+@functools.cache
+def available(name: str) -> bool:
+    """True if the libraries format ``name`` needs are installed."""
+    need = NEEDS.get(name)
+    return need is None or importlib.util.find_spec(need) is not None
+
+
+def offered() -> dict[str, str]:
+    """The mesh formats this installation can read and write (measured, libraries present)."""
+    ok = {r["name"] for r in capabilities() if r["available"]}
+    return {k: v for k, v in MESH_FORMATS.items() if k in ok}
 
 
 def resolve_format(fmt: str | None, filename: str | None = None,
@@ -51,7 +79,7 @@ def resolve_format(fmt: str | None, filename: str | None = None,
     filename : str, optional
         Used when ``fmt`` is not given.
     allowed : dict, optional
-        Format name to extension; defaults to :data:`MESH_FORMATS`.
+        Format name to extension; defaults to the offered mesh formats.
 
     Returns
     -------
@@ -60,21 +88,28 @@ def resolve_format(fmt: str | None, filename: str | None = None,
     Raises
     ------
     ServiceError
-        422 ``unknown_format`` naming the accepted formats.
+        422 ``unknown_format`` naming the accepted formats (and the missing
+        library of a known format this installation cannot handle).
     """
-    allowed = allowed or MESH_FORMATS
+    allowed = allowed or offered()
     known = ", ".join(sorted(set(allowed) | {e.lstrip(".") for e in allowed.values()}))
+
+    def missing(name: str) -> ServiceError:
+        return ServiceError("unknown_format", f"format {name!r} needs the Python package {NEEDS[name]!r}, "
+                            f"which this installation lacks; accepted: {known}", format=name,
+                            needs=NEEDS[name])
+
     if fmt:
         key = fmt.strip().lower()
         if key in allowed:
             return key, allowed[key]
+        if key in MESH_FORMATS and allowed is not SURFACE_FORMATS and not available(key):
+            raise missing(key)
         ext = key if key.startswith(".") else "." + key
         names = [n for n in meshio.extension_to_filetypes.get(ext, []) if n in allowed]
         if names:
-            name = _PREFERRED.get(ext, names[0])
-            return name, ext
-        raise ServiceError(422, f"unknown format {fmt!r}; accepted: {known}", code="unknown_format",
-                           format=fmt)
+            return _PREFERRED.get(ext, names[0]), ext
+        raise ServiceError("unknown_format", f"unknown format {fmt!r}; accepted: {known}", format=fmt[:40])
     if filename:
         name_l = filename.lower()
         for ext in sorted(meshio.extension_to_filetypes, key=len, reverse=True):
@@ -82,9 +117,21 @@ def resolve_format(fmt: str | None, filename: str | None = None,
                 names = [n for n in meshio.extension_to_filetypes[ext] if n in allowed]
                 if names:
                     return _PREFERRED.get(ext, names[0]), ext
-        raise ServiceError(422, f"cannot tell the format of {filename!r} from its extension; pass "
-                           f"format= (accepted: {known})", code="unknown_format", filename=filename)
-    raise ServiceError(422, "no file name and no format given", code="unknown_format")
+        raise ServiceError("unknown_format", f"cannot tell the format of {filename!r} from its extension; "
+                           f"pass format= (accepted: {known})", filename=filename)
+    raise ServiceError("unknown_format", "no file name and no format given")
+
+
+def scrubbed(e: SolverError, *folders: str | os.PathLike[str]) -> SolverError:
+    """The error with server paths (the data or a temporary directory) cut from its message."""
+    msg = e.message
+    for d in folders:
+        msg = msg.replace(os.fspath(d).rstrip("/") + "/", "")
+    msg = re.sub(r"/\S*/(tetmorph-[\w-]+|tmp\w*)/", "", msg)
+    if msg != e.message:
+        e.message = msg
+        e.args = (msg,)
+    return e
 
 
 def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = False
@@ -92,10 +139,8 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = 
     """Write ``mesh`` with positions ``V`` in a format, as bytes.
 
     With ``quality`` the per-element metrics are written as cell data where
-    the format stores it.
-
-    Formats that write several files (TetGen ``.node`` + ``.ele``) come back
-    as one zip archive.
+    the format stores it. Formats that write several files (TetGen ``.node``
+    + ``.ele``) come back as one zip archive.
 
     Returns
     -------
@@ -104,12 +149,15 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = 
     Raises
     ------
     InvalidMeshError
-        meshio cannot write the mesh in that format.
+        meshio cannot write the mesh in that format (no server path in the message).
     """
     name, ext = resolve_format(fmt)
     with tempfile.TemporaryDirectory(prefix="tetmorph-export-") as tmp:
         path = Path(tmp) / f"{stem}{ext}"
-        write_mesh(mesh, V, path, file_format=name, quality=quality)
+        try:
+            write_mesh(mesh, V, path, file_format=name, quality=quality)
+        except SolverError as e:
+            raise scrubbed(e, tmp) from None
         files = sorted(p for p in Path(tmp).iterdir() if p.is_file())
         if len(files) == 1:
             return files[0].read_bytes(), files[0].name, "application/octet-stream"
@@ -118,3 +166,168 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = 
             for p in files:
                 z.write(p, arcname=os.path.basename(p))
         return buf.getvalue(), f"{stem}.{name}.zip", "application/zip"
+
+
+def _probe_meshes() -> dict[str, meshio.Mesh]:
+    """Tiny meshes for the round trips: linear tets with a node set, tetra10, a hexahedron beside tets."""
+    P = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.0]])
+    T = np.array([[0, 1, 2, 3], [1, 2, 3, 4]])
+    lin = meshio.Mesh(P, [("tetra", T)], point_sets={"TOP": np.array([3, 4])})
+    mids = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
+    Q = np.vstack([P[:4], [(P[a] + P[b]) / 2 for a, b in mids]])
+    quad = meshio.Mesh(Q, [("tetra10", np.arange(10)[None])])
+    H = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1],
+                  [0.5, 0.5, 2.0]])
+    mixed = meshio.Mesh(H, [("hexahedron", np.arange(8)[None]), ("pyramid", np.array([[4, 5, 6, 7, 8]]))])
+    return {"tets": lin, "quadratic": quad, "mixed": mixed}
+
+
+def _round_trip(src: meshio.Mesh, name: str, ext: str, tmp: Path) -> Mesh | None:
+    """Read ``src`` as a service mesh, write it as ``name``, read it back; None if any step fails."""
+    sets = {k: np.asarray(v) for k, v in src.point_sets.items()}  # meshio's VTU writer drops them from src
+    a = tmp / f"src_{name}.vtu"
+    meshio.write(a, src)
+    sub = tmp / name
+    sub.mkdir(exist_ok=True)
+    b = sub / f"probe{ext}"
+    try:
+        m = read_mesh(a)
+        write_mesh(m, m.V, b, file_format=name, point_sets=sets or None)
+        return read_mesh(b, _READ_AS.get(name, name))
+    except (Exception, SystemExit):  # noqa: BLE001 - a failed round trip is the answer (meshio may exit)
+        return None
+
+
+_PROBES = ("tets", "quadratic", "mixed")
+#: Seconds one round trip may take.
+PROBE_TIMEOUT_S = 20.0
+
+
+def _probe(name: str, kind: str, tmp: Path) -> bool:
+    """One round trip of probe mesh ``kind`` through format ``name``."""
+    src = _probe_meshes()[kind]
+    back = _round_trip(src, name, MESH_FORMATS[name], tmp)
+    if back is None:
+        return False
+    if kind == "tets":
+        return back.T.shape[0] == 2
+    if kind == "quadratic":
+        return back.info().get("element_order") == 2
+    return back.elements == 2
+
+
+def _probe_all(skip: set[tuple[str, str]]) -> None:
+    """Child process: print one JSON line ``[name, kind, ok, sets]`` per probe not in ``skip``."""
+    import json
+    import sys
+
+    with tempfile.TemporaryDirectory(prefix="tetmorph-probe-") as d:
+        for name in MESH_FORMATS:
+            if not available(name):
+                continue
+            for kind in _PROBES:
+                if (name, kind) in skip:
+                    continue
+                print(json.dumps([name, kind, None, None]), flush=True)  # started: a crash blames it
+                sets = False
+                ok = _probe(name, kind, Path(d))
+                if ok and kind == "tets":
+                    back = _round_trip(_probe_meshes()["tets"], name, MESH_FORMATS[name], Path(d))
+                    sets = back is not None and sorted(np.asarray(back.sets.get("TOP", [])).tolist()) == [3, 4]
+                print(json.dumps([name, kind, ok, sets]), flush=True)
+    sys.stdout.flush()
+
+
+#: Where ``python -m service.formats`` writes what :func:`measure` found.
+MEASURED = Path(__file__).with_name("format_table.py")
+
+
+@functools.cache
+def capabilities() -> tuple[dict[str, Any], ...]:
+    """The formats table of GET /v1/formats: :data:`MEASURED`, with this installation's libraries.
+
+    A format whose library is missing here is listed with ``available``
+    false and is not offered.
+    """
+    from .format_table import TABLE
+
+    rows: list[dict[str, Any]] = TABLE["formats"]  # type: ignore[assignment]
+    out = []
+    for r in rows:
+        ok = available(r["name"])
+        out.append({**r, "available": ok and r["read"] and r["write"],
+                    "read": ok and r["read"], "write": ok and r["write"]})
+    return tuple(out)
+
+
+def measure() -> tuple[dict[str, Any], ...]:
+    """What each known format does here, measured by round trips of tiny meshes.
+
+    The round trips run in a child process (some meshio writers end the
+    process on meshes they cannot hold); a probe that ends it counts as failed.
+
+    Returns
+    -------
+    tuple of dict
+        ``{"name", "extension", "available", "needs", "read", "write", "sets",
+        "quadratic", "mixed"}`` per format; ``sets`` means a node set survives
+        the round trip, ``quadratic`` a tetra10 element, ``mixed`` a pyramid on
+        a hexahedron.
+    """
+    import json
+    import selectors
+    import subprocess
+    import sys
+
+    results: dict[tuple[str, str], tuple[bool, bool]] = {}
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    for _ in range(3 * len(MESH_FORMATS)):
+        code = f"from service.formats import _probe_all; _probe_all(set({sorted(results)!r}))"
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL, text=True, env=env)
+        assert proc.stdout is not None
+        sel = selectors.DefaultSelector()
+        sel.register(proc.stdout, selectors.EVENT_READ)
+        started: tuple[str, str] | None = None
+        while True:
+            if not sel.select(timeout=PROBE_TIMEOUT_S):  # a probe that hangs counts as failed
+                proc.kill()
+                break
+            line = proc.stdout.readline()
+            if not line:
+                break
+            try:
+                name, kind, ok, sets = json.loads(line)
+            except ValueError:
+                continue
+            if ok is None:
+                started = (name, kind)
+            else:
+                results[(name, kind)] = (bool(ok), bool(sets))
+                started = None
+        proc.wait()
+        sel.close()
+        proc.stdout.close()
+        if started is None:
+            break
+        results[started] = (False, False)
+    out = []
+    for name, ext in MESH_FORMATS.items():
+        ok_t, sets = results.get((name, "tets"), (False, False))
+        out.append({"name": name, "extension": ext, "available": available(name), "needs": NEEDS.get(name),
+                    "read": ok_t, "write": ok_t, "sets": sets and ok_t,
+                    "quadratic": ok_t and results.get((name, "quadratic"), (False, False))[0],
+                    "mixed": ok_t and results.get((name, "mixed"), (False, False))[0]})
+    return tuple(out)
+
+
+if __name__ == "__main__":  # python -m service.formats: measure and write MEASURED
+    import json
+
+    table = {"meshio": meshio.__version__, "formats": [
+        {k: v for k, v in r.items() if k != "available"} for r in measure()]}
+    head = '"""What each mesh format keeps, measured by ``python -m service.formats`` (do not edit)."""\n\n'
+    MEASURED.write_text(head +
+                        f"TABLE = {json.dumps(table, indent=1)}\n".replace("true", "True").replace("false", "False")
+                        .replace("null", "None"))
+    print(MEASURED, "written")

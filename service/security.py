@@ -1,10 +1,17 @@
-"""API keys and request-rate limits.
+"""API keys, owner ids and request-rate limits.
 
 With no keys configured the service has one tenant, ``"public"``. With keys,
-every request must carry one (``X-API-Key`` header, ``Authorization: Bearer``,
-or ``api_key`` query parameter for WebSockets), and each key sees only its
-own meshes and sessions. Keys are never written to disk: resources record a
-digest of the key as their owner.
+every request must carry one (``X-API-Key`` header or ``Authorization:
+Bearer``; the WebSocket upgrade may also use the ``api_key`` query parameter,
+which browsers need), and each key sees only its own meshes and sessions.
+
+Keys are never written to disk. Resources record an owner id,
+``HMAC-SHA256(secret, tenant)``, where the secret is created once per
+installation in the data directory (``secret.key``, mode 0600). A key may be
+given a tenant name (``TETMORPH_API_KEYS="acme=K1"``); several keys of one
+tenant share its data, which is how a key is rotated: add ``acme=K2``, move the
+clients to K2, then remove ``acme=K1``. A bare key is the tenant of its own
+name, so bare ``K1`` rotates as ``K1,K1=K2``, then ``K1=K2``.
 """
 
 from __future__ import annotations
@@ -12,30 +19,84 @@ from __future__ import annotations
 import hashlib
 import hmac
 import math
+import os
+import secrets
 import time
 from collections.abc import Mapping
+from pathlib import Path
 
 from .errors import ServiceError
 from .settings import Settings
 
-__all__ = ["Authenticator", "RateLimiter", "PUBLIC"]
+__all__ = ["Authenticator", "RateLimiter", "ConnectionSlots", "PUBLIC", "load_secret", "legacy_owner", "parse_keys"]
 
 PUBLIC = "public"
+SECRET_FILE = "secret.key"
 
 
-def _digest(key: str) -> str:
+def load_secret(data_dir: Path) -> bytes:
+    """The installation's secret, created on first start (32 random bytes, file mode 0600)."""
+    path = Path(data_dir) / SECRET_FILE
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except FileExistsError:
+        data = path.read_bytes()
+        if len(data) < 32:
+            raise RuntimeError(f"{path} holds {len(data)} bytes; expected 64 hex digits") from None
+        return bytes.fromhex(data.decode().strip())
+    with os.fdopen(fd, "w") as f:
+        f.write(secrets.token_hex(32))
+    return bytes.fromhex(path.read_text().strip())
+
+
+def parse_keys(entries: list[str]) -> dict[str, str]:
+    """Key to tenant name: ``"name=key"`` entries, or bare keys (their own tenant).
+
+    Examples
+    --------
+    >>> parse_keys(["acme=K1", "acme=K2", "K3"]) == {"K1": "acme", "K2": "acme", "K3": "K3"}
+    True
+    """
+    out = {}
+    for e in entries:
+        name, sep, key = e.partition("=")
+        if sep and name.strip() and key.strip():
+            out[key.strip()] = name.strip()
+        else:
+            out[e.strip()] = e.strip()
+    return out
+
+
+def legacy_owner(key: str) -> str:
+    """The owner id earlier versions recorded for a key (unsalted), to migrate data from."""
     return "k_" + hashlib.sha256(key.encode()).hexdigest()[:16]
 
 
 class Authenticator:
-    """Map a request's API key to the owner id of its resources."""
+    """Map a request's API key to the owner id of its resources.
 
-    def __init__(self, settings: Settings) -> None:
+    Parameters
+    ----------
+    settings : Settings
+    secret : bytes
+        The installation secret (:func:`load_secret`).
+    """
+
+    def __init__(self, settings: Settings, secret: bytes) -> None:
         self.enabled = bool(settings.api_keys)
-        self._keys = {k: _digest(k) for k in settings.api_keys}
+        self._tenants = parse_keys(settings.api_keys)
+        self._secret = secret
 
-    def owner(self, headers: Mapping[str, str], query: Mapping[str, str]) -> str:
-        """Owner id for the key in ``headers`` or ``query``.
+    def owner_of_tenant(self, tenant: str) -> str:
+        """The owner id of a tenant name."""
+        return "o_" + hmac.new(self._secret, tenant.encode(), hashlib.sha256).hexdigest()[:32]
+
+    def migrations(self) -> dict[str, str]:
+        """Earlier owner ids of the configured bare keys -> their owner ids now."""
+        return {legacy_owner(k): self.owner_of_tenant(t) for k, t in self._tenants.items()}
+
+    def owner(self, headers: Mapping[str, str], query: Mapping[str, str] | None = None) -> str:
+        """Owner id for the key in ``headers`` (or ``query``, for the WebSocket upgrade only).
 
         Raises
         ------
@@ -48,18 +109,21 @@ class Authenticator:
         auth = headers.get("authorization", "")
         if not key and auth.lower().startswith("bearer "):
             key = auth[7:].strip()
-        key = key or query.get("api_key")
+        if not key and query is not None:
+            key = query.get("api_key")
         if not key:
-            e = ServiceError(401, "an API key is required: send the X-API-Key header",
-                             code="missing_api_key")
+            e = ServiceError("missing_api_key", "an API key is required: send the X-API-Key header")
             e.headers["WWW-Authenticate"] = "ApiKey"
             raise e
-        for k, owner in self._keys.items():
+        tenant = None
+        for k, t in self._tenants.items():
             if hmac.compare_digest(k.encode(), key.encode()):
-                return owner
-        e = ServiceError(401, "unknown API key", code="invalid_api_key")
-        e.headers["WWW-Authenticate"] = "ApiKey"
-        raise e
+                tenant = t
+        if tenant is None:
+            e = ServiceError("invalid_api_key", "unknown API key")
+            e.headers["WWW-Authenticate"] = "ApiKey"
+            raise e
+        return self.owner_of_tenant(tenant)
 
 
 class RateLimiter:
@@ -90,10 +154,45 @@ class RateLimiter:
         tokens = min(float(self.burst), tokens + (now - last) * self.rate)
         if tokens < 1.0:
             wait = (1.0 - tokens) / self.rate
-            e = ServiceError(429, f"rate limit exceeded: {self.rate:g} requests/s with bursts of "
-                             f"{self.burst}; retry in {wait:.2f} s", code="rate_limited",
-                             retry_after_s=round(wait, 3))
+            e = ServiceError("rate_limited", f"rate limit exceeded: {self.rate:g} requests/s with bursts "
+                             f"of {self.burst}; retry in {wait:.2f} s", retry_after_s=round(wait, 3))
             e.headers["Retry-After"] = str(max(1, math.ceil(wait)))
             self._buckets[owner] = (tokens, now)
             raise e
         self._buckets[owner] = (tokens - 1.0, now)
+
+
+class Slot:
+    """One held connection of :class:`ConnectionSlots`; :meth:`release` gives it back."""
+
+    def __init__(self, slots: ConnectionSlots, owner: str) -> None:
+        self._slots, self._owner, self._held = slots, owner, True
+
+    def release(self) -> None:
+        """Give the slot back (idempotent)."""
+        if self._held:
+            self._held = False
+            self._slots.open[self._owner] -= 1
+
+
+class ConnectionSlots:
+    """Open WebSocket streams per owner, at most ``limit`` at once."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.open: dict[str, int] = {}
+
+    def acquire(self, owner: str) -> Slot:
+        """Hold one slot of ``owner``.
+
+        Raises
+        ------
+        ServiceError
+            429 ``connection_limit`` when the owner holds ``limit`` already.
+        """
+        n = self.open.get(owner, 0)
+        if n >= self.limit:
+            raise ServiceError("connection_limit", f"this key has {n} open streams (limit {self.limit})",
+                               connections=n, limit=self.limit)
+        self.open[owner] = n + 1
+        return Slot(self, owner)

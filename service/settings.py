@@ -54,6 +54,20 @@ class Settings(BaseSettings):
     solve_workers: int = Field(2, gt=0, description="Threads that back-substitute.")
     demo: bool = Field(False, description="Load the demo beam and session at start-up.")
     sweep_interval_s: float = Field(60.0, gt=0, description="How often idle sessions are swept.")
+    expired_memory_s: float = Field(7 * 24 * 3600.0, ge=0,
+                                    description="How long a swept session answers 410 session_expired "
+                                                "(then 404).")
+    max_frame_kb: float = Field(1024.0, gt=0, description="Largest WebSocket frame (close 1009 above).")
+    max_connections_per_key: int = Field(16, gt=0,
+                                         description="Open WebSocket streams per API key (4429 above).")
+    tetra_workers: int = Field(1, gt=0, description="Processes that run fTetWild (one job each).")
+    tetra_time_limit_s: float = Field(600.0, gt=0,
+                                      description="A tetrahedralization running longer is stopped (422).")
+    tetra_max_triangles: int = Field(2_000_000, gt=0,
+                                     description="Largest surface POST /v1/tetrahedralize accepts (422 above).")
+    job_wait_s: float = Field(5.0, ge=0,
+                              description="How long POST /v1/tetrahedralize waits before answering 202.")
+    log_json: bool = Field(False, description="Write logs as one JSON object per line.")
 
     @field_validator("api_keys", mode="before")
     @classmethod
@@ -66,6 +80,11 @@ class Settings(BaseSettings):
     def max_upload_bytes(self) -> int:
         """Upload limit in bytes."""
         return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def max_frame_bytes(self) -> int:
+        """WebSocket frame limit in bytes."""
+        return int(self.max_frame_kb * 1024)
 
     @property
     def cache_budget_bytes(self) -> int:

@@ -1,12 +1,13 @@
-"""``/v1/meshes``: upload (file or JSON arrays), describe, download, delete."""
+"""``/v1/meshes``: upload (file or JSON arrays), list, describe, download, delete."""
 
 from __future__ import annotations
 
+import io
+import zipfile
 from typing import Annotated, Any
 
 import numpy as np
-from fastapi import APIRouter, File, Form, Query, Response, UploadFile
-from pydantic import BaseModel, Field
+from fastapi import APIRouter, File, Form, Query, Request, Response, UploadFile
 
 from solver.constraints.features import feature_candidates, feature_region
 from solver.constraints.selection import select
@@ -17,24 +18,17 @@ from solver.ops.elements import check_tets
 
 from ..binary import encode_bundle
 from ..errors import ServiceError
-from ..formats import MESH_FORMATS, export_mesh, resolve_format
-from ..registry import Registry
-from .deps import Owner, Reg, safe_name
+from ..formats import export_mesh, resolve_format
+from ..models.error import error_responses
+from ..models.mesh import MeshDoc
+from ..models.spec import check_selection_ids
+from ..models.uploads import Band, MeshArrays
+from .deps import MeshDep, OwnerDep, RegistryDep, safe_name
+from .paging import PAGE_HEADERS, CursorQuery, LimitQuery, NameQuery, page
 
 router = APIRouter(tags=["meshes"])
 
-
-class MeshArrays(BaseModel):
-    """A tet mesh (or a triangle surface) as JSON arrays, 0-based indices."""
-
-    vertices: list[Annotated[list[float], Field(min_length=3, max_length=3)]] = Field(
-        ..., description="(n, 3) vertex positions")
-    tetrahedra: list[Annotated[list[int], Field(min_length=4, max_length=4)]] | None = Field(
-        None, description="(m, 4) vertex indices")
-    triangles: list[Annotated[list[int], Field(min_length=3, max_length=3)]] | None = Field(
-        None, description="(k, 3) vertex indices of a surface-only mesh")
-    sets: dict[str, list[int]] = Field(default_factory=dict, description="named vertex sets")
-    name: str | None = None
+_AUTH = (401, 429)
 
 
 def public(meta: dict[str, Any]) -> dict[str, Any]:
@@ -43,16 +37,19 @@ def public(meta: dict[str, Any]) -> dict[str, Any]:
                                  "tetrahedralization") if k in meta}
 
 
-@router.post("/meshes", status_code=201, summary="Upload a tet mesh file")
+@router.post("/meshes", status_code=201, summary="Upload a mesh file", response_model=MeshDoc,
+             responses=error_responses(*_AUTH, 413, 422, s422="unreadable or invalid mesh (the "
+                                       "solver's typed code: inverted_input, non_finite_coordinates, "
+                                       "unsupported_element, unknown_format, too_many_elements, ...)"))
 async def upload_mesh(
     file: Annotated[UploadFile, File(description="The mesh: .inp, .msh, .vtu, .vtk, .mesh, "
                                                  ".node (with its .ele), .bdf, ...")],
+    owner: OwnerDep, reg: RegistryDep,
     companions: Annotated[list[UploadFile] | None, File(
         description="Files read together with the main one (TetGen's .ele)")] = None,
-    format: Annotated[str | None, Form(description="meshio format name or extension, when the "
-                                                   "file name does not tell")] = None,
-    name: Annotated[str | None, Form()] = None,
-    owner: str = Owner, reg: Registry = Reg,
+    format: Annotated[str | None, Form(max_length=40, description="format name or extension, when the "
+                                                                  "file name does not tell")] = None,
+    name: Annotated[str | None, Form(max_length=200)] = None,
 ) -> dict[str, Any]:
     """Store and validate a mesh file; answer its counts, element types, sets and quality."""
     main = safe_name(file.filename, "mesh")
@@ -72,49 +69,75 @@ async def upload_mesh(
     return public(meta)
 
 
-@router.post("/meshes/arrays", status_code=201, summary="Upload a mesh as JSON arrays")
-async def upload_arrays(body: MeshArrays, owner: str = Owner, reg: Registry = Reg) -> dict[str, Any]:
+@router.post("/meshes/arrays", status_code=201, summary="Upload a mesh as JSON arrays",
+             response_model=MeshDoc, responses=error_responses(*_AUTH, 413, 422))
+async def upload_arrays(body: MeshArrays, owner: OwnerDep, reg: RegistryDep) -> dict[str, Any]:
     """Store a mesh given as vertex and tetrahedron arrays."""
-    V = np.asarray(body.vertices, dtype=np.float64).reshape(-1, 3)  # rows checked by the model
+    n = len(body.vertices)
     if body.tetrahedra is not None and len(body.tetrahedra) > reg.settings.max_elements:
-        raise ServiceError(422, f"the mesh has {len(body.tetrahedra)} tetrahedra; the limit is "
-                           f"{reg.settings.max_elements}", code="too_many_elements")
-    for k, ids in body.sets.items():
-        bad = [i for i in ids if not 0 <= i < len(V)]
+        raise ServiceError("too_many_elements", f"the mesh has {len(body.tetrahedra)} tetrahedra; the "
+                           f"limit is {reg.settings.max_elements}", elements=len(body.tetrahedra),
+                           limit=reg.settings.max_elements)
+    for what, rows in (("tetrahedra", body.tetrahedra), ("triangles", body.triangles)):
+        bad = [k for k, r in enumerate(rows or []) if not all(0 <= i < n for i in r)]
         if bad:
-            raise InvalidMeshError(f"set {k!r} has vertex ids outside [0, {len(V)}): {bad[:10]}",
+            raise InvalidMeshError(f"{what} {bad[:10]} have vertex ids outside [0, {n})",
+                                   code="index_out_of_range", field=what, rows=bad[:10])
+    for k, ids in body.sets.items():
+        bad = [i for i in ids if not 0 <= i < n]
+        if bad:
+            raise InvalidMeshError(f"set {k!r} has vertex ids outside [0, {n}): {bad[:10]}",
                                    code="index_out_of_range", set=k)
+    V = np.asarray(body.vertices, dtype=np.float64).reshape(-1, 3)  # rows checked by the model
     mesh = mesh_from_arrays(V, body.tetrahedra or None, body.triangles or None, sets=body.sets)
     meta = await reg.add_mesh_arrays(owner, body.name or "arrays", mesh)
     return public(meta)
 
 
-@router.get("/meshes", summary="List your meshes")
-def list_meshes(owner: str = Owner, reg: Registry = Reg) -> list[dict[str, Any]]:
-    """Every mesh of the caller's key."""
-    return [public(m) for m in reg.list_meshes(owner)]
+@router.get("/meshes", summary="List your meshes", response_model=list[MeshDoc],
+            responses={200: {"headers": PAGE_HEADERS}, **error_responses(*_AUTH, 422)})
+def list_meshes(owner: OwnerDep, reg: RegistryDep, request: Request, response: Response,
+                limit: LimitQuery = 100, cursor: CursorQuery = None, name: NameQuery = None
+                ) -> list[dict[str, Any]]:
+    """The caller's meshes, oldest first, ``limit`` at a time; ``name`` filters by substring."""
+    metas = [m for m in reg.list_meshes(owner) if name is None or name in str(m.get("name", ""))]
+    return [public(m) for m in page(metas, lambda m: (m.get("created", 0.0), m["id"]), limit, cursor,
+                                    request, response)]
 
 
-@router.get("/meshes/{mesh_id}", summary="Describe a mesh")
-def get_mesh(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -> dict[str, Any]:
+@router.get("/meshes/{mesh_id}", summary="Describe a mesh", response_model=MeshDoc,
+            responses=error_responses(*_AUTH, 404))
+def get_mesh(meta: MeshDep) -> dict[str, Any]:
     """Counts, element types, sets, quality summary."""
-    return public(reg.mesh_meta(owner, mesh_id))
+    return public(meta)
+
+
+def _originals(reg: Any, meta: dict[str, Any]) -> tuple[bytes, str, str]:
+    """The uploaded file(s) unchanged: one file as is, several (TetGen) as a zip of the originals."""
+    d = reg.store.mesh_dir(meta["id"])
+    if len(meta["files"]) == 1:
+        return (d / meta["file"]).read_bytes(), meta["file"], "application/octet-stream"
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        for f in meta["files"]:
+            z.write(d / f, arcname=f)
+    return buf.getvalue(), meta["file"].rsplit(".", 1)[0] + ".zip", "application/zip"
 
 
 @router.get("/meshes/{mesh_id}/file", summary="Download a mesh",
-            responses={200: {"content": {"application/octet-stream": {}}}})
+            responses={200: {"content": {"application/octet-stream": {}, "application/zip": {}},
+                             "description": "the file (a zip when the format has several files)"},
+                       **error_responses(*_AUTH, 404, 422)})
 async def download_mesh(
-    mesh_id: str,
-    format: Annotated[str | None, Query(description="format name or extension; omit for the "
-                                        f"uploaded file byte for byte. One of {sorted(MESH_FORMATS)}")
-                      ] = None,
-    owner: str = Owner, reg: Registry = Reg,
+    meta: MeshDep, reg: RegistryDep,
+    format: Annotated[str | None, Query(max_length=40, description="format name or extension (GET "
+                                        "/v1/formats); omit for the upload byte for byte (TetGen: a zip "
+                                        "of its two files; JSON arrays: VTU)")] = None,
 ) -> Response:
     """The uploaded file unchanged, or the mesh converted to another format."""
-    meta = reg.mesh_meta(owner, mesh_id)
-    if format is None and meta["format"] != "arrays" and len(meta["files"]) == 1:
-        data = reg.mesh_file(meta).read_bytes()
-        return _file(data, meta["file"], "application/octet-stream")
+    if format is None and meta["format"] != "arrays":
+        body, fname, media = await reg.run(_originals, reg, meta)
+        return _file(body, fname, media)
     mesh = await reg.mesh(meta)
     fmt = format or "vtu"
     stem = safe_name(meta["name"].rsplit(".", 1)[0], "mesh")
@@ -123,8 +146,9 @@ async def download_mesh(
 
 
 @router.get("/meshes/{mesh_id}/geometry", summary="Vertices, boundary faces, tets and sets, binary",
-            responses={200: {"content": {"application/octet-stream": {}}}})
-async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -> Response:
+            responses={200: {"content": {"application/octet-stream": {}}},
+                       **error_responses(*_AUTH, 404)})
+async def mesh_geometry(meta: MeshDep, reg: RegistryDep) -> Response:
     """The mesh for a viewer, as one TMG1 bundle (see ``service.binary.encode_bundle``).
 
     Arrays: ``V`` float32 (n, 3) rest positions, ``F`` uint32 (k, 3) outward
@@ -134,11 +158,10 @@ async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -
     (:func:`solver.ops.elements.check_tets`): one of them inverts exactly when its
     element does, which is what the viewer shows.
     """
-    meta = reg.mesh_meta(owner, mesh_id)
     mesh = await reg.mesh(meta)
 
     def pack() -> bytes:
-        arrays = {"V": mesh.V.astype(np.float32), "F": mesh.F.astype(np.uint32),
+        arrays: dict[str, np.ndarray] = {"V": mesh.V.astype(np.float32), "F": mesh.F.astype(np.uint32),
                   "T": check_tets(mesh.T, mesh.cells).astype(np.uint32), "boundary": mesh.boundary.astype(np.uint8)}
         for name, ids in mesh.sets.items():
             arrays[f"set:{name}"] = np.asarray(ids, np.uint32)
@@ -150,18 +173,18 @@ async def mesh_geometry(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -
     return Response(await reg.run(pack), media_type="application/octet-stream")
 
 
-@router.get("/meshes/{mesh_id}/features", summary="Form-feature candidates of a mesh")
+@router.get("/meshes/{mesh_id}/features", summary="Form-feature candidates of a mesh",
+            responses=error_responses(*_AUTH, 404, 422))
 async def mesh_features(
-    mesh_id: str,
+    meta: MeshDep, reg: RegistryDep,
     angle: Annotated[float, Query(gt=0, lt=180, description="sharp-edge dihedral angle, degrees")] = 30.0,
     tol: Annotated[float, Query(gt=0, le=0.1, description="fit tolerance relative to a patch's size")
                    ] = 1e-3,
     ids: Annotated[bool, Query(description="include each candidate's vertex ids (a SPEC selection)")
                    ] = False,
-    owner: str = Owner, reg: Registry = Reg,
 ) -> list[dict[str, Any]]:
     """Boundary patches between sharp edges fitted as hole / boss / plane / other (see README)."""
-    mesh = await reg.mesh(reg.mesh_meta(owner, mesh_id))
+    mesh = await reg.mesh(meta)
     cands = await reg.run(feature_candidates, mesh, angle, tol)
     out = [c.to_dict() for c in cands]
     if not ids:
@@ -170,19 +193,16 @@ async def mesh_features(
     return out
 
 
-class Band(BaseModel):
-    """Selections whose union is a band around a feature's border."""
-
-    band: list[dict[str, Any]] = Field(min_length=1, description="SELECTION documents (as in a SPEC)")
-
-
-@router.post("/meshes/{mesh_id}/feature-region", summary="Min-cut feature region inside a band")
-async def mesh_feature_region(mesh_id: str, body: Band, owner: str = Owner,
-                              reg: Registry = Reg) -> dict[str, Any]:
+@router.post("/meshes/{mesh_id}/feature-region", summary="Min-cut feature region inside a band",
+             responses=error_responses(*_AUTH, 404, 422, s422="malformed selection, or "
+                                       "band_not_separating: the band does not split the surface in two"))
+async def mesh_feature_region(meta: MeshDep, body: Band, reg: RegistryDep) -> dict[str, Any]:
     """The region the minimum cut through the band separates (Form features §4.3)."""
-    mesh = await reg.mesh(reg.mesh_meta(owner, mesh_id))
-    sels = {f"band{k}": sel for k, sel in enumerate(body.band)}
+    mesh = await reg.mesh(meta)
+    sels = {f"band{k}": sel for k, sel in enumerate(body.dump())}
     parse_spec({"selections": sels, "fixed": list(sels)})  # 422 on a malformed selection
+    for name, sel in sels.items():
+        check_selection_ids(sel, mesh.n, f"band[{name[4:]}]")
 
     def region() -> dict[str, Any]:
         band = np.unique(np.concatenate([select(mesh, sel, name) for name, sel in sels.items()]))
@@ -193,13 +213,16 @@ async def mesh_feature_region(mesh_id: str, body: Band, owner: str = Owner,
     return await reg.run(region)
 
 
-@router.delete("/meshes/{mesh_id}", status_code=204, summary="Delete a mesh")
-def delete_mesh(mesh_id: str, owner: str = Owner, reg: Registry = Reg) -> Response:
+@router.delete("/meshes/{mesh_id}", status_code=204, summary="Delete a mesh",
+               responses=error_responses(*_AUTH, 404, 409, s409="sessions use the mesh (mesh_in_use)"))
+def delete_mesh(meta: MeshDep, owner: OwnerDep, reg: RegistryDep) -> Response:
     """Remove a mesh (409 while a session uses it)."""
-    reg.delete_mesh(owner, mesh_id)
+    reg.delete_mesh(owner, meta["id"])
     return Response(status_code=204)
 
 
 def _file(data: bytes, filename: str, media: str) -> Response:
     return Response(data, media_type=media,
                     headers={"Content-Disposition": f'attachment; filename="{filename}"'})
+
+

@@ -6,60 +6,82 @@ import json
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from fastapi import APIRouter, Body, Header, Query, Response
-from fastapi.responses import JSONResponse
-from pydantic import BaseModel, Field
+from fastapi import APIRouter, Body, Header, Query, Request, Response
+from pydantic import BaseModel
 
 from solver.validity.quality import METRICS, element_quality, summarize_quality
 
 from ..binary import MEDIA_TYPE, encode_frame
 from ..errors import ServiceError
 from ..formats import export_mesh
-from ..registry import Registry, Session
-from .deps import Owner, Reg, safe_name
+from ..models.error import error_responses
+from ..models.move import Move
+from ..models.report import Report
+from ..models.session import SessionDoc
+from ..models.uploads import SessionCreate
+from ..state.registry import Registry
+from ..state.session import Session, SessionStatus
+from .deps import OwnerDep, RegistryDep, SessionDep, safe_name
+from .paging import PAGE_HEADERS, CursorQuery, LimitQuery, NameQuery, page
+from .responses import JSONResponse
 
 router = APIRouter(tags=["sessions"])
 
 Kind = Literal["positions", "displacements"]
 Dtype = Literal["float32", "float64"]
+_AUTH = (401, 429)
 
 
-class SessionCreate(BaseModel):
-    """Create a session: which mesh, and the SPEC (selections, fixed, handles, options)."""
+class DeformJSON(BaseModel):
+    """A deform answer with ``result=json``: the REPORT and the (n, 3) positions or displacements."""
 
-    mesh_id: str = Field(..., description="id from POST /v1/meshes")
-    spec: dict[str, Any] = Field(..., description="the SPEC document (README, 'SPEC')")
+    report: Report
+    kind: Kind | None = None
+    positions: list[list[float]] | None = None
+    displacements: list[list[float]] | None = None
 
 
-def _status_code(s: Session) -> int:
-    return 201 if s.status == "ready" else 202
+def doc_of(reg: Registry, s: Session) -> dict[str, Any]:
+    """The session document with its expiry time."""
+    return s.doc(reg.settings.session_ttl_s)
 
 
 @router.post("/sessions", status_code=201, summary="Create a session (assemble and factor)",
-             responses={202: {"description": "still building; poll GET /v1/sessions/{id}"}})
-async def create_session(body: SessionCreate, owner: str = Owner, reg: Registry = Reg
-                         ) -> JSONResponse:
+             response_model=SessionDoc,
+             responses={201: {"description": "ready"},
+                        202: {"model": SessionDoc, "description": "still building; poll GET /v1/sessions/{id}"},
+                        **error_responses(*_AUTH, 404, 413, 422, 500, s404="unknown mesh (mesh_not_found)",
+                                          s422="the SPEC does not fit the mesh: the field, names, ids")})
+async def create_session(body: SessionCreate, owner: OwnerDep, reg: RegistryDep) -> JSONResponse:
     """Resolve the SPEC on the mesh and factor its systems.
 
     SPEC errors (unknown names, empty selections, unconstrained parts) answer
     422 here. A build that takes longer than ``build_wait_s`` answers 202;
     poll the session until ``status`` is ``ready``.
     """
-    s = await reg.create_session(owner, body.mesh_id, body.spec)
-    return JSONResponse(s.doc(), status_code=_status_code(s),
+    s = await reg.create_session(owner, body.mesh_id, body.spec.dump())
+    return JSONResponse(doc_of(reg, s), status_code=201 if s.status is SessionStatus.ready else 202,
                         headers={"Location": f"/v1/sessions/{s.id}"})
 
 
-@router.get("/sessions", summary="List your sessions")
-def list_sessions(owner: str = Owner, reg: Registry = Reg) -> list[dict[str, Any]]:
-    """Every session of the caller's key."""
-    return [s.doc() for s in reg.list_sessions(owner)]
+@router.get("/sessions", summary="List your sessions", response_model=list[SessionDoc],
+            responses={200: {"headers": PAGE_HEADERS}, **error_responses(*_AUTH, 422)})
+def list_sessions(owner: OwnerDep, reg: RegistryDep, request: Request, response: Response,
+                  limit: LimitQuery = 100, cursor: CursorQuery = None,
+                  name: NameQuery = None) -> list[dict[str, Any]]:
+    """The caller's sessions, oldest first; ``name`` filters by a substring of the mesh's name."""
+    rows = reg.list_sessions(owner)
+    if name is not None:
+        names = {m["id"]: str(m.get("name", "")) for m in reg.list_meshes(owner)}
+        rows = [s for s in rows if name in names.get(s.mesh_id, "")]
+    return [doc_of(reg, s) for s in page(rows, lambda s: (s.created, s.id), limit, cursor, request, response)]
 
 
-@router.get("/sessions/{session_id}", summary="Session status, progress and last report")
-def get_session(session_id: str, owner: str = Owner, reg: Registry = Reg) -> dict[str, Any]:
+@router.get("/sessions/{session_id}", summary="Session status, progress and last report",
+            response_model=SessionDoc, responses=error_responses(*_AUTH, 404, 410))
+def get_session(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
     """Status (``building``, ``ready``, ``evicted``, ``stored``, ``failed``), progress, timings."""
-    return reg.session(owner, session_id).doc()
+    return doc_of(reg, s)
 
 
 def result_response(V: np.ndarray, V0: np.ndarray, report: dict[str, Any], result: str, kind: str,
@@ -76,20 +98,24 @@ def result_response(V: np.ndarray, V0: np.ndarray, report: dict[str, Any], resul
     return JSONResponse(body)
 
 
+_DEFORM_200 = {"model": DeformJSON, "content": {MEDIA_TYPE: {"schema": {"type": "string", "format": "binary"}}},
+               "description": "the REPORT and the result (JSON, the binary frame of the README, or a mesh file)"}
+
+
 @router.post("/sessions/{session_id}/deform", summary="Apply a MOVE",
-             responses={200: {"content": {"application/json": {}, MEDIA_TYPE: {}}},
-                        422: {"description": "bad MOVE, or an inverting move under 'reject' "
-                                             "(details.report); the session is unchanged"}})
+             responses={200: _DEFORM_200, **error_responses(
+                 *_AUTH, 404, 410, 413, 422, 500,
+                 s422="bad MOVE (the field), out_of_range, or an inverting move under 'reject' "
+                      "(inverted_elements, details.report); the session is unchanged")})
 async def deform(
-    session_id: str,
-    move: Annotated[dict[str, Any], Body(description="the MOVE document",
-                                         examples=[{"handles": {"tip": {"translation": [0, 0, 1]}}}])],
+    s: SessionDep, reg: RegistryDep,
+    move: Annotated[Move, Body(description="the MOVE document")],
     result: Annotated[Literal["json", "binary", "report", "mesh"] | None, Query(
         description="json (report + array), binary (frame, see README), report only, or a mesh "
                     "file; default json, or binary when Accept is application/octet-stream")] = None,
     kind: Annotated[Kind, Query()] = "positions",
     dtype: Annotated[Dtype, Query()] = "float64",
-    format: Annotated[str, Query(description="mesh format for result=mesh")] = "vtu",
+    format: Annotated[str, Query(max_length=40, description="mesh format for result=mesh")] = "vtu",
     inversion: Annotated[Literal["warn", "reject", "clamp"] | None, Query(
         description="override the SPEC's inversion policy; 'clamp' applies the largest safe "
                     "fraction of an inverting MOVE")] = None,
@@ -100,11 +126,9 @@ async def deform(
     repair: Annotated[bool | None, Query(description="override SPEC.repair: untangle inverted "
                                          "elements by moving free interior vertices")] = None,
     accept: Annotated[str | None, Header()] = None,
-    owner: str = Owner, reg: Registry = Reg,
 ) -> Response:
     """Back-substitute for the MOVE and answer the REPORT and the result."""
-    s = reg.session(owner, session_id)
-    r = await reg.deform(s, move, inversion, quality, repair)
+    r = await reg.deform(s, move.dump(), inversion, quality, repair)
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
     if mode == "mesh":
         return await _mesh_response(reg, s, r.V, format, r.report, quality == "full")
@@ -128,34 +152,35 @@ async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
 
 
 @router.get("/sessions/{session_id}/mesh", summary="Download the current deformed mesh",
-            responses={200: {"content": {"application/octet-stream": {}}}})
+            responses={200: {"content": {"application/octet-stream": {}, "application/zip": {}}},
+                       **error_responses(*_AUTH, 404, 410, 422)})
 async def download_current(
-    session_id: str,
-    format: Annotated[str, Query(description="format name or extension")] = "vtu",
+    s: SessionDep, reg: RegistryDep,
+    format: Annotated[str, Query(max_length=40, description="format name or extension")] = "vtu",
     quality: Annotated[bool, Query(description="per-element quality metrics as cell data")] = False,
-    owner: str = Owner, reg: Registry = Reg,
 ) -> Response:
     """The mesh at the session's last MOVE (rest shape before any), in any format."""
-    s = reg.session(owner, session_id)
     V = await reg.positions(s)
     return await _mesh_response(reg, s, V, format, s.report, quality)
 
 
-@router.get("/sessions/{session_id}/quality", summary="Per-element quality of the current mesh")
+@router.get("/sessions/{session_id}/quality", summary="Per-element quality of the current mesh",
+            responses=error_responses(*_AUTH, 404, 410, 422, s422="unknown metric (unknown_metric)"))
 async def current_quality(
-    session_id: str,
-    metrics: Annotated[str | None, Query(description="comma-separated subset of "
+    s: SessionDep, reg: RegistryDep,
+    metrics: Annotated[str | None, Query(max_length=400, description="comma-separated subset of "
                                          f"{list(METRICS)}; default all")] = None,
-    owner: str = Owner, reg: Registry = Reg,
 ) -> dict[str, Any]:
-    """Per-element metrics at the last MOVE (one list per metric; tets in file order, then hexahedra,
-    wedges and pyramids; NaN where a metric is for tets only) and summaries."""
-    s = reg.session(owner, session_id)
+    """Per-element metrics at the last MOVE, and summaries.
+
+    One list per metric: tets in file order, then hexahedra, wedges and
+    pyramids; null where a metric is for tets only.
+    """
     names = list(METRICS) if metrics is None else [m.strip() for m in metrics.split(",") if m.strip()]
     bad = sorted(set(names) - set(METRICS))
     if bad or not names:
-        raise ServiceError(422, f"unknown metrics {bad}; choose from {list(METRICS)}",
-                           code="unknown_metric", unknown=bad)
+        raise ServiceError("unknown_metric", f"unknown metrics {bad}; choose from {list(METRICS)}",
+                           unknown=bad, field="metrics")
     V = await reg.positions(s)
     mesh = await reg.session_mesh(s)
     q = await reg.run(element_quality, V, mesh.T, mesh.cells)
@@ -166,37 +191,39 @@ async def current_quality(
 def _json_floats(x: np.ndarray) -> list[float | None]:
     """A float array as a JSON list, NaN (tet-only metrics on other elements) as null."""
     out = x.astype(object)
-    out[np.isnan(x)] = None
+    out[~np.isfinite(x)] = None
     return out.tolist()
 
 
 @router.get("/sessions/{session_id}/positions", summary="Current positions as JSON or binary",
-            responses={200: {"content": {"application/json": {}, MEDIA_TYPE: {}}}})
+            responses={200: {"content": {"application/json": {}, MEDIA_TYPE: {}}},
+                       **error_responses(*_AUTH, 404, 410)})
 async def current_positions(
-    session_id: str,
+    s: SessionDep, reg: RegistryDep,
     result: Annotated[Literal["json", "binary"], Query()] = "json",
     kind: Annotated[Kind, Query()] = "positions",
     dtype: Annotated[Dtype, Query()] = "float64",
-    owner: str = Owner, reg: Registry = Reg,
 ) -> Response:
     """The current state, encoded like a deform result."""
-    s = reg.session(owner, session_id)
     V = await reg.positions(s)
     mesh = await reg.session_mesh(s)
     return result_response(V, mesh.V, s.report or {}, result, kind, dtype)
 
 
-@router.post("/sessions/{session_id}/reset", summary="Back to the rest shape")
-async def reset(session_id: str, owner: str = Owner, reg: Registry = Reg) -> dict[str, Any]:
+@router.post("/sessions/{session_id}/reset", summary="Back to the rest shape", response_model=SessionDoc,
+             responses=error_responses(*_AUTH, 404, 410))
+async def reset(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
     """Forget the last MOVE; the factorization stays."""
-    s = reg.session(owner, session_id)
     await reg.reset(s)
-    return s.doc()
+    return doc_of(reg, s)
 
 
-@router.delete("/sessions/{session_id}", status_code=204, summary="Delete a session")
-async def delete_session(session_id: str, owner: str = Owner, reg: Registry = Reg) -> Response:
+@router.delete("/sessions/{session_id}", status_code=204, summary="Delete a session",
+               responses=error_responses(*_AUTH, 404, 410))
+async def delete_session(s: SessionDep, reg: RegistryDep) -> Response:
     """Drop the session and its factorization."""
-    s = reg.session(owner, session_id)
     await reg.delete_session(s)
     return Response(status_code=204)
+
+
+__all__ = ["router", "result_response", "DeformJSON"]

@@ -1,53 +1,116 @@
 """``/v1/sessions/{id}/stream``: WebSocket for interactive drags, latest MOVE wins.
 
 Client → server, text frames: ``{"seq": 7, "move": MOVE, "inversion": "warn", "repair": false}``
-(or a bare MOVE). Server → client: for each solved MOVE a binary frame
+(``move`` required, nothing else allowed). Server → client: for each solved MOVE a binary frame
 (:mod:`service.binary`) whose header carries ``seq``, ``dropped`` (MOVEs
 superseded while the previous one was solving) and a small REPORT; for a
-MOVE that fails, a text frame ``{"seq": 7, "error": {...}}``. MOVEs that
-arrive while one is being solved replace each other: only the newest is
-solved next.
+frame or MOVE that fails, a text frame ``{"seq": 7, "error": {...}}`` (the
+session is unchanged). MOVEs that arrive while one is being solved replace
+each other: only the newest is solved next.
+
+Close codes: 4401 no or unknown API key, 4404 unknown session, 4410 expired
+session, 4429 too many connections of the key, 1009 frame over the size
+limit, 1011 server fault, each with a reason.
 """
 
 from __future__ import annotations
 
 import asyncio
 import json
+import logging
+import time
 from typing import Any, Literal
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
-
-from solver.errors import SolverError
+from pydantic import ValidationError
+from starlette.websockets import WebSocketState
 
 from ..binary import encode_frame
-from ..errors import ServiceError, envelope, error_body
-from ..registry import Registry
+from ..errors import ServiceError, error_body, status_of
+from ..models.move import StreamFrame
+from ..state.registry import Registry
+from .handlers import validation_envelope
 
 router = APIRouter(tags=["sessions"])
+log = logging.getLogger("tetmorph.service")
 
 #: REPORT fields sent with each streamed frame.
 STREAM_REPORT = ("inverted_elements", "degenerate_elements", "min_scaled_jacobian",
                  "constraint_residual_max", "max_displacement", "safe_fraction", "clamped",
-                 "applied_fraction", "inverted_elements_unclamped", "conflicting_constraints", "repair")
+                 "applied_fraction", "inverted_elements_unclamped", "conflicting_constraints", "repair",
+                 "finite")
+
+
+def parse_frame(text: str | None, data: bytes | None, limit: int) -> StreamFrame:
+    """A client frame as a :class:`StreamFrame`.
+
+    Raises
+    ------
+    ServiceError
+        ``invalid_message`` (not JSON, not an object, unknown fields, no
+        ``move``, ...) or ``payload_too_large``.
+    """
+    size = len(text.encode()) if text is not None else len(data or b"")
+    if size > limit:
+        raise ServiceError("payload_too_large", f"frame of {size} bytes exceeds the limit of {limit} bytes",
+                           bytes=size, limit=limit)
+    if text is None:
+        raise ServiceError("invalid_message", "send text frames holding a JSON object {seq, move}")
+    try:
+        doc = json.loads(text)
+    except (ValueError, RecursionError) as e:
+        raise ServiceError("invalid_message", f"the frame is not JSON: {str(e)[:100]}") from None
+    if not isinstance(doc, dict):
+        raise ServiceError("invalid_message", "send text frames holding a JSON object {seq, move}")
+    try:
+        return StreamFrame.model_validate(doc)
+    except ValidationError as e:
+        env = validation_envelope(e.errors())["error"]
+        raise ServiceError("invalid_message", env["message"].replace("invalid request", "invalid frame"),
+                           **env["details"]) from None
+    except RecursionError:
+        raise ServiceError("invalid_message", "the frame is nested too deeply") from None
+
+
+async def _close(ws: WebSocket, code: int, reason: str) -> None:
+    if ws.application_state != WebSocketState.DISCONNECTED:
+        try:
+            await ws.close(code=code, reason=reason[:120])
+        except RuntimeError:  # already closed by the peer
+            pass
 
 
 @router.websocket("/sessions/{session_id}/stream")
 async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "displacements"] =
                  "positions", dtype: Literal["float32", "float64"] = "float32") -> None:
-    """Solve streamed MOVEs, dropping stale ones (close codes 4401 auth, 4404 unknown session)."""
+    """Solve streamed MOVEs, dropping stale ones (close codes in the module docstring)."""
     state = ws.app.state
     reg: Registry = state.registry
     try:
         owner = state.auth.owner(ws.headers, ws.query_params)
         s = reg.session(owner, session_id)
+        slot = state.connections.acquire(owner)
     except ServiceError as e:
         await ws.close(code=4000 + e.status, reason=e.message[:120])
         return
-    await ws.accept()
-    pending: dict[str, Any] | None = None
+    try:
+        await ws.accept()
+        await _serve(ws, reg, s, kind, dtype, state.settings.max_frame_bytes)
+    except WebSocketDisconnect:
+        pass
+    except Exception as e:  # noqa: BLE001 - a server fault still closes with a code and reason
+        log.error("stream of session %s failed", session_id, exc_info=e)
+        await _close(ws, 1011, f"server error ({type(e).__name__})")
+    finally:
+        slot.release()
+
+
+async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, limit: int) -> None:
+    pending: StreamFrame | None = None
     dropped = 0
     wake = asyncio.Event()
     V0 = None
+    closing: list[tuple[int, str]] = []
 
     async def receive() -> None:
         nonlocal pending, dropped
@@ -55,18 +118,17 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
             msg = await ws.receive()
             if msg["type"] == "websocket.disconnect":
                 return
-            text = msg.get("text")
             try:
-                doc = json.loads(text) if text is not None else None
-            except ValueError:
-                doc = None
-            if not isinstance(doc, dict):
-                await ws.send_json({"seq": None, **envelope(
-                    422, "invalid_message", "send text frames holding a JSON object {seq, move}")})
+                frame = parse_frame(msg.get("text"), msg.get("bytes"), limit)
+            except ServiceError as e:
+                if e.code == "payload_too_large":
+                    closing.append((1009, e.message))
+                    return
+                await ws.send_json({"seq": None, **error_body(e)[1]})
                 continue
             if pending is not None:
                 dropped += 1
-            pending = doc
+            pending = frame
             wake.set()
 
     receiver = asyncio.create_task(receive())
@@ -76,31 +138,32 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
             done, _ = await asyncio.wait({receiver, waiter}, return_when=asyncio.FIRST_COMPLETED)
             if receiver in done:
                 waiter.cancel()
+                receiver.result()  # a failure of the receiver is a server fault
+                if closing:
+                    await _close(ws, *closing[0])
                 return
             wake.clear()
-            doc, pending = pending, None
+            frame, pending = pending, None
             skipped, dropped = dropped, 0
-            if doc is None:
+            if frame is None:
                 continue
-            seq = doc.get("seq")
-            move = doc["move"] if "move" in doc else {k: v for k, v in doc.items()
-                                                        if k not in ("seq", "inversion", "repair")}
+            s.last_used = time.time()  # a streamed MOVE is activity
             try:
-                rep_flag = doc.get("repair")
-                if rep_flag is not None and not isinstance(rep_flag, bool):
-                    raise ServiceError(422, "repair must be true or false", code="invalid_message")
-                r = await reg.deform(s, move, doc.get("inversion"), "basic", rep_flag)
-            except (SolverError, ServiceError) as e:
-                await ws.send_json({"seq": seq, "dropped": skipped, **error_body(e)[1]})
+                r = await reg.deform(s, frame.move.dump(), frame.inversion, "basic", frame.repair)
+            except Exception as e:  # noqa: BLE001 - every failed MOVE is answered, the session unchanged
+                if status_of(e) >= 500:
+                    raise
+                await ws.send_json({"seq": frame.seq, "dropped": skipped, **error_body(e)[1]})
                 continue
             if V0 is None:
                 V0 = (await reg.session_mesh(s)).V
             X = r.V if kind == "positions" else r.V - V0
             small = {k: r.report.get(k) for k in STREAM_REPORT}
             small["solve_ms"] = r.report["timings"]["update"]["total_ms"]
-            await ws.send_bytes(encode_frame(X, {"seq": seq, "dropped": skipped, "report": small},
+            await ws.send_bytes(encode_frame(X, {"seq": frame.seq, "dropped": skipped, "report": small},
                                              dtype, kind))
-    except (WebSocketDisconnect, RuntimeError):
-        return  # the client went away mid-send
     finally:
         receiver.cancel()
+
+
+__all__ = ["router", "parse_frame", "STREAM_REPORT"]

@@ -19,6 +19,12 @@ BRACKET_SPEC: dict[str, Any] = {
     "selections": {"root": {"set": "FIXED"}, "tip": {"set": "LOAD"}},
     "fixed": ["root"], "handles": {"tip": "tip"},
 }
+MOVES: list[dict[str, Any]] = [
+    {"handles": {"tip": {"translation": [0.0, 0.0, 4.0]}}},
+    {"handles": {"tip": {"translation": [0.0, 2.0, -3.0],
+                         "rotation": {"axis": [1, 0, 0], "angle_deg": 15}}}},
+    {"handles": {"tip": {"translation": [5.0, 0.0, 0.0], "scale": 1.05}}},
+]
 BEAM_SPEC = json.loads((DATA.parent.parent / "examples" / "beam" / "spec.json").read_text())
 
 
@@ -53,3 +59,13 @@ def err(r) -> dict[str, Any]:
     assert {"status", "code", "type", "message", "details"} <= set(e), e
     assert e["status"] == r.status_code
     return e
+
+
+@pytest.fixture(scope="session")
+def bracket_library():
+    """The library's result for each MOVE, to compare the service against."""
+    from solver import read_mesh
+    from solver.deform.deformer import precompute
+
+    d = precompute(read_mesh(BRACKET), BRACKET_SPEC)
+    return d, [d.solve(m).V for m in MOVES]

@@ -2,9 +2,11 @@
 
 Layout (``data_dir``)::
 
+    secret.key                       the installation secret of owner ids (mode 0600)
     meshes/<mesh_id>/meta.json       owner, name, format, main file, summary
     meshes/<mesh_id>/<files>         the uploaded file(s), byte for byte, or arrays.npz
     sessions/<session_id>.json       owner, mesh id, SPEC, last MOVE, timestamps
+    sessions/expired/<id>.json       sessions removed for idleness (they answer 410 for a while)
 
 JSON files are replaced atomically, so a crash never leaves a half-written
 record; a restart reloads every session and rebuilds it on first use.
@@ -108,7 +110,7 @@ class Store:
 
     def save_arrays(self, mesh_id: str, mesh: Mesh) -> None:
         """Store a mesh given as arrays (vertices, tetrahedra, named sets)."""
-        sets = {f"set:{k}": v for k, v in mesh.sets.items()}
+        sets: dict[str, Any] = {f"set:{k}": v for k, v in mesh.sets.items()}
         np.savez(self.mesh_dir(mesh_id) / "arrays.npz", V=mesh.V, T=mesh.T, surface=mesh.surface,
                  **sets)
 
@@ -152,3 +154,57 @@ class Store:
         """Remove a session record."""
         if valid_id(session_id):
             (self.sessions_dir / f"{session_id}.json").unlink(missing_ok=True)
+
+    # ------------------------------------------------------------- tombstones
+    def save_expired(self, session_id: str, owner: str, at: float) -> None:
+        """Remember that a session was removed for idleness (it answers 410 for a while)."""
+        d = self.sessions_dir / "expired"
+        d.mkdir(exist_ok=True)
+        _write_json(d / f"{session_id}.json", {"id": session_id, "owner": owner, "expired_at": at})
+
+    def list_expired(self) -> list[dict[str, Any]]:
+        """Every remembered expired session."""
+        d = self.sessions_dir / "expired"
+        out = []
+        for p in d.glob("*.json") if d.is_dir() else []:
+            try:
+                out.append(json.loads(p.read_text()))
+            except (OSError, ValueError):
+                continue
+        return out
+
+    def delete_expired(self, session_id: str) -> None:
+        """Forget an expired session."""
+        if valid_id(session_id):
+            (self.sessions_dir / "expired" / f"{session_id}.json").unlink(missing_ok=True)
+
+    # ------------------------------------------------------------ maintenance
+    def remove_orphans(self) -> list[str]:
+        """Remove what an interrupted upload or write left behind; return the names removed.
+
+        A mesh directory without ``meta.json`` (the process died between the
+        upload and its summary) and temporary files of atomic writes.
+        """
+        gone = []
+        for d in self.meshes_dir.iterdir():
+            if d.is_dir() and not (d / "meta.json").is_file():
+                shutil.rmtree(d, ignore_errors=True)
+                gone.append(d.name)
+        for folder in (self.meshes_dir, self.sessions_dir):
+            for p in folder.rglob(".tmp-*"):
+                p.unlink(missing_ok=True)
+                gone.append(p.name)
+        return gone
+
+    def rename_owner(self, old: str, new: str) -> int:
+        """Give every mesh and session of owner ``old`` to ``new``; return how many records changed."""
+        n = 0
+        for meta in self.list_meshes():
+            if meta.get("owner") == old:
+                self.save_mesh_meta({**meta, "owner": new})
+                n += 1
+        for rec in self.list_sessions():
+            if rec.get("owner") == old:
+                self.save_session({**rec, "owner": new})
+                n += 1
+        return n

@@ -39,7 +39,7 @@ def test_real_server_restart_and_stream(tmp_path, expected):
     with server(tmp_path, port) as url, Client(url) as c:
         mid = c.upload_mesh(BRACKET)["id"]
         sid = c.create_session(mid, BRACKET_SPEC)["id"]
-        for m, V in zip(MOVES[:2], expected[:2]):
+        for m, V in zip(MOVES[:2], expected[:2], strict=True):
             X, rep = c.deform(sid, m)
             np.testing.assert_allclose(X, V, atol=1e-12)
         c.download_result(sid, tmp_path / "before.inp")

@@ -1,0 +1,64 @@
+"""Exception handlers: every error becomes the JSON envelope of :mod:`service.errors`."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from solver.errors import SolverError
+
+from ..errors import HTTP_CODES, ServiceError, envelope, error_body
+from .responses import JSONResponse
+
+__all__ = ["install_handlers", "error_response", "validation_envelope"]
+
+
+def error_response(e: BaseException) -> JSONResponse:
+    """Map any exception to a JSONResponse carrying the envelope."""
+    status, body = error_body(e)
+    return JSONResponse(body, status_code=status, headers=getattr(e, "headers", None))
+
+
+def _got(err: Any) -> str:
+    if "input" not in err or isinstance(err["input"], (dict, list)) or err.get("type") == "missing":
+        return ""
+    text = repr(err["input"])
+    return f", got {text[:60]}{'...' if len(text) > 60 else ''}"
+
+
+def validation_envelope(errors: Sequence[Any]) -> dict[str, Any]:
+    """The envelope of request validation errors, each naming its field and the value given."""
+    out = [{"loc": [str(x) for x in err.get("loc", ())],
+            "msg": str(err.get("msg", "")) + _got(err), "type": str(err.get("type", ""))} for err in errors]
+    where = "; ".join(f"{'.'.join(x['loc'])}: {x['msg']}" for x in out[:5])
+    return envelope(422, "invalid_request", f"invalid request: {where}", {"errors": out},
+                    "RequestValidationError")
+
+
+def install_handlers(app: FastAPI) -> None:
+    """Register the envelope for service, solver, HTTP, validation and unexpected errors."""
+
+    @app.exception_handler(ServiceError)
+    async def _service(request: Request, e: ServiceError) -> JSONResponse:
+        return error_response(e)
+
+    @app.exception_handler(SolverError)
+    async def _solver(request: Request, e: SolverError) -> JSONResponse:
+        return error_response(e)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, e: StarletteHTTPException) -> JSONResponse:
+        code = HTTP_CODES.get(e.status_code, "error")
+        msg = e.detail if isinstance(e.detail, str) else code.replace("_", " ")
+        if e.status_code == 404 and msg == "Not Found":
+            msg = f"no route {request.method} {request.url.path}"
+        return JSONResponse(envelope(e.status_code, code, msg), status_code=e.status_code,
+                            headers=getattr(e, "headers", None))
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation(request: Request, e: RequestValidationError) -> JSONResponse:
+        return JSONResponse(validation_envelope(list(e.errors())), status_code=422)

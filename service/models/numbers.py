@@ -1,0 +1,41 @@
+"""Number types of the documents: strict (booleans and strings are not numbers), finite, bounded.
+
+Bounds that depend on the mesh (vertex ids below its vertex count,
+translations and points within :data:`EXTENT` bounding-box diagonals) are
+checked where the mesh is known (:mod:`service.models.bounds`).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import Field, StrictInt
+
+__all__ = ["Coord", "Vec3", "Quat", "Scale", "Angle", "Weight", "VertexId", "Fraction", "NonNegLength",
+           "PenaltyWeight", "COORD_MAX", "SCALE_MIN", "SCALE_MAX", "EXTENT", "PENALTY_MAX", "ID_MAX"]
+
+#: Largest magnitude of any coordinate, direction or target in a document.
+COORD_MAX = 1e15
+#: Range of uniform scale factors (handles, relative constraints, features).
+SCALE_MIN, SCALE_MAX = 1e-3, 1e3
+#: Translations and pivots, point targets and motion points: within this many bounding-box
+#: diagonals of the mesh (of its centre, for positions).
+EXTENT = 100.0
+#: Largest penalty weight (SPEC.constraints.penalty_weight).
+PENALTY_MAX = 1e12
+#: Largest vertex id the documents accept before the mesh's own count is checked.
+ID_MAX = 2**31 - 1
+
+Coord = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-COORD_MAX, le=COORD_MAX)]
+Vec3 = Annotated[list[Coord], Field(min_length=3, max_length=3, description="[x, y, z]")]
+Quat = Annotated[list[Coord], Field(min_length=4, max_length=4, description="[w, x, y, z], non-zero")]
+Scale = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=SCALE_MIN, le=SCALE_MAX,
+                               description=f"uniform scale factor in [{SCALE_MIN:g}, {SCALE_MAX:g}]")]
+Angle = Annotated[float, Field(strict=True, allow_inf_nan=False,
+                               description="degrees, any finite value (reduced modulo 360)")]
+Weight = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
+Fraction = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=1)]
+NonNegLength = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=COORD_MAX)]
+PenaltyWeight = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=PENALTY_MAX,
+                                       description=f"penalty weight beta in (0, {PENALTY_MAX:g}]")]
+VertexId = Annotated[StrictInt, Field(ge=0, le=ID_MAX, description="0-based vertex index in file order")]

@@ -1,0 +1,219 @@
+"""The SPEC document (README, 'Documents'): strict types, unknown fields refused.
+
+The solver checks what needs the names and the mesh (selections that exist,
+handles that do not overlap, ...); these models make sure that what reaches
+it is well typed, finite and bounded, and describe the SPEC in the OpenAPI
+schema. :func:`check_spec_ids` checks vertex ids against the mesh.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr
+
+from ..errors import ServiceError
+from .numbers import Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, Weight
+
+__all__ = ["Spec", "Selection", "check_spec_ids", "check_selection_ids"]
+
+_STRICT = ConfigDict(extra="forbid", strict=True)
+
+
+class Box(BaseModel):
+    """A closed axis-aligned box."""
+
+    model_config = _STRICT
+    min: Vec3
+    max: Vec3
+
+
+class Sphere(BaseModel):
+    """A closed ball."""
+
+    model_config = _STRICT
+    center: Vec3
+    radius: NonNegLength
+
+
+class Plane(BaseModel):
+    """Vertices within ``tolerance`` of a plane."""
+
+    model_config = _STRICT
+    point: Vec3
+    normal: Vec3
+    tolerance: NonNegLength = 0.0
+
+
+class Selection(BaseModel):
+    """Exactly one of ``ids``, ``set``, ``box``, ``sphere``, ``plane``; optionally ``boundary_only``."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [
+        {"set": "FIXED"}, {"box": {"min": [0, 0, 0], "max": [1, 1, 1]}, "boundary_only": True}]})
+    ids: list[VertexId] | None = Field(None, max_length=10_000_000)
+    set: StrictStr | None = Field(None, max_length=200, description="node set, element set, physical group, "
+                                  "material region ('medit:ref=2')")
+    box: Box | None = None
+    sphere: Sphere | None = None
+    plane: Plane | None = None
+    boundary_only: StrictBool = False
+
+
+class Constraints(BaseModel):
+    """How hard constraints are imposed."""
+
+    model_config = _STRICT
+    method: Literal["null_space", "kkt", "penalty"] = "null_space"
+    penalty_weight: PenaltyWeight = 1.0e4
+
+
+class PointBase(BaseModel):
+    """A point as a combination of vertices: vertices+weights, edge+t, face+barycentric, or a selection."""
+
+    model_config = _STRICT
+    name: StrictStr = Field(max_length=200)
+    vertices: list[VertexId] | None = Field(None, min_length=1, max_length=100_000)
+    weights: list[Weight] | None = Field(None, max_length=100_000)
+    edge: list[VertexId] | None = Field(None, min_length=2, max_length=2)
+    t: Fraction | None = None
+    face: list[VertexId] | None = Field(None, min_length=3, max_length=3)
+    barycentric: list[Fraction] | None = Field(None, min_length=3, max_length=3)
+    selection: StrictStr | None = Field(None, max_length=200)
+
+
+class Point(PointBase):
+    """A point held at a target (default: its rest position; a MOVE may set it)."""
+
+    target: Vec3 | None = None
+
+
+class Normal(BaseModel):
+    """A plane through the MOVE's point."""
+
+    model_config = _STRICT
+    normal: Vec3
+
+
+class Direction(BaseModel):
+    """A line through the MOVE's point."""
+
+    model_config = _STRICT
+    direction: Vec3
+
+
+class Motion(PointBase):
+    """A point that moves on a plane or along a line."""
+
+    plane: Normal | None = None
+    line: Direction | None = None
+
+
+class Relative(BaseModel):
+    """The distance and direction of two vertices, turned with the rotation field or not."""
+
+    model_config = _STRICT
+    name: StrictStr = Field(max_length=200)
+    vertices: list[VertexId] = Field(min_length=2, max_length=2)
+    mode: Literal["rotate", "translate"] = "rotate"
+
+
+class Feature(BaseModel):
+    """A form feature kept rigid or at its direction."""
+
+    model_config = _STRICT
+    selection: StrictStr = Field(max_length=200)
+    mode: Literal["rigid", "keep_direction"] = "rigid"
+    name: StrictStr | None = Field(None, max_length=200)
+
+
+class Sliding(BaseModel):
+    """Vertices of a selection that keep their coordinate along ``normal``."""
+
+    model_config = _STRICT
+    selection: StrictStr = Field(max_length=200)
+    normal: Vec3
+
+
+class ThinWalls(BaseModel):
+    """Weight of the thin-wall rows."""
+
+    model_config = _STRICT
+    weight: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=1e6)] = 1.0
+
+
+class Ties(BaseModel):
+    """Tie coincident nodes of different bodies within ``tolerance``."""
+
+    model_config = _STRICT
+    tolerance: NonNegLength
+
+
+class Spec(BaseModel):
+    """What is fixed, what moves, and how to solve (README, 'Documents: SPEC')."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [{
+        "selections": {"root": {"set": "FIXED"}, "tip": {"set": "LOAD"}},
+        "fixed": ["root"], "handles": {"tip": "tip"}}]})
+
+    selections: dict[str, Selection] = Field(min_length=1, max_length=10_000)
+    fixed: list[StrictStr] = Field(default_factory=list, max_length=10_000)
+    handles: dict[str, StrictStr] = Field(default_factory=dict, max_length=10_000)
+    laplacian: Literal["cotangent", "uniform"] = "cotangent"
+    constraints: Constraints | None = None
+    solve: Literal["auto", "split", "joint"] = "auto"
+    rotation: Literal["harmonic", "least_squares"] = "harmonic"
+    inversion: Literal["warn", "reject", "clamp"] = "warn"
+    points: list[Point] = Field(default_factory=list, max_length=100_000)
+    relative: list[Relative] = Field(default_factory=list, max_length=100_000)
+    features: list[Feature] = Field(default_factory=list, max_length=10_000)
+    motion: list[Motion] = Field(default_factory=list, max_length=10_000)
+    sliding: list[Sliding] = Field(default_factory=list, max_length=10_000)
+    conflicts: Literal["report", "reject"] = "report"
+    repair: StrictBool = False
+    thin_walls: StrictBool | ThinWalls = True
+    ties: Literal["auto", False] | Ties | list[list[VertexId]] = "auto"
+    voids: Literal["volume", "refuse"] = "volume"
+
+    def dump(self) -> dict[str, Any]:
+        """The document as given (fields not set are left out)."""
+        return self.model_dump(exclude_unset=True, mode="python")
+
+
+def _bad_ids(ids: list[int], n: int) -> list[int]:
+    return [i for i in ids if not 0 <= i < n]
+
+
+def check_selection_ids(sel: dict[str, Any], n: int, where: str) -> None:
+    """Refuse vertex ids of a selection outside ``[0, n)`` (422 ``index_out_of_range``)."""
+    bad = _bad_ids(sel.get("ids") or [], n)
+    if bad:
+        raise ServiceError("index_out_of_range", f"{where}.ids has vertex ids outside [0, {n}): {bad[:10]}",
+                           field=f"{where}.ids", ids=bad[:10], vertices=n)
+
+
+def check_spec_ids(spec: dict[str, Any], n: int) -> None:
+    """Refuse every vertex id of a SPEC outside ``[0, n)``, naming the field.
+
+    Raises
+    ------
+    ServiceError
+        422 ``index_out_of_range``.
+    """
+    for name, sel in (spec.get("selections") or {}).items():
+        check_selection_ids(sel, n, f"SPEC.selections.{name}")
+    for key in ("points", "motion", "relative"):
+        for k, e in enumerate(spec.get(key) or []):
+            for f in ("vertices", "edge", "face"):
+                bad = _bad_ids(e.get(f) or [], n)
+                if bad:
+                    raise ServiceError("index_out_of_range", f"SPEC.{key}[{k}].{f} has vertex ids outside "
+                                       f"[0, {n}): {bad[:10]}", field=f"SPEC.{key}[{k}].{f}", ids=bad[:10],
+                                       vertices=n)
+    ties = spec.get("ties")
+    if isinstance(ties, list):
+        for k, pair in enumerate(ties):
+            bad = _bad_ids(pair, n)
+            if bad:
+                raise ServiceError("index_out_of_range", f"SPEC.ties[{k}] has vertex ids outside [0, {n}): "
+                                   f"{bad}", field=f"SPEC.ties[{k}]", ids=bad, vertices=n)
+

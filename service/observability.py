@@ -1,0 +1,138 @@
+"""Request ids, access logs (API keys redacted), JSON logs and Prometheus metrics.
+
+Every response carries ``X-Request-ID`` (the client's, if it sent a sane one,
+else a new one); every log line written while the request runs carries it too.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import json
+import logging
+import re
+import secrets
+import time
+from typing import Any
+
+from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+__all__ = ["RequestContext", "Metrics", "JSONFormatter", "RequestIdFilter", "configure_logging",
+           "redact", "request_id"]
+
+request_id: contextvars.ContextVar[str] = contextvars.ContextVar("request_id", default="-")
+access_log = logging.getLogger("tetmorph.access")
+_SANE_ID = re.compile(r"^[A-Za-z0-9._-]{1,64}$")
+_SECRET_PARAM = re.compile(r"((?:^|[?&])api_key=)[^&\s]*", re.IGNORECASE)
+
+
+def redact(query: str) -> str:
+    """A query string with the value of ``api_key`` replaced.
+
+    Examples
+    --------
+    >>> redact("kind=positions&api_key=s3cret&dtype=float32")
+    'kind=positions&api_key=[redacted]&dtype=float32'
+    """
+    return _SECRET_PARAM.sub(r"\\1[redacted]", query)
+
+
+class RequestIdFilter(logging.Filter):
+    """Put the current request id on every record (``%(request_id)s``)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        """Add ``request_id``; also redact ``api_key=`` in the message."""
+        record.request_id = request_id.get()
+        if isinstance(record.msg, str) and "api_key=" in record.msg.lower():
+            record.msg = redact(record.msg)
+        if record.args and isinstance(record.args, tuple):
+            record.args = tuple(redact(a) if isinstance(a, str) else a for a in record.args)
+        return True
+
+
+class JSONFormatter(logging.Formatter):
+    """One JSON object per line: time, level, logger, request id, message (and the exception)."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        """Format one record."""
+        doc: dict[str, Any] = {"time": round(record.created, 3), "level": record.levelname,
+                               "logger": record.name, "request_id": getattr(record, "request_id", "-"),
+                               "message": record.getMessage()}
+        if record.exc_info:
+            doc["exception"] = self.formatException(record.exc_info)
+        return json.dumps(doc)
+
+
+def configure_logging(level: str = "info", json_lines: bool = False) -> None:
+    """Log to stderr with request ids, as text or JSON lines; quiet uvicorn's own access log."""
+    handler = logging.StreamHandler()
+    handler.addFilter(RequestIdFilter())
+    handler.setFormatter(JSONFormatter() if json_lines else logging.Formatter(
+        "%(asctime)s %(levelname)s %(name)s [%(request_id)s] %(message)s"))
+    for name in ("tetmorph", "uvicorn", "uvicorn.error"):
+        lg = logging.getLogger(name)
+        lg.handlers = [handler]
+        lg.setLevel(level.upper())
+        lg.propagate = False
+    logging.getLogger("uvicorn.access").disabled = True  # ours redacts keys and carries the id
+
+
+class Metrics:
+    """The Prometheus metrics of one app (its own registry, so several apps can coexist)."""
+
+    def __init__(self) -> None:
+        self.registry = CollectorRegistry()
+        r = self.registry
+        self.requests = Counter("tetmorph_requests_total", "HTTP requests by route and status",
+                                ["method", "route", "status"], registry=r)
+        self.request_seconds = Histogram("tetmorph_request_seconds", "HTTP request duration",
+                                         ["method", "route"], registry=r)
+        self.build_seconds = Histogram("tetmorph_build_seconds", "session build (assembly and factorization)",
+                                       registry=r, buckets=(0.1, 0.3, 1, 3, 10, 30, 100, 300))
+        self.solve_seconds = Histogram("tetmorph_solve_seconds", "one MOVE solved (back-substitution, check)",
+                                       registry=r, buckets=(0.005, 0.01, 0.03, 0.1, 0.3, 1, 3, 10))
+        self.queue = Gauge("tetmorph_queue_depth", "work waiting or running per pool", ["pool"], registry=r)
+        self.cache_bytes = Gauge("tetmorph_cache_bytes", "bytes of cached factorizations", registry=r)
+        self.sessions = Gauge("tetmorph_sessions", "sessions by status", ["status"], registry=r)
+
+
+class RequestContext:
+    """ASGI middleware: request id, access log line, request metrics."""
+
+    def __init__(self, app: ASGIApp, metrics: Metrics) -> None:
+        self.app = app
+        self.metrics = metrics
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Handle one ASGI connection."""
+        if scope["type"] not in ("http", "websocket"):
+            await self.app(scope, receive, send)
+            return
+        given = dict(scope.get("headers") or []).get(b"x-request-id", b"").decode("latin-1")
+        rid = given if _SANE_ID.match(given) else secrets.token_hex(8)
+        token = request_id.set(rid)
+        status = 0
+        t0 = time.perf_counter()
+
+        async def tagged_send(msg: Message) -> None:
+            nonlocal status
+            if msg["type"] == "http.response.start":
+                status = msg["status"]
+                msg["headers"] = [*msg.get("headers", []), (b"x-request-id", rid.encode())]
+            await send(msg)
+
+        try:
+            await self.app(scope, receive, tagged_send)
+        finally:
+            dt = time.perf_counter() - t0
+            route = scope.get("route")
+            path = getattr(route, "path", None) or "unmatched"
+            method = scope.get("method", "WS")
+            if scope["type"] == "http":
+                self.metrics.requests.labels(method, path, str(status)).inc()
+                self.metrics.request_seconds.labels(method, path).observe(dt)
+            q = scope.get("query_string", b"").decode("latin-1")
+            client = scope.get("client") or ("-", 0)
+            access_log.info("%s %s %s%s %s %.1f ms", client[0], method, scope.get("path", ""),
+                            "?" + redact(q) if q else "", status or "-", 1e3 * dt)
+            request_id.reset(token)

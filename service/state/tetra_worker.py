@@ -1,0 +1,34 @@
+"""What runs in a tetrahedralization worker process (spawned: no web code is imported).
+
+fTetWild holds the GIL for the whole run, so it cannot share the service's
+process; :func:`run` is the entry point of the child.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+
+__all__ = ["run"]
+
+
+def run(conn: Connection, V: np.ndarray, F: np.ndarray, options: dict[str, Any]) -> None:
+    """Tetrahedralize and send ``("ok", V, T, info)`` or ``("error", error_dict)`` through ``conn``."""
+    from solver.errors import SolverError
+    from solver.io.tetrahedralize import tetrahedralize
+
+    os.chdir(tempfile.mkdtemp(prefix="tetmorph-tetwild-"))  # fTetWild writes into the working directory
+    try:
+        mesh, info = tetrahedralize(V, F, **options)
+        conn.send(("ok", mesh.V, mesh.T, info))
+    except SolverError as e:
+        conn.send(("error", e.to_dict()))
+    except Exception as e:  # noqa: BLE001 - reported to the service as a worker fault
+        conn.send(("error", {"type": type(e).__name__, "code": "worker_failed", "message": str(e)[:500],
+                             "details": {}}))
+    finally:
+        conn.close()

@@ -1,0 +1,132 @@
+"""Mesh routes: upload (files, arrays), download, geometry, features."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from service.binary import decode_bundle
+from tests.conftest import DATA
+
+from ..conftest import BRACKET, BRACKET_SPEC, MOVES, err, upload_bracket
+
+
+def _inp_bytes(points, tets, kind="C3D4"):
+    lines = ["*NODE"] + [f"{i + 1}, {x}, {y}, {z}" for i, (x, y, z) in enumerate(points)]
+    lines += [f"*ELEMENT, TYPE={kind}"]
+    lines += [f"{e + 1}, " + ", ".join(str(int(v) + 1) for v in t) for e, t in enumerate(tets)]
+    return ("\n".join(lines) + "\n").encode()
+
+
+TET = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+
+
+def test_uploaded_file_downloads_byte_for_byte_and_converts(client, tc):
+    mesh = upload_bracket(client)
+    assert client.download_mesh(mesh["id"]) == BRACKET.read_bytes()
+    msh = client.download_mesh(mesh["id"], file_format="msh")
+    assert msh[:11] == b"$MeshFormat"  # tets + faces: written as Gmsh 2.2
+    r = tc.get(f"/v1/meshes/{mesh['id']}/file", params={"format": "tetgen"})
+    # TetGen holds neither the deck's named sets nor its CPS3 faces: refused, saying what would be lost
+    assert r.status_code == 422 and err(r)["code"] == "lossy_write"
+    assert {x["name"] for x in err(r)["details"]["losses"]} >= {"FIXED", "LOAD", "triangle"}
+
+
+def test_tetgen_upload_needs_its_ele(tc):
+    r = tc.post("/v1/meshes", files=[("file", ("beam.node", (DATA / "beam.node").read_bytes()))])
+    assert r.status_code == 422 and err(r)["code"] == "missing_companion"
+
+
+@pytest.mark.parametrize("name,data,code", [
+    ("garbage.inp", b"\x00\x01 this is not an abaqus deck \xff" * 10, None),
+    ("empty.msh", b"", None),
+    ("inverted.inp", _inp_bytes(TET, [[0, 2, 1, 3]]), "inverted_input"),
+    ("flat.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.0]]), [[0, 1, 2, 3]]),
+     None),
+    ("nan.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, float("nan")]]),
+                           [[0, 1, 2, 3]]), "non_finite_coordinates"),
+    ("badindex.inp", _inp_bytes(TET, [[0, 1, 2, 7]]), None),
+    ("hexahedron20.inp", _inp_bytes(np.random.default_rng(0).random((20, 3)), [list(range(20))], kind="C3D20"),
+     "unsupported_element"),
+    ("twisted_hex.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1],
+                                             [0.2, 0.2, 1], [0, 1, 1.0]]), [list(range(8))], kind="C3D8"),
+     "inverted_input"),
+    ("surface.xyz", b"1 2 3\n", "unknown_format"),
+])
+def test_malformed_uploads_are_typed_422(tc, name, data, code):
+    r = tc.post("/v1/meshes", files=[("file", (name, data))])
+    e = err(r)
+    assert r.status_code == 422, e
+    if code:
+        assert e["code"] == code, e
+    assert e["message"]
+    assert tc.get("/v1/meshes").json() == []  # nothing stored
+
+
+def test_malformed_json_arrays(tc):
+    bad = [
+        ({"vertices": [[0, 0], [1, 0]], "tetrahedra": [[0, 1, 2, 3]]}, "invalid_request"),
+        ({"vertices": [[0, 0, 0], [1, 0]], "tetrahedra": [[0, 1, 2, 3]]}, "invalid_request"),
+        ({"vertices": TET.tolist(), "tetrahedra": [[0, 1, 2]]}, "invalid_request"),
+        ({"vertices": [], "tetrahedra": []}, None),
+        ({"vertices": TET.tolist(), "tetrahedra": [[0, 1, 2, 9]]}, None),
+        ({"vertices": TET.tolist(), "tetrahedra": [[0, 1, 2, 3]], "sets": {"a": [12]}},
+         "index_out_of_range"),
+        ({"vertices": "abc"}, "invalid_request"),
+    ]
+    for body, code in bad:
+        r = tc.post("/v1/meshes/arrays", json=body)
+        e = err(r)
+        assert r.status_code == 422, (body, e)
+        if code:
+            assert e["code"] == code, e
+
+
+def test_feature_candidates_and_min_cut_region_over_http(client, tc):
+    mesh = upload_bracket(client)
+    r = tc.get(f"/v1/meshes/{mesh['id']}/features")
+    assert r.status_code == 200
+    kinds = [c["kind"] for c in r.json()]
+    assert kinds.count("hole") == 1 and kinds.count("plane") == 6
+    hole = next(c for c in tc.get(f"/v1/meshes/{mesh['id']}/features?ids=true").json()
+                if c["kind"] == "hole")
+    assert abs(hole["radius"] - 5) < 1e-6
+    band = [{"box": {"min": [52, 2, -1], "max": [68, 18, 2]}, "boundary_only": True},
+            {"box": {"min": [52, 2, 8], "max": [68, 18, 11]}, "boundary_only": True}]
+    r = tc.post(f"/v1/meshes/{mesh['id']}/feature-region", json={"band": band})
+    assert r.status_code == 200
+    assert sorted(r.json()["selection"]["ids"]) == sorted(hole["selection"]["ids"])
+    # the returned selection is usable as a rigid feature in a session
+    spec = {**BRACKET_SPEC, "selections": {**BRACKET_SPEC["selections"], "wall": r.json()["selection"]},
+            "features": [{"selection": "wall", "mode": "rigid", "name": "bolt"}]}
+    s = client.create_session(mesh["id"], spec)
+    X, rep = client.deform(s["id"], MOVES[0])
+    assert rep["constraint_residual_max"] < 1e-9
+    r = tc.post(f"/v1/meshes/{mesh['id']}/feature-region", json={"band": band[:1]})
+    assert r.status_code == 422 and err(r)["code"] == "band_not_separating"
+    r = tc.post(f"/v1/meshes/{mesh['id']}/feature-region", json={"band": [{"cube": 1}]})
+    assert r.status_code == 422
+
+
+def test_mixed_element_deck_over_rest(client, tc, tmp_path):
+    """Hexahedra, wedges and pyramids: upload, morph, per-element quality (null for tet-only
+    metrics), geometry for the viewer, and the Gmsh file back with only node lines changed."""
+    mesh = client.upload_mesh(DATA / "mixed.msh")
+    assert mesh["info"]["elements"] == 1113 and mesh["info"]["cell_types"]["wedge"] == 172
+    spec = {"selections": {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}}, "fixed": ["fix"],
+            "handles": {"tip": "load"}}
+    s = client.create_session(mesh["id"], spec)
+    move = {"handles": {"tip": {"translation": [0, 0, 4], "rotation": {"axis": [0, 1, 0], "angle_deg": -15}}}}
+    rep = tc.post(f"/v1/sessions/{s['id']}/deform?result=report&quality=full", json=move).json()["report"]
+    assert rep["inverted_elements"] == 0 and rep["constraint_residual_max"] <= 1e-9
+    assert sum(rep["quality"]["after"]["scaled_jacobian"]["histogram"]["counts"]) == 1113
+    per = tc.get(f"/v1/sessions/{s['id']}/quality?metrics=scaled_jacobian,min_dihedral_deg").json()
+    assert per["elements"] == 1113
+    assert per["per_element"]["min_dihedral_deg"][797:] == [None] * (1113 - 797)
+    assert all(v is not None for v in per["per_element"]["scaled_jacobian"])
+    geo, head = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    assert geo["T"].shape == (797 + 128 * 8 + 172 * 6 + 16 * 4, 4) and head["elements"] == 1113
+    body = tc.get(f"/v1/sessions/{s['id']}/mesh?format=msh").content
+    src = (DATA / "mixed.msh").read_bytes()
+    assert body.split(b"$Nodes")[0] == src.split(b"$Nodes")[0]
+    assert body.split(b"$EndNodes")[1] == src.split(b"$EndNodes")[1]

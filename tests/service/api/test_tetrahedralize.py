@@ -1,0 +1,135 @@
+"""Tetrahedralization of closed surfaces and its jobs."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+
+from solver.testing import sphere_surface
+
+from ..conftest import err, running
+
+
+def test_tetrahedralize_closed_surface(client, tc, tmp_path):
+    V, F = sphere_surface(2, 1.0)
+    path = tmp_path / "ball.stl"
+    meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
+    doc = client.tetrahedralize(path, edge_length_fac=0.15)
+    info = doc["info"]
+    assert info["tetrahedra"] > 100 and info["quality"]["min_volume"] > 0
+    assert doc["tetrahedralization"]["surface_triangles"] == len(F)
+    enclosed = np.einsum("ij,ij->i", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])).sum() / 6
+    assert abs(info["quality"]["total_volume"] / enclosed - 1) < 0.01  # envelope 1e-3 of diag
+    # the stored mesh deforms like any other
+    spec = {"selections": {"s": {"box": {"min": [-2, -2, -2], "max": [2, 2, -0.8]}},
+                           "n": {"box": {"min": [-2, -2, 0.8], "max": [2, 2, 2]}}},
+            "fixed": ["s"], "handles": {"n": "n"}}
+    s = client.create_session(doc["id"], spec)
+    _, rep = client.deform(s["id"], {"handles": {"n": {"translation": [0, 0, 0.1]}}})
+    assert rep["inverted_elements"] == 0
+    # an open surface is refused, naming the defect
+    meshio.write(path, meshio.Mesh(V, [("triangle", F[:-3])]))
+    r = tc.post("/v1/tetrahedralize", files=[("file", ("open.stl", path.read_bytes()))])
+    assert r.status_code == 422 and err(r)["code"] == "open_surface"
+
+
+def test_tetrahedralize_leaves_no_file_behind(tmp_path, monkeypatch):
+    from solver.io.tetrahedralize import TRACKED_SURFACE, tetrahedralize
+
+    monkeypatch.chdir(tmp_path)
+    V, F = sphere_surface(1, 1.0)
+    tetrahedralize(V, F, edge_length_fac=0.3)
+    assert not (tmp_path / TRACKED_SURFACE).exists()
+
+
+def _workers():
+    """Worker processes of this test process's jobs (not multiprocessing's resource tracker)."""
+    import psutil
+
+    out = []
+    for p in psutil.Process().children(recursive=True):
+        try:
+            if "spawn_main" in " ".join(p.cmdline()):
+                out.append(p)
+        except psutil.Error:
+            continue
+    return out
+
+
+def _big_surface(tmp_path):
+    """A sphere that fTetWild needs about 25 s for on this machine (edge_length_fac 0.02)."""
+    V, F = sphere_surface(3, 1.0)
+    path = tmp_path / "big.stl"
+    meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
+    return path
+
+
+def test_long_tetrahedralization_runs_beside_the_service_and_can_be_cancelled(tmp_path):
+    """fTetWild holds the GIL: in its worker process it must not stall other requests."""
+    import time
+
+    import psutil
+
+    with running(tmp_path / "d", job_wait_s=0.2) as tc:
+        path = _big_surface(tmp_path)
+        r = tc.post("/v1/tetrahedralize", files=[("file", ("big.stl", path.read_bytes()))],
+                    data={"edge_length_fac": "0.02"})
+        assert r.status_code == 202, r.text
+        job = r.json()
+        assert r.headers["location"] == f"/v1/jobs/{job['id']}" and job["status"] == "running"
+        worst = 0.0
+        t_end = time.monotonic() + 3.0
+        while time.monotonic() < t_end:  # the job runs all along (about 25 s in all)
+            t0 = time.perf_counter()
+            assert tc.get("/health").status_code == 200
+            worst = max(worst, time.perf_counter() - t0)
+            time.sleep(0.1)
+        assert worst < 0.5, worst
+        doc = tc.get(f"/v1/jobs/{job['id']}").json()
+        assert doc["status"] == "running" and doc["elapsed_s"] >= 3.0
+        kids = _workers()
+        assert kids, "the job runs in a child process"
+        r = tc.delete(f"/v1/jobs/{job['id']}")
+        assert r.status_code == 200 and r.json()["status"] == "cancelled"
+        assert r.json()["error"]["code"] == "job_cancelled"
+        psutil.wait_procs(kids, timeout=10)
+        assert not any(p.is_running() and p.status() != psutil.STATUS_ZOMBIE for p in kids)
+        r = tc.delete(f"/v1/jobs/{job['id']}")
+        assert r.status_code == 409 and err(r)["code"] == "job_finished"
+        assert tc.get("/v1/meshes").json() == []  # nothing stored
+        r = tc.get("/v1/jobs/j_0000")
+        assert r.status_code == 404 and err(r)["code"] == "job_not_found"
+
+
+def test_tetrahedralization_time_limit_and_worker_failure(tmp_path):
+    import time
+
+
+    path = _big_surface(tmp_path)
+    with running(tmp_path / "d", job_wait_s=30, tetra_time_limit_s=1.5) as tc:
+        t0 = time.perf_counter()
+        r = tc.post("/v1/tetrahedralize", files=[("file", ("big.stl", path.read_bytes()))],
+                    data={"edge_length_fac": "0.02"})
+        assert r.status_code == 422 and err(r)["code"] == "job_time_limit", r.text
+        assert time.perf_counter() - t0 < 10
+    with running(tmp_path / "e", job_wait_s=0.2) as tc:
+        job = tc.post("/v1/tetrahedralize", files=[("file", ("big.stl", path.read_bytes()))],
+                      data={"edge_length_fac": "0.02"}).json()
+        time.sleep(0.5)
+        for p in _workers():  # the worker process this test's job started
+            p.kill()
+        deadline = time.monotonic() + 10
+        while (doc := tc.get(f"/v1/jobs/{job['id']}").json())["status"] == "running":
+            assert time.monotonic() < deadline
+            time.sleep(0.1)
+        assert doc["status"] == "failed" and doc["error"]["code"] == "worker_failed"
+
+
+def test_tetrahedralize_refuses_surfaces_over_the_size_cap(tmp_path):
+    V, F = sphere_surface(2, 1.0)
+    path = tmp_path / "ball.stl"
+    meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
+    with running(tmp_path / "d", tetra_max_triangles=100) as tc:
+        r = tc.post("/v1/tetrahedralize", files=[("file", ("ball.stl", path.read_bytes()))])
+        e = err(r)
+        assert r.status_code == 422 and e["code"] == "too_many_triangles" and e["details"]["triangles"] == len(F)

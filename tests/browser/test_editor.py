@@ -1,7 +1,7 @@
 """The browser editor in a real browser: Debian's chromium, headless, driven by Playwright.
 
 A real ``tetmorph serve`` runs in a subprocess; the page is loaded from it. Screenshots
-are saved in ``tests/artifacts/`` (kept out of git). ``make test`` builds the editor and
+are test output, saved in ``test-artifacts/browser/`` (ignored by git). ``make test`` builds the editor and
 installs chromium when they are missing; without them these tests fail and say why.
 """
 
@@ -21,7 +21,7 @@ from service.process import serve_process
 from solver import precompute, read_mesh
 from tests.conftest import DATA
 
-ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
+ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "browser"
 EDITOR = Path(__file__).resolve().parents[2] / "service" / "static" / "editor" / ".built"
 BRACKET = DATA / "bracket.inp"
 
@@ -56,14 +56,14 @@ def page(browser, server, request):
     pg.on("pageerror", lambda e: errors.append(str(e)))
     pg.goto(server + "/")
     yield pg
-    ARTIFACTS.mkdir(exist_ok=True)
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
     pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}-final.png"))
     ctx.close()
     assert not errors, errors  # no uncaught exception in the page
 
 
 def shot(pg, name: str) -> bytes:
-    ARTIFACTS.mkdir(exist_ok=True)
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
     return pg.screenshot(path=str(ARTIFACTS / f"{name}.png"))
 
 

@@ -1,17 +1,35 @@
-// The mesh in the view: the shaded boundary surface with its edges, the tets cut by the
-// clipping plane, and the poor and inverted tets drawn through the surface. Positions come
+// The mesh in the view: the shaded boundary surface with its edges, coloured by region or by
+// displacement magnitude; the rest shape as a ghost; the tets cut by the clipping plane; and
+// the poor and inverted tets drawn through the surface (clipped like it). Positions come
 // from the state (rest shape, then each streamed frame).
 import * as THREE from "three";
 import { cutTets, scaledJacobians, tetFaces } from "./quality.js";
 import { emit, state } from "./state.js";
 
-export const LOW_QUALITY = 0.2; // scaled Jacobian below which an element is coloured as poor
-export const COLORS = { none: [0.78, 0.8, 0.83], fixed: [0.16, 0.4, 0.85], handle: [0.95, 0.55, 0.1] };
+export const QUALITY_COLORS = { inverted: [0.85, 0.1, 0.1], poor: [1.0, 0.8, 0.0], good: [0.72, 0.8, 0.9] };
+export const NONE_COLOR = [0.78, 0.8, 0.83];
+
+/** Rainbow colour map (blue → cyan → green → yellow → red) of t in [0, 1], as CAE post-processors draw. */
+export function rainbow(t) {
+  const x = Math.min(1, Math.max(0, t)) * 4;
+  const k = Math.min(3, Math.floor(x)), f = x - k;
+  switch (k) {
+    case 0: return [0, f, 1];
+    case 1: return [0, 1, 1 - f];
+    case 2: return [f, 1, 0];
+    default: return [1, 1 - f, 0];
+  }
+}
+
+export const css = (c) => `rgb(${Math.round(255 * c[0])}, ${Math.round(255 * c[1])}, ${Math.round(255 * c[2])})`;
 
 export class MeshView {
   constructor(viewer) {
     this.viewer = viewer;
-    this.options = { edges: true, clip: false, clipAxis: 2, clipPos: 0.5, bad: true };
+    this.options = { edges: true, clip: false, clipAxis: 2, clipPos: 0.5, bad: true,
+      colorBy: "regions", ghost: false };
+    /** Colour of vertex i by region, or null when it is in none (set by the selection). */
+    this.regionColor = () => null;
     this.clipPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 0);
     this.surfGeom = new THREE.BufferGeometry();
     this.surfMat = new THREE.MeshStandardMaterial({ vertexColors: true, roughness: 0.8, metalness: 0.0,
@@ -23,10 +41,21 @@ export class MeshView {
     this.cutMesh = new THREE.Mesh(this.cutGeom, new THREE.MeshStandardMaterial({ vertexColors: true,
       side: THREE.DoubleSide, flatShading: true }));
     this.badGeom = new THREE.BufferGeometry();
-    this.badMesh = new THREE.Mesh(this.badGeom, new THREE.MeshBasicMaterial({ vertexColors: true,
-      transparent: true, opacity: 0.85, depthTest: false, side: THREE.DoubleSide }));
+    this.badMat = new THREE.MeshBasicMaterial({ vertexColors: true, transparent: true, opacity: 0.85,
+      depthTest: false, side: THREE.DoubleSide });
+    this.badMesh = new THREE.Mesh(this.badGeom, this.badMat);
     this.badMesh.renderOrder = 10;
-    viewer.scene.add(this.surface, this.cutMesh, this.badMesh);
+    this.ghostGeom = new THREE.BufferGeometry();
+    this.ghostMat = new THREE.MeshBasicMaterial({ color: 0x7d8a99, transparent: true, opacity: 0.22,
+      depthWrite: false, side: THREE.DoubleSide });
+    this.ghost = new THREE.Mesh(this.ghostGeom, this.ghostMat);
+    this.ghostEdgeMat = new THREE.LineBasicMaterial({ color: 0x7d8a99, transparent: true, opacity: 0.35 });
+    this.ghostEdges = null;
+    this.ghost.visible = false;
+    this.ghost.renderOrder = 5;
+    for (const m of [this.surfMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]) m.clippingPlanes = [];
+    viewer.scene.add(this.surface, this.cutMesh, this.badMesh, this.ghost);
+    this.dispMax = 0;
   }
 
   /** Show the mesh of the state (after a new mesh was loaded into it). */
@@ -37,12 +66,24 @@ export class MeshView {
     g.setAttribute("color", new THREE.BufferAttribute(new Float32Array(state.V.length), 3));
     g.computeVertexNormals();
     g.computeBoundingSphere();
-    if (this.edges) { this.viewer.scene.remove(this.edges); this.edges.geometry.dispose(); }
-    this.edges = new THREE.LineSegments(this.edgeGeometry(), this.edgeMat);
+    const scene = this.viewer.scene;
+    if (this.edges) { scene.remove(this.edges); this.edges.geometry.dispose(); }
+    const edgeIndex = this.edgeIndex();
+    this.edges = new THREE.LineSegments(this.indexed(g.getAttribute("position"), edgeIndex), this.edgeMat);
     this.edges.visible = this.options.edges;
-    this.viewer.scene.add(this.edges);
+    scene.add(this.edges);
+    // the rest shape, for the ghost
+    const rest = new THREE.BufferAttribute(state.V0, 3);
+    this.ghostGeom.setAttribute("position", rest);
+    this.ghostGeom.setIndex(new THREE.BufferAttribute(state.F, 1));
+    this.ghostGeom.computeBoundingSphere();
+    if (this.ghostEdges) { this.ghost.remove(this.ghostEdges); this.ghostEdges.geometry.dispose(); }
+    this.ghostEdges = new THREE.LineSegments(this.indexed(rest, edgeIndex), this.ghostEdgeMat);
+    this.ghost.add(this.ghostEdges);
+    this.ghost.visible = this.options.ghost;
     state.sjRest = scaledJacobians(state.V0, state.T);
     state.sj = state.sjRest.slice();
+    this.dispMax = 0;
   }
 
   setEdges(on) {
@@ -50,8 +91,19 @@ export class MeshView {
     if (this.edges) this.edges.visible = on;
   }
 
-  /** Unique surface edges as an index into the shared position buffer (no copies per frame). */
-  edgeGeometry() {
+  setGhost(on) {
+    this.options.ghost = on;
+    this.ghost.visible = on && !!state.V0;
+  }
+
+  setColorBy(mode) {
+    this.options.colorBy = mode;
+    this.recolor();
+    emit("legend");
+  }
+
+  /** Unique surface edges as an index (pairs of vertex ids). */
+  edgeIndex() {
     const F = state.F, n = state.V.length / 3;
     const seen = new Set(), idx = [];
     for (let f = 0; f < F.length; f += 3) {
@@ -61,9 +113,14 @@ export class MeshView {
         if (!seen.has(key)) { seen.add(key); idx.push(a, b); }
       }
     }
+    return new Uint32Array(idx);
+  }
+
+  /** A geometry over a shared position buffer (no copies per frame). */
+  indexed(position, index) {
     const g = new THREE.BufferGeometry();
-    g.setAttribute("position", this.surfGeom.getAttribute("position"));
-    g.setIndex(new THREE.BufferAttribute(new Uint32Array(idx), 1));
+    g.setAttribute("position", position);
+    g.setIndex(new THREE.BufferAttribute(index, 1));
     return g;
   }
 
@@ -72,15 +129,32 @@ export class MeshView {
     return new THREE.Box3().setFromBufferAttribute(this.surfGeom.getAttribute("position"));
   }
 
-  /** Colour the surface by selection role. */
+  /** Colour the surface: by region, or by displacement magnitude from the rest shape. */
   recolor() {
-    const col = this.surfGeom.getAttribute("color");
-    const n = state.role.length;
-    for (let i = 0; i < n; i++) {
-      const c = state.role[i] === 1 ? COLORS.fixed : state.role[i] === 2 ? COLORS.handle : COLORS.none;
-      col.array[3 * i] = c[0]; col.array[3 * i + 1] = c[1]; col.array[3 * i + 2] = c[2];
+    if (!state.V) return;
+    const col = this.surfGeom.getAttribute("color").array;
+    const n = state.V.length / 3;
+    if (this.options.colorBy === "displacement") {
+      const V = state.V, V0 = state.V0;
+      let max = 0;
+      const d = this.dispScratch && this.dispScratch.length === n ? this.dispScratch : (this.dispScratch = new Float32Array(n));
+      for (let i = 0; i < n; i++) {
+        const x = V[3 * i] - V0[3 * i], y = V[3 * i + 1] - V0[3 * i + 1], z = V[3 * i + 2] - V0[3 * i + 2];
+        d[i] = Math.sqrt(x * x + y * y + z * z);
+        if (state.boundary[i] && d[i] > max) max = d[i];
+      }
+      this.dispMax = max;
+      for (let i = 0; i < n; i++) {
+        const c = rainbow(max > 0 ? d[i] / max : 0);
+        col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
+      }
+    } else {
+      for (let i = 0; i < n; i++) {
+        const c = this.regionColor(i) || NONE_COLOR;
+        col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
+      }
     }
-    col.needsUpdate = true;
+    this.surfGeom.getAttribute("color").needsUpdate = true;
   }
 
   /** New positions (a frame, or the rest shape): normals, quality and derived views follow. */
@@ -92,14 +166,15 @@ export class MeshView {
     this.surfGeom.computeBoundingSphere();
     state.sj = scaledJacobians(state.V, state.T, state.sj);
     state.frames += 1;
+    if (this.options.colorBy === "displacement") { this.recolor(); emit("legend"); }
     this.refresh();
     state.applyMs = performance.now() - t0;
   }
 
   colorOf(sj) {
-    if (sj <= 1e-12) return [0.85, 0.1, 0.1];
-    if (sj < LOW_QUALITY) return [0.98, 0.6, 0.1];
-    return [0.72, 0.8, 0.9];
+    if (sj <= 1e-12) return QUALITY_COLORS.inverted;
+    if (sj < state.threshold) return QUALITY_COLORS.poor;
+    return QUALITY_COLORS.good;
   }
 
   trianglesOf(tets, geom) {
@@ -117,11 +192,12 @@ export class MeshView {
     geom.computeBoundingSphere();
   }
 
-  /** Cross-section, bad-element overlay, then tell the panels (signal "derived"). */
+  /** Cross-section, bad-element overlay and counts, then tell the panels (signal "derived"). */
   refresh() {
     if (!state.V) return;
     const o = this.options;
     // cross-section: the surface is clipped, the tets cut by the plane are drawn coloured by quality
+    const planes = o.clip ? [this.clipPlane] : [];
     if (o.clip) {
       const axis = o.clipAxis;
       let lo = Infinity, hi = -Infinity;
@@ -129,26 +205,34 @@ export class MeshView {
       const c = lo + o.clipPos * (hi - lo);
       this.clipPlane.normal.set(0, 0, 0).setComponent(axis, -1);
       this.clipPlane.constant = c;
-      this.surfMat.clippingPlanes = [this.clipPlane];
-      this.edgeMat.clippingPlanes = [this.clipPlane];
       const tets = cutTets(state.V, state.T, axis, c);
       state.cut = tets.length;
       this.trianglesOf(tets, this.cutGeom);
     } else {
-      this.surfMat.clippingPlanes = [];
-      this.edgeMat.clippingPlanes = [];
       this.cutGeom.deleteAttribute("position");
       state.cut = 0;
     }
+    if (this.surfMat.clippingPlanes.length !== planes.length) {
+      for (const m of [this.surfMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]) {
+        m.clippingPlanes = planes;
+        m.needsUpdate = true;
+      }
+    }
     this.cutMesh.visible = o.clip;
-    this.surfMat.needsUpdate = true;
-    this.edgeMat.needsUpdate = true;
-    // inverted and poor elements, drawn through the surface
-    const bad = [];
-    if (o.bad) for (let t = 0; t < state.sj.length; t++) if (state.sj[t] < LOW_QUALITY) bad.push(t);
-    state.badCount = bad.length;
-    if (bad.length) this.trianglesOf(bad, this.badGeom); else this.badGeom.deleteAttribute("position");
-    this.badMesh.visible = bad.length > 0;
+    // poor and inverted elements: counted always, drawn through the surface when asked
+    const sj = state.sj, t = state.threshold;
+    let count = 0, inverted = 0;
+    for (let k = 0; k < sj.length; k++) if (sj[k] < t) { count++; if (sj[k] <= 1e-12) inverted++; }
+    state.badCount = count;
+    state.invertedTets = inverted;
+    if (o.bad && count) {
+      const bad = new Uint32Array(count);
+      for (let k = 0, j = 0; k < sj.length; k++) if (sj[k] < t) bad[j++] = k;
+      this.trianglesOf(bad, this.badGeom);
+    } else {
+      this.badGeom.deleteAttribute("position");
+    }
+    this.badMesh.visible = o.bad && count > 0;
     emit("derived");
   }
 }

@@ -1,72 +1,263 @@
-// The side panels' read-outs: REPORT table, error panel, scaled-Jacobian histogram, counts
-// and the session status line.
+// The panels' read-outs: REPORT table, error panel, scaled-Jacobian histogram with its
+// draggable threshold, the colour legend in the view, model size and units, the session
+// status line and the busy indicator.
 import { $ } from "./dom.js";
-import { LOW_QUALITY } from "./meshview.js";
+import { explain } from "./messages.js";
+import { css, QUALITY_COLORS, rainbow } from "./meshview.js";
 import { histogram } from "./quality.js";
-import { on, state } from "./state.js";
+import { emit, on, state } from "./state.js";
 
-export function showError(e) {
-  const sec = $("errors");
-  sec.hidden = false;
-  const err = e && e.body && e.body.error ? e.body.error : { message: String(e && e.message || e) };
-  let text = `${err.code || "error"}: ${err.message}`;
-  const rep = err.details && err.details.report;
-  if (rep) {
-    text += `\ninverted elements: ${rep.inverted_elements}`;
-    if (rep.safe_fraction !== undefined) text += `\nsafe fraction: ${rep.safe_fraction}`;
-    if (rep.conflicting_constraints && rep.conflicting_constraints.length)
-      text += `\nconflicting constraints: ${JSON.stringify(rep.conflicting_constraints.slice(0, 5))}`;
-  } else if (err.details && Object.keys(err.details).length) {
-    text += `\n${JSON.stringify(err.details).slice(0, 600)}`;
-  }
-  $("error-text").textContent = text;
+// ------------------------------------------------------------------ numbers
+/** A number as the panels show it: counts exact with thousands separators, measures to 4 digits. */
+export function fmt(v) {
+  if (typeof v === "boolean") return v ? "yes" : "no";
+  if (typeof v !== "number") return String(v);
+  if (!Number.isFinite(v)) return String(v);
+  if (Number.isInteger(v)) return v.toLocaleString("en-US");
+  const a = Math.abs(v);
+  if (a !== 0 && (a < 1e-3 || a >= 1e7)) return v.toExponential(3);
+  return Number(v.toPrecision(4)).toLocaleString("en-US", { maximumFractionDigits: 8 });
 }
 
-export function clearError() { $("errors").hidden = true; $("error-text").textContent = ""; }
+export const unitText = () => (state.units ? ` ${state.units}` : "");
 
+const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
+
+// ------------------------------------------------------------------ errors
+export function showError(e) {
+  const x = explain(e);
+  $("errors").hidden = false;
+  const lines = [];
+  if (x.report) {
+    const r = x.report;
+    lines.push(`inverted elements: ${fmt(r.inverted_elements)}`);
+    if (r.safe_fraction !== undefined) lines.push(`safe fraction: ${fmt(r.safe_fraction)}`);
+    if (r.conflicting_constraints && r.conflicting_constraints.length)
+      lines.push(`conflicting constraints: ${r.conflicting_constraints.length}`);
+  }
+  $("error-text").innerHTML = `<div class="what">${esc(x.text)}</div>` +
+    (x.hint ? `<div class="hint">${esc(x.hint)}</div>` : "") +
+    (lines.length ? `<div class="facts">${lines.map(esc).join("<br>")}</div>` : "") +
+    (x.code ? `<div class="code">code ${esc(x.code)}${x.message && x.message !== x.text
+      ? ` · <span class="raw">${esc(x.message)}</span>` : ""}</div>` : "") +
+    (x.action === "sessions" ? '<button id="error-sessions">Open the session list</button>' : "");
+  const b = $("error-sessions");
+  if (b) b.addEventListener("click", () => emit("open-sessions"));
+  state.error = x;
+}
+
+export function clearError() {
+  $("errors").hidden = true;
+  $("error-text").textContent = "";
+  state.error = null;
+}
+
+// ------------------------------------------------------------------ status
 export function setStatus(text) { $("session-status").textContent = text; }
 export function appendStatus(text) { $("session-status").textContent += text; }
 export function setProgress(f) { $("progress").value = f; }
 
-export function showSelectionCounts(f, h) { $("sel-count").textContent = `fixed ${f} · handle ${h}`; }
+// ------------------------------------------------------------------ REPORT
+const ROWS = [
+  ["mesh", "mesh"], ["elements", "elements"], ["vertices", "vertices"],
+  ["seq", "MOVE #"], ["dropped", "superseded MOVEs"],
+  ["inverted_elements", "inverted elements"], ["degenerate_elements", "degenerate elements"],
+  ["min_scaled_jacobian", "min scaled Jacobian"], ["safe_fraction", "safe fraction"],
+  ["clamped", "clamped"], ["applied_fraction", "applied fraction"],
+  ["inverted_elements_unclamped", "inverted before clamping"],
+  ["constraint_residual_max", "constraint residual", true], ["max_displacement", "max displacement", true],
+  ["solve_ms", "server update ms"], ["round_trip_ms", "round trip ms"], ["apply_ms", "frame applied ms"],
+  ["reset", "reset"],
+];
 
 export function showReport(rep) {
   state.report = rep;
-  const keys = ["mesh", "elements", "vertices", "seq", "dropped", "inverted_elements", "degenerate_elements",
-    "min_scaled_jacobian", "safe_fraction", "clamped", "applied_fraction", "inverted_elements_unclamped",
-    "constraint_residual_max", "max_displacement", "solve_ms", "round_trip_ms", "apply_ms", "reset"];
   const rows = [];
-  for (const k of keys) {
+  const row = (key, label, value, bad = false) =>
+    rows.push(`<tr class="${bad ? "bad" : ""}" data-key="${key}"><td title="${key}">${esc(label)}</td>` +
+      `<td>${esc(value)}</td></tr>`);
+  if (rep.rejected) row("rejected", "MOVE", "rejected, not applied", true);
+  for (const [k, label, withUnit] of ROWS) {
     if (rep[k] === undefined || rep[k] === null) continue;
-    const v = typeof rep[k] === "number" ? Number(rep[k].toPrecision(5)) : rep[k];
     const bad = (k === "inverted_elements" && rep[k] > 0) || (k === "clamped" && rep[k]);
-    rows.push(`<tr class="${bad ? "bad" : ""}"><td>${k}</td><td>${v}</td></tr>`);
+    row(k, label, fmt(rep[k]) + (withUnit ? unitText() : ""), bad);
   }
   if (rep.conflicting_constraints && rep.conflicting_constraints.length)
-    rows.push(`<tr class="bad"><td>conflicting</td><td>${rep.conflicting_constraints.length}</td></tr>`);
-  if (rep.repair) rows.push(`<tr><td>repair</td><td>${rep.repair.inverted_before} → ${rep.repair.inverted_after}</td></tr>`);
-  if (state.sj) rows.push(`<tr><td>elements below ${LOW_QUALITY}</td><td>${state.badCount || 0}</td></tr>`);
+    row("conflicting", "conflicting constraints", fmt(rep.conflicting_constraints.length), true);
+  const rp = rep.repair;
+  if (rp) {
+    // the repair's own counts are of tets (a quadratic or mixed element counts as its corner tets)
+    row("repair", "repair, inverted tets", `${fmt(rp.inverted_before)} → ${fmt(rp.inverted_after)}` +
+      (rp.accepted ? "" : " (not applied)"), !rp.success);
+    if (rp.moved_vertices) row("repair_moved", "repair, vertices moved", fmt(rp.moved_vertices));
+    if (rp.reason) row("repair_reason", "repair", rp.reason, true);
+    if (rep.clamped)
+      row("repair_clamped", "repair", `of the full MOVE; not kept: the MOVE was clamped to ${fmt(rep.applied_fraction)} ` +
+        "and that result is not repaired", true);
+  }
+  if (state.sj)
+    row("below", `tets with scaled Jacobian < ${fmt(state.threshold)}`, fmt(state.badCount || 0), state.badCount > 0);
   $("report").innerHTML = rows.join("");
 }
 
+/** Re-show the last REPORT (the counts it carries from the page changed). */
+export function refreshReport() { if (state.report) showReport(state.report); }
+
+// ------------------------------------------------------------------ model
+export function showModel(header) {
+  const lo = header.bbox[0], hi = header.bbox[1], u = unitText();
+  const size = [0, 1, 2].map((k) => fmt(Number((hi[k] - lo[k]).toPrecision(6))));
+  $("model-info").innerHTML =
+    `<div>${fmt(state.V.length / 3)} vertices · ${fmt(state.elements)} elements</div>` +
+    `<div data-key="size">size ${size.join(" × ")}${u}</div>` +
+    ["x", "y", "z"].map((a, k) => `<div class="muted" data-key="bbox-${a}">${a} ${fmt(lo[k])} … ${fmt(hi[k])}${u}</div>`).join("");
+}
+
+// ------------------------------------------------------------------ histogram
+const HIST = { left: 30, bottom: 16, top: 6, bins: 40 };
+
 export function drawHistogram() {
   const cv = $("hist"), g = cv.getContext("2d");
-  const bins = 40, hr = histogram(state.sjRest, bins), hn = histogram(state.sj, bins);
-  const top = Math.log10(Math.max(...hr, ...hn, 1) + 1);
+  if (!state.sjRest) { g.clearRect(0, 0, cv.width, cv.height); return; }
+  const { left, bottom, top, bins } = HIST;
+  const hr = histogram(state.sjRest, bins), hn = histogram(state.sj, bins);
+  const maxCount = Math.max(...hr, ...hn, 1);
+  const decades = Math.max(1, Math.ceil(Math.log10(maxCount + 1)));
+  const W = cv.width - left, H = cv.height - bottom - top;
+  const y = (count) => top + H - Math.log10(count + 1) / decades * H;
   g.clearRect(0, 0, cv.width, cv.height);
-  const w = cv.width / bins, H = cv.height - 14;
-  for (let b = 0; b < bins; b++) {
-    const a = Math.log10(hr[b] + 1) / top * H, c = Math.log10(hn[b] + 1) / top * H;
-    g.fillStyle = "#aab2bd"; g.fillRect(b * w, H - a, w * 0.5, a);
-    g.fillStyle = "#2e86de"; g.fillRect(b * w + w * 0.5, H - c, w * 0.5, c);
+  g.font = "10px sans-serif";
+  // y scale: log counts, one tick per decade
+  g.strokeStyle = "#e3e7ec"; g.fillStyle = "#56616e"; g.textAlign = "right"; g.textBaseline = "middle";
+  const ticks = [];
+  for (let d = 0; d <= decades; d++) {
+    const c = 10 ** d, yy = d === 0 ? y(0) : y(c);
+    const text = d === 0 ? "0" : c >= 1000 ? `${c / 1000}k` : String(c);
+    g.beginPath(); g.moveTo(left, yy); g.lineTo(cv.width, yy); g.stroke();
+    g.fillText(text, left - 3, yy);
+    ticks.push(text);
   }
-  g.fillStyle = "#56616e"; g.font = "10px sans-serif";
-  g.fillText("-1", 0, cv.height - 2); g.fillText("0", cv.width / 2 - 3, cv.height - 2);
-  g.fillText("1", cv.width - 8, cv.height - 2);
-  g.fillStyle = "#d62828"; g.fillRect(cv.width / 2, 0, 1, H);
+  state.histogramTicks = ticks;
+  const w = W / bins;
+  for (let b = 0; b < bins; b++) {
+    g.fillStyle = "#aab2bd"; g.fillRect(left + b * w, y(hr[b]), w * 0.5, top + H - y(hr[b]));
+    g.fillStyle = "#2e86de"; g.fillRect(left + b * w + w * 0.5, y(hn[b]), w * 0.5, top + H - y(hn[b]));
+  }
+  g.fillStyle = "#56616e"; g.textBaseline = "alphabetic";
+  g.textAlign = "left"; g.fillText("-1", left, cv.height - 3);
+  g.textAlign = "center"; g.fillText("0", left + W / 2, cv.height - 3);
+  g.textAlign = "right"; g.fillText("1", cv.width - 1, cv.height - 3);
+  // the threshold, draggable
+  const x = thresholdX();
+  g.fillStyle = "#d62828"; g.fillRect(x - 1, top, 2, H);
+  g.textAlign = x > cv.width - 40 ? "right" : "left";
+  g.fillText(fmt(state.threshold), x + (x > cv.width - 40 ? -4 : 4), top + 9);
+}
+
+/** Canvas x of the threshold line (of threshold t, default the current one). */
+export function thresholdX(t = state.threshold) {
+  const cv = $("hist");
+  return HIST.left + (t + 1) / 2 * (cv.width - HIST.left);
+}
+
+/** Page x of threshold t on the histogram. */
+export function thresholdPageX(t) {
+  const cv = $("hist"), rect = cv.getBoundingClientRect();
+  return rect.left + thresholdX(t) * rect.width / cv.width;
+}
+
+function thresholdAt(clientX) {
+  const cv = $("hist"), rect = cv.getBoundingClientRect();
+  const x = (clientX - rect.left) * cv.width / rect.width;
+  const t = (x - HIST.left) / (cv.width - HIST.left) * 2 - 1;
+  return Math.round(Math.min(0.99, Math.max(-0.99, t)) * 100) / 100;
+}
+
+/** Wire the histogram's threshold drag and input; `apply(t)` sets the threshold everywhere. */
+export function wireThreshold(apply) {
+  const cv = $("hist");
+  let dragging = false;
+  cv.addEventListener("pointerdown", (ev) => {
+    if (!state.sjRest) return;
+    dragging = true;
+    cv.setPointerCapture(ev.pointerId);
+    apply(thresholdAt(ev.clientX));
+  });
+  cv.addEventListener("pointermove", (ev) => {
+    if (dragging) apply(thresholdAt(ev.clientX));
+    else if (state.sjRest) cv.style.cursor = Math.abs((ev.offsetX * cv.width / cv.clientWidth) - thresholdX()) < 6 ? "ew-resize" : "crosshair";
+  });
+  cv.addEventListener("pointerup", () => { dragging = false; });
+  $("threshold").addEventListener("change", () => {
+    const t = Number($("threshold").value);
+    if (Number.isFinite(t) && t > -1 && t < 1) apply(t);
+  });
+}
+
+// ------------------------------------------------------------------ legend
+/** The colour legend in the view: what each colour on screen means. */
+export function drawLegend(meshView, regions) {
+  const el = $("legend");
+  if (!state.V) { el.hidden = true; return; }
+  const o = meshView.options, items = [];
+  const sw = (c, extra = "") => `<span class="sw" style="background:${typeof c === "string" ? c : css(c)}${extra}"></span>`;
+  if (o.colorBy === "displacement") {
+    const max = meshView.dispMax;
+    const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => `${css(rainbow(t))} ${100 * t}%`).join(", ");
+    items.push(`<div class="lg-title">displacement magnitude${unitText() ? ` (${state.units})` : ""}</div>`,
+      `<div class="ramp" style="background:linear-gradient(to right, ${stops})"></div>`,
+      `<div class="ramp-ticks"><span>0</span><span>${fmt(max / 2)}</span><span data-key="disp-max">${fmt(max)}</span></div>`);
+  } else {
+    for (const r of regions) {
+      if (!r.visible) continue;
+      items.push(`<div data-region="${esc(r.name)}">${sw(r.color)}${esc(r.name)} <span class="muted">${r.kind} · ${fmt(r.count)}</span></div>`);
+    }
+  }
+  if (o.bad || o.clip) {
+    items.push(`<div data-key="legend-poor">${sw(QUALITY_COLORS.poor)}poor tet, scaled Jacobian &lt; ${fmt(state.threshold)}</div>`,
+      `<div data-key="legend-inverted">${sw(QUALITY_COLORS.inverted)}inverted tet</div>`);
+  }
+  if (o.ghost) items.push(`<div>${sw("rgba(125,138,153,.45)")}rest shape</div>`);
+  el.innerHTML = items.join("");
+  el.hidden = items.length === 0;
+}
+
+// ------------------------------------------------------------------ busy
+let busyTimer = null;
+const BUSY_LOG = 200;
+
+/**
+ * Show the busy indicator with elapsed time (`what`: "building", "solving", "loading"), or hide it
+ * (null). With `delayMs` it appears only when the work lasts that long (no flicker while dragging).
+ */
+export function setBusy(what, delayMs = 0) {
+  const el = $("busy");
+  if (!what) {
+    if (state.busy) state.busyLog.push({ what: state.busy.what, ms: performance.now() - state.busy.t0, shown: !!state.busy.shown });
+    state.busy = null;
+    if (state.busyLog.length > BUSY_LOG) state.busyLog.splice(0, state.busyLog.length - BUSY_LOG);
+    clearInterval(busyTimer); busyTimer = null;
+    el.hidden = true;
+    return;
+  }
+  if (state.busy && state.busy.what === what) return;
+  if (state.busy) state.busyLog.push({ what: state.busy.what, ms: performance.now() - state.busy.t0, shown: !!state.busy.shown });
+  state.busy = { what, t0: performance.now(), delayMs };
+  const tick = () => {
+    const b = state.busy;
+    if (!b) return;
+    const ms = performance.now() - b.t0;
+    if (ms < b.delayMs) return;
+    el.hidden = false;
+    b.shown = true;
+    $("busy-text").textContent = `${b.what} ${(ms / 1000).toFixed(1)} s`;
+  };
+  tick();
+  clearInterval(busyTimer);
+  busyTimer = setInterval(tick, 100);
 }
 
 on("derived", () => {
-  $("cut-count").textContent = $("clip").checked ? `${state.cut} tets in the section` : "";
+  $("cut-count").textContent = state.clip ? `${fmt(state.cut)} tets in the section` : "";
   drawHistogram();
 });

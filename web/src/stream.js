@@ -20,14 +20,21 @@ export class Stream {
       else onFrame(decodeFrame(ev.data));
     };
     this.ws.onclose = () => onClose();
+    this.queue = [];  // messages sent while the socket connects
+    this.ws.onopen = () => {
+      for (const text of this.queue) this.ws.send(text);
+      this.queue = [];
+    };
   }
 
   get open() { return this.ws.readyState === WebSocket.OPEN; }
+  get usable() { return this.ws.readyState <= WebSocket.OPEN; }
 
-  /** Send one message; false when the socket is not open. */
+  /** Send one message (queued while the socket connects); false when it is closing or closed. */
   send(doc) {
-    if (!this.open) return false;
-    this.ws.send(JSON.stringify(doc));
+    if (!this.usable) return false;
+    const text = JSON.stringify(doc);
+    if (this.open) this.ws.send(text); else this.queue.push(text);
     return true;
   }
 

@@ -9,7 +9,12 @@ round trips for filling the input and clicking; "send → frame applied" is meas
 the page (WebSocket send to the new positions, normals, quality and colours in place).
 Prints a table::
 
-    python benchmarks/bench_editor.py [--size 0.95] [--moves 30]
+    python benchmarks/bench_editor.py [--size 0.95] [--moves 30] [--views]
+
+With ``--views``, a second table gives, for each view of the editor (plain, rest ghost,
+displacement colour map, clipping plane, bad-element overlay off), the median time of a
+complete frame (render and GPU finish, ``window.tetmorph.measureFrames``) and the page's
+send → frame applied time of MOVEs sent with that view on.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=float, default=0.95)
     ap.add_argument("--moves", type=int, default=30)
+    ap.add_argument("--views", action="store_true", help="also time each view's frames and MOVEs")
     a = ap.parse_args()
     deck = Path(tempfile.gettempdir()) / f"tetmorph-bracket-{a.size:g}.inp"
     if not deck.exists():
@@ -71,12 +77,56 @@ def main() -> None:
             frame_ms.append(pg.evaluate("window.tetmorph.state.report.solve_ms"))
             apply_ms.append(pg.evaluate("window.tetmorph.state.applyMs"))
             rtt.append(pg.evaluate("window.tetmorph.state.roundTripMs"))
+        views = time_views(pg, a.moves) if a.views else None
         b.close()
     print("| tets | page load + geometry s | session build s | MOVE → frame on screen ms (median) | p95 ms "
           "| server update ms (median) | page: send → frame applied ms (median) | page: apply frame ms (median) |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|")
     print(f"| {int(tets):,} | {load_s:.2f} | {session_s:.2f} | {1e3 * np.median(lat):.0f} | "
-          f"{1e3 * np.percentile(lat, 95):.0f} | {np.median(frame_ms):.1f} | {np.median(rtt):.1f} | {np.median(apply_ms):.1f} |")
+          f"{1e3 * np.percentile(lat, 95):.0f} | {np.median(frame_ms):.1f} | {np.median(rtt):.1f} | "
+          f"{np.median(apply_ms):.1f} |")
+    if views:
+        print()
+        print("| view | frame ms (median of 30) | page: send → frame applied ms (median) "
+              "| page: apply frame ms (median) |")
+        print("|---|---:|---:|---:|")
+        for name, (fr, sent, applied) in views.items():
+            print(f"| {name} | {fr:.1f} | {sent:.1f} | {applied:.1f} |")
+
+
+#: (label, page script switching the view on, script switching it off)
+VIEWS = [
+    ("plain (edges, bad-element overlay)", "", ""),
+    ("rest ghost", "document.getElementById('ghost').click()", "document.getElementById('ghost').click()"),
+    ("displacement colour map",
+     "{const s = document.getElementById('color-by'); s.value = 'displacement'; s.dispatchEvent(new Event('change'));}",
+     "{const s = document.getElementById('color-by'); s.value = 'regions'; s.dispatchEvent(new Event('change'));}"),
+    ("clip plane (z, middle)", "document.getElementById('clip').click()", "document.getElementById('clip').click()"),
+    ("bad-element overlay off", "document.getElementById('bad').click()", "document.getElementById('bad').click()"),
+]
+
+
+def time_views(pg, moves: int) -> dict[str, tuple[float, float, float]]:
+    """Per view: median frame ms, and median send -> applied and apply ms of MOVEs sent with it on."""
+    out = {}
+    seq = pg.evaluate("window.tetmorph.state.seq")
+    for name, on, off in VIEWS:
+        if on:
+            pg.evaluate(on)
+            pg.evaluate("() => new Promise((r) => requestAnimationFrame(() => r()))")
+        frame = pg.evaluate("window.tetmorph.measureFrames(30)")
+        sent, applied = [], []
+        for k in range(1, moves + 1):
+            seq += 1
+            pg.fill("#tz", str(0.5 * k + 0.25))
+            pg.click("#apply-move")
+            pg.wait_for_function(f"window.tetmorph.state.lastSeq === {seq}", timeout=60000)
+            sent.append(pg.evaluate("window.tetmorph.state.roundTripMs"))
+            applied.append(pg.evaluate("window.tetmorph.state.applyMs"))
+        if off:
+            pg.evaluate(off)
+        out[name] = (frame, float(np.median(sent)), float(np.median(applied)))
+    return out
 
 
 if __name__ == "__main__":

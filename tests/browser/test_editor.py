@@ -1,87 +1,21 @@
 """The browser editor in a real browser: Debian's chromium, headless, driven by Playwright.
 
-A real ``tetmorph serve`` runs in a subprocess; the page is loaded from it. Screenshots
-are saved in ``tests/artifacts/`` (kept out of git). ``make test`` builds the editor and
-installs chromium when they are missing; without them these tests fail and say why.
+A real ``tetmorph serve`` runs in a subprocess; the page is loaded from it (fixtures in
+conftest.py). ``make test`` builds the editor and installs chromium when they are missing;
+without them these tests fail and say why.
 """
 
 from __future__ import annotations
 
 import json
-import shutil
 import time
-from pathlib import Path
 
 import httpx
 import meshio
 import numpy as np
-import pytest
 
-from service.process import serve_process
 from solver import precompute, read_mesh
-from tests.conftest import DATA
-
-ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
-EDITOR = Path(__file__).resolve().parents[2] / "service" / "static" / "editor" / ".built"
-BRACKET = DATA / "bracket.inp"
-
-
-@pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    if not EDITOR.exists():
-        pytest.fail("the editor is not built: run 'make web' (make test does)")
-    with serve_process(tmp_path_factory.mktemp("data")) as (base, _proc):
-        yield base
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    exe = shutil.which("chromium") or shutil.which("chromium-browser")
-    if exe is None:
-        pytest.fail("chromium is not installed: 'make browser' (make test does) installs it with apt")
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=exe, args=["--use-gl=angle", "--use-angle=swiftshader",
-                                                          "--enable-unsafe-swiftshader"])
-        yield b
-        b.close()
-
-
-@pytest.fixture
-def page(browser, server, request):
-    ctx = browser.new_context(viewport={"width": 1300, "height": 800}, accept_downloads=True)
-    pg = ctx.new_page()
-    errors: list[str] = []
-    pg.on("pageerror", lambda e: errors.append(str(e)))
-    pg.goto(server + "/")
-    yield pg
-    ARTIFACTS.mkdir(exist_ok=True)
-    pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}-final.png"))
-    ctx.close()
-    assert not errors, errors  # no uncaught exception in the page
-
-
-def shot(pg, name: str) -> bytes:
-    ARTIFACTS.mkdir(exist_ok=True)
-    return pg.screenshot(path=str(ARTIFACTS / f"{name}.png"))
-
-
-def differs(a: bytes, b: bytes) -> int:
-    """Number of differing pixels between two PNG screenshots."""
-    import io
-
-    from PIL import Image
-
-    A = np.asarray(Image.open(io.BytesIO(a)).convert("RGB"), dtype=np.int16)
-    B = np.asarray(Image.open(io.BytesIO(b)).convert("RGB"), dtype=np.int16)
-    return int(np.count_nonzero(np.abs(A - B).max(axis=2) > 5))
-
-
-def load_bracket(pg) -> None:
-    pg.set_input_files("#upload", str(BRACKET))
-    pg.wait_for_function("window.tetmorph.state.V !== null && window.tetmorph.state.meshName === 'bracket.inp'",
-                         timeout=30000)
+from tests.browser.conftest import BRACKET, differs, load_bracket, settle, shot
 
 
 def select_and_create(pg, handle_by_box: bool = True, policy: str = "warn") -> None:
@@ -106,12 +40,6 @@ def select_and_create(pg, handle_by_box: bool = True, policy: str = "warn") -> N
     pg.select_option("#policy", policy)
     pg.click("#create")
     pg.wait_for_function("window.tetmorph.state.sessionId !== null", timeout=30000)
-
-
-def settle(pg) -> None:
-    """Wait until the last MOVE sent has come back over the WebSocket."""
-    pg.wait_for_function("window.tetmorph.state.seq > 0 && window.tetmorph.state.lastSeq === window.tetmorph.state.seq",
-                         timeout=30000)
 
 
 def test_upload_select_drag_download_matches_the_library(page, server, tmp_path):

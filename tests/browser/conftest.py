@@ -1,0 +1,265 @@
+"""Fixtures of the browser tests: real ``tetmorph serve`` processes and Debian's chromium.
+
+Servers are started once per test session: ``server`` (defaults), ``demo_server`` (``--demo``:
+the demo beam and its session s_demo, as ``make run`` serves them) and ``tight_server`` (at most two
+sessions per key, and session creation answers 202 at once so builds are seen in progress).
+Every test's sessions are deleted when it ends, so the servers' limits hold for the next.
+Screenshots are test output, saved in ``test-artifacts/browser/`` (ignored by git).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+
+from service.process import free_port, serve_process
+
+ROOT = Path(__file__).resolve().parents[2]
+ARTIFACTS = ROOT / "test-artifacts" / "browser"
+EDITOR = ROOT / "service" / "static" / "editor" / ".built"
+DATA = ROOT / "tests" / "data"
+BRACKET = DATA / "bracket.inp"
+VIEWPORT = {"width": 1300, "height": 800}
+
+
+def shared_data() -> Path | None:
+    """The public meshes: ``../shared/data`` beside the repository, else ``/work/shared/data``."""
+    for cand in (ROOT.parent / "shared" / "data", Path("/work/shared/data")):
+        if cand.is_dir():
+            return cand
+    return None
+
+
+def shared_file(rel: str) -> Path:
+    """A file of the shared data; skip when no shared folder exists, fail when the file is missing."""
+    d = shared_data()
+    if d is None:
+        pytest.skip("no shared data folder (neither ../shared/data beside the repository nor /work/shared/data)")
+    p = d / rel
+    if not p.exists():
+        pytest.fail(f"{p} is missing from the shared data")
+    return p
+
+
+def _serve(tmp_path_factory, name: str, env: dict[str, str] | None = None):
+    if not EDITOR.exists():
+        pytest.fail("the editor is not built: run 'make web' (make test does)")
+    return serve_process(tmp_path_factory.mktemp(name), env=env)
+
+
+@pytest.fixture(scope="session")
+def server(tmp_path_factory):
+    with _serve(tmp_path_factory, "data") as (base, _proc):
+        yield base
+
+
+@contextlib.contextmanager
+def demo_process(data_dir: Path):
+    """``tetmorph serve --demo`` (the CLI's flag sets the demo; TETMORPH_DEMO alone does not)."""
+    port = free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "service.cli", "serve", "--port", str(port), "--data-dir",
+                             str(data_dir), "--log-level", "warning", "--demo"], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 90
+        while True:
+            try:
+                if httpx.get(url + "/v1/sessions/s_demo", timeout=1).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            if proc.poll() is not None or time.monotonic() > deadline:
+                proc.kill()
+                pytest.fail(f"tetmorph serve --demo did not start: {proc.stdout.read() if proc.stdout else ''}")
+            time.sleep(0.2)
+        yield url
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+@pytest.fixture(scope="session")
+def demo_server(tmp_path_factory):
+    if not EDITOR.exists():
+        pytest.fail("the editor is not built: run 'make web' (make test does)")
+    with demo_process(tmp_path_factory.mktemp("demo")) as base:
+        yield base
+
+
+@pytest.fixture(scope="session")
+def tight_server(tmp_path_factory):
+    with _serve(tmp_path_factory, "tight", {"TETMORPH_MAX_SESSIONS": "2", "TETMORPH_BUILD_WAIT_S": "0"}) as (base, _):
+        yield base
+
+
+@pytest.fixture(scope="session")
+def browser():
+    from playwright.sync_api import sync_playwright
+
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        pytest.fail("chromium is not installed: 'make browser' (make test does) installs it with apt")
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=exe, args=["--use-gl=angle", "--use-angle=swiftshader",
+                                                          "--enable-unsafe-swiftshader"])
+        yield b
+        b.close()
+
+
+def delete_sessions(base: str, keep: tuple[str, ...] = ()) -> None:
+    with httpx.Client(base_url=base) as c:
+        for s in c.get("/v1/sessions").json():
+            if s["id"] not in keep:
+                c.delete(f"/v1/sessions/{s['id']}")
+
+
+class Pages:
+    """Opens pages on a server; checks each for uncaught errors and screenshots it at the end."""
+
+    def __init__(self, browser, request):
+        self.browser, self.request, self.open = browser, request, []
+
+    def __call__(self, base: str, viewport: dict | None = None, path: str = "/"):
+        ctx = self.browser.new_context(viewport=viewport or VIEWPORT, accept_downloads=True)
+        pg = ctx.new_page()
+        pg.errors = []
+        pg.on("pageerror", lambda e: pg.errors.append(str(e)))
+        pg.base = base
+        pg.goto(base + path)
+        pg.wait_for_function("window.tetmorph !== undefined")
+        self.open.append((ctx, pg, base))
+        return pg
+
+    def close(self):
+        ARTIFACTS.mkdir(parents=True, exist_ok=True)
+        errors = []
+        for k, (ctx, pg, _base) in enumerate(self.open):
+            if not pg.is_closed():
+                pg.screenshot(path=str(ARTIFACTS / f"{self.request.node.name}-{k}.png"))
+            errors += pg.errors
+            ctx.close()
+        for base in {b for _, _, b in self.open}:
+            delete_sessions(base, keep=("s_demo",))
+        assert not errors, errors  # no uncaught exception in any page
+
+
+@pytest.fixture
+def pages(browser, request):
+    p = Pages(browser, request)
+    yield p
+    p.close()
+
+
+@pytest.fixture
+def page(pages, server):
+    return pages(server)
+
+
+# ---------------------------------------------------------------------------- helpers
+def shot(pg, name: str) -> bytes:
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    return pg.screenshot(path=str(ARTIFACTS / f"{name}.png"))
+
+
+def image(png: bytes) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+
+
+def differs(a: bytes, b: bytes) -> int:
+    """Number of differing pixels between two PNG screenshots."""
+    A, B = image(a), image(b)
+    return int(np.count_nonzero(np.abs(A - B).max(axis=2) > 5))
+
+
+def upload(pg, *paths: Path, name: str | None = None, timeout: float = 60000) -> None:
+    pg.set_input_files("#upload", [str(p) for p in paths])
+    expected = name or paths[0].name
+    pg.wait_for_function(f"window.tetmorph.state.V !== null && window.tetmorph.state.meshName === {expected!r}",
+                         timeout=timeout)
+
+
+def load_bracket(pg) -> None:
+    upload(pg, BRACKET)
+
+
+def assign_set(pg, name: str, role: int) -> None:
+    pg.check(f"input[name=role][value='{role}']")
+    pg.select_option("#sets", name)
+    pg.click("#set-apply")
+
+
+def create(pg, policy: str = "warn", timeout: float = 60000) -> None:
+    pg.select_option("#policy", policy)
+    before = json.dumps(pg.evaluate("window.tetmorph.state.sessionId"))
+    pg.click("#create")
+    pg.wait_for_function(f"window.tetmorph.state.sessionId !== null && window.tetmorph.state.sessionId !== {before}"
+                         " && window.tetmorph.state.ws && window.tetmorph.state.ws.open", timeout=timeout)
+
+
+def bracket_session(pg, policy: str = "warn") -> None:
+    load_bracket(pg)
+    assign_set(pg, "FIXED", 1)
+    assign_set(pg, "LOAD", 2)
+    create(pg, policy)
+
+
+def settle(pg, timeout: float = 30000) -> None:
+    """Wait until the last MOVE sent has come back over the WebSocket."""
+    pg.wait_for_function("window.tetmorph.state.seq > 0 && window.tetmorph.state.lastSeq === window.tetmorph.state.seq",
+                         timeout=timeout)
+
+
+def numeric_move(pg, t=(0, 0, 0), axis=(0, 0, 1), angle=0.0) -> None:
+    for k, v in zip(("tx", "ty", "tz"), t, strict=False):
+        pg.fill(f"#{k}", str(v))
+    for k, v in zip(("ax", "ay", "az"), axis, strict=False):
+        pg.fill(f"#{k}", str(v))
+    pg.fill("#angle", str(angle))
+    pg.click("#apply-move")
+
+
+def positions(pg) -> np.ndarray:
+    return np.array(pg.evaluate("window.tetmorph.positions()")).reshape(-1, 3)
+
+
+def rest(pg) -> np.ndarray:
+    return np.array(pg.evaluate("Array.from(window.tetmorph.state.V0)")).reshape(-1, 3)
+
+
+def report_row(pg, key: str) -> str | None:
+    """The value cell of a REPORT row (None when the row is not shown)."""
+    return pg.evaluate("(key) => { const r = document.querySelector(`#report tr[data-key=${key}]`);"
+                       " return r ? r.cells[1].textContent : null; }", key)
+
+
+def drag(pg, x0: float, y0: float, x1: float, y1: float, steps: int = 12, modifiers: tuple[str, ...] = ()) -> None:
+    for m in modifiers:
+        pg.keyboard.down(m)
+    pg.mouse.move(x0, y0)
+    pg.mouse.down()
+    pg.mouse.move(x1, y1, steps=steps)
+    pg.mouse.up()
+    for m in modifiers:
+        pg.keyboard.up(m)
+
+
+def canvas_box(pg) -> dict:
+    return pg.eval_on_selector("#canvas", "c => { const r = c.getBoundingClientRect(); "
+                               "return {x: r.left, y: r.top, w: r.width, h: r.height}; }")

@@ -1,0 +1,365 @@
+// Moving the handles: one transform per handle region (translation, rotation and scale about
+// its rest centroid), the translate/rotate gizmo on the active handle with snapping and a live
+// distance/angle read-out, numeric fields that always show the active handle's transform,
+// relative moves, the history behind Undo/Redo, and named presets.
+import * as THREE from "three";
+import { TransformControls } from "three/addons/controls/TransformControls.js";
+import { $, radio } from "./dom.js";
+import { fmt, unitText } from "./panels.js";
+import { emit, state } from "./state.js";
+
+const FIELDS = ["tx", "ty", "tz", "ax", "ay", "az", "angle", "scale"];
+
+/** {t, q: THREE.Quaternion, s, pivot} of one handle's entry of a MOVE (quaternion or axis + angle_deg). */
+export function parseHandleMove(h, centroid) {
+  const t = h && h.translation ? h.translation.slice() : [0, 0, 0];
+  const q = new THREE.Quaternion();
+  const rot = h && h.rotation;
+  if (rot && rot.quaternion) q.set(rot.quaternion[1], rot.quaternion[2], rot.quaternion[3], rot.quaternion[0]).normalize();
+  else if (rot && rot.axis && rot.angle_deg) {
+    const a = new THREE.Vector3(...rot.axis);
+    if (a.lengthSq() > 0) q.setFromAxisAngle(a.normalize(), THREE.MathUtils.degToRad(rot.angle_deg));
+  }
+  const pivot = h && h.pivot ? h.pivot : centroid;
+  // the editor's pivot is the centroid: express a move about another pivot about the centroid
+  if (pivot !== centroid && pivot) {
+    const c = new THREE.Vector3(...centroid), p = new THREE.Vector3(...pivot), s = h.scale ?? 1;
+    // u(x) = p + t + s R (x - p)  =>  u(c) = p + t + s R (c - p) = c + t'
+    const uc = c.clone().sub(p).applyQuaternion(q).multiplyScalar(s).add(p).add(new THREE.Vector3(...t));
+    return { t: uc.sub(c).toArray(), q, s };
+  }
+  return { t, q, s: h && h.scale !== undefined ? h.scale : 1 };
+}
+
+/** Angle (degrees, 0..180) and unit axis of a quaternion. */
+export function axisAngle(q) {
+  const w = Math.min(1, Math.abs(q.w)), sgn = q.w < 0 ? -1 : 1;
+  const angle = 2 * Math.acos(w);
+  const s = Math.sqrt(Math.max(0, 1 - w * w));
+  const axis = s > 1e-9 ? [sgn * q.x / s, sgn * q.y / s, sgn * q.z / s] : null;
+  return { angle: THREE.MathUtils.radToDeg(angle), axis };
+}
+
+export class Moves {
+  /**
+   * @param {Viewer} viewer
+   * @param {Regions} regions
+   * @param {{send: Function, reset: Function, refuse: Function, savePresets: Function}} io
+   *   send(move) streams a MOVE and answers its seq (null when not sent), reset() returns the
+   *   session to rest, refuse(text) says why an action is not possible, savePresets() stores them.
+   */
+  constructor(viewer, regions, io) {
+    this.viewer = viewer;
+    this.regions = regions;
+    this.io = io;
+    this.pending = new Map(); // seq -> history entry it commits
+    this.dragSeq = null;
+    this.shown = {};          // field id -> [text shown, exact value]
+    this.pivot = new THREE.Object3D();
+    viewer.scene.add(this.pivot);
+    this.gizmo = new TransformControls(viewer.camera, viewer.canvas);
+    this.gizmo.addEventListener("dragging-changed", (ev) => {
+      viewer.orbit.enabled = !ev.value && radio("tool") === "orbit";
+      if (!ev.value && this.dragged) { this.dragged = false; this.commit("drag", this.dragSeq); }
+    });
+    this.gizmo.addEventListener("objectChange", () => {
+      if (!this.active) return;
+      this.storePivot();
+      this.dragged = true;
+      this.dragSeq = this.io.send(this.move());
+      this.syncFields();
+    });
+    this.helper = this.gizmo.getHelper();
+    viewer.scene.add(this.helper);
+    this.helper.visible = false;
+    this.clear();
+    for (const r of document.querySelectorAll("input[name=gizmo]")) r.addEventListener("change", () => this.setMode(radio("gizmo")));
+    for (const id of ["snap", "snap-t", "snap-r"]) $(id).addEventListener("change", () => this.applySnap());
+    viewer.beforeRender.push(() => this.placeLabel());
+  }
+
+  get dragging() { return this.gizmo.dragging; }
+
+  clear() {
+    state.transforms = {};
+    state.history = [{ label: "rest", move: null }];
+    state.historyIndex = 0;
+    state.presets = [];
+    state.moves = [];
+    state.lastMove = null;
+    this.active = null;
+    this.pending.clear();
+  }
+
+  /** A new session on these handle regions: every handle at rest, the gizmo on the first. */
+  attach(handleRegions) {
+    this.clear();
+    for (const r of handleRegions) {
+      state.transforms[r.handleName || r.name] = { centroid: this.regions.centroid(r), t: [0, 0, 0],
+        q: new THREE.Quaternion(), s: 1 };
+    }
+    const first = handleRegions[0] ? handleRegions[0].handleName || handleRegions[0].name : null;
+    state.centroid = first ? state.transforms[first].centroid : null;
+    this.gizmo.attach(this.pivot);
+    this.helper.visible = true;
+    this.gizmo.setSize(0.9);
+    this.setActive(first);
+    this.applySnap();
+    emit("history");
+  }
+
+  detach() {
+    this.clear();
+    this.gizmo.detach();
+    this.helper.visible = false;
+    $("gizmo-label").hidden = true;
+    emit("history");
+  }
+
+  setActive(name) {
+    if (!state.transforms[name]) return;
+    this.active = name;
+    state.centroid = state.transforms[name].centroid;
+    this.loadPivot();
+    this.syncFields();
+    emit("active-handle", name);
+  }
+
+  setMode(mode) {
+    this.gizmo.setMode(mode);
+    const r = document.querySelector(`input[name=gizmo][value=${mode}]`);
+    if (r) r.checked = true;
+  }
+
+  applySnap() {
+    const on = $("snap").checked;
+    const t = Number($("snap-t").value), r = Number($("snap-r").value);
+    this.gizmo.setTranslationSnap(on && t > 0 ? t : null);
+    this.gizmo.setRotationSnap(on && r > 0 ? THREE.MathUtils.degToRad(r) : null);
+  }
+
+  // ---------------------------------------------------------------- transforms
+  loadPivot() {
+    const h = state.transforms[this.active];
+    if (!h) return;
+    this.pivot.position.set(h.centroid[0] + h.t[0], h.centroid[1] + h.t[1], h.centroid[2] + h.t[2]);
+    this.pivot.quaternion.copy(h.q);
+  }
+
+  storePivot() {
+    const h = state.transforms[this.active], p = this.pivot.position;
+    h.t = [p.x - h.centroid[0], p.y - h.centroid[1], p.z - h.centroid[2]];
+    h.q = this.pivot.quaternion.clone();
+  }
+
+  /** The MOVE of every handle's current transform. */
+  move() {
+    const handles = {};
+    for (const [name, h] of Object.entries(state.transforms)) {
+      const q = h.q.w < 0 ? new THREE.Quaternion(-h.q.x, -h.q.y, -h.q.z, -h.q.w) : h.q;
+      const doc = { translation: h.t.slice(), rotation: { quaternion: [q.w, q.x, q.y, q.z] }, pivot: h.centroid };
+      if (h.s !== 1) doc.scale = h.s;
+      handles[name] = doc;
+    }
+    return { handles };
+  }
+
+  /** Set every handle from a MOVE (null: rest). */
+  setFromMove(move) {
+    for (const [name, h] of Object.entries(state.transforms)) {
+      const m = move && move.handles && move.handles[name];
+      const p = parseHandleMove(m, h.centroid);
+      h.t = p.t; h.q = p.q; h.s = p.s;
+    }
+    this.loadPivot();
+    this.syncFields(true);
+  }
+
+  /** The MOVE scaled by f, as the service's clamp applies it: f t, f θ, s^f. */
+  static scaled(move, f) {
+    const handles = {};
+    for (const [name, h] of Object.entries(move.handles)) {
+      const q = new THREE.Quaternion(h.rotation.quaternion[1], h.rotation.quaternion[2], h.rotation.quaternion[3],
+        h.rotation.quaternion[0]);
+      const qs = new THREE.Quaternion().slerp(q, f);
+      handles[name] = { ...h, translation: h.translation.map((x) => x * f),
+        rotation: { quaternion: [qs.w, qs.x, qs.y, qs.z] } };
+      if (h.scale !== undefined) handles[name].scale = h.scale ** f;
+    }
+    return { handles };
+  }
+
+  // ---------------------------------------------------------------- history
+  /** Make the current transforms a history entry; `seq` is the MOVE that applies it. */
+  commit(label, seq) {
+    const entry = { label, move: this.move() };
+    state.history.splice(state.historyIndex + 1);
+    state.history.push(entry);
+    state.historyIndex = state.history.length - 1;
+    state.moves = state.history.slice(1).map((e) => e.move);
+    if (seq !== null && seq !== undefined) this.pending.set(seq, entry);
+    emit("history");
+    return entry;
+  }
+
+  /** Send the current transforms as a new history entry. */
+  sendAndCommit(label) {
+    const seq = this.io.send(this.move());
+    if (seq === null) { this.io.refuse("the session's stream is not open"); return; }
+    this.commit(label, seq);
+  }
+
+  async goto(index) {
+    if (!state.sessionId || index < 0 || index >= state.history.length || index === state.historyIndex) return;
+    state.historyIndex = index;
+    const e = state.history[index];
+    this.setFromMove(e.move);
+    if (e.move) this.pending.set(this.io.send(e.move), e); else await this.io.reset(false);
+    emit("history");
+  }
+
+  undo() { return this.goto(state.historyIndex - 1); }
+  redo() { return this.goto(state.historyIndex + 1); }
+
+  /** The service reset the session: a history entry at rest. */
+  rested(record = true) {
+    for (const h of Object.values(state.transforms)) { h.t = [0, 0, 0]; h.q = new THREE.Quaternion(); h.s = 1; }
+    this.loadPivot();
+    this.syncFields(true);
+    if (record && state.history[state.historyIndex].move !== null) {
+      state.history.splice(state.historyIndex + 1);
+      state.history.push({ label: "reset", move: null });
+      state.historyIndex = state.history.length - 1;
+    }
+    state.lastMove = null;
+    emit("history");
+  }
+
+  /** A frame came back: a clamped MOVE puts its handles where the service applied them. */
+  solved(seq, report) {
+    const entry = this.pending.get(seq);
+    for (const k of this.pending.keys()) if (k <= seq) this.pending.delete(k);
+    if (!report || !report.clamped) return;
+    const f = report.applied_fraction;
+    const sent = entry ? entry.move : state.lastMove;
+    if (!sent) return;
+    const applied = Moves.scaled(sent, f);
+    if (entry) { entry.move = applied; entry.label += ` · clamped to ${fmt(f)}`; emit("history"); }
+    if (!this.dragging && (!entry || entry === state.history[state.historyIndex])) this.setFromMove(applied);
+  }
+
+  /** A MOVE was refused: its entry leaves the history; the handles go back to what the session shows. */
+  rejected(seq) {
+    const entry = this.pending.get(seq);
+    this.pending.delete(seq);
+    if (this.dragging) return;
+    const i = entry ? state.history.indexOf(entry) : -1;
+    if (i > 0) {
+      state.history.splice(i, 1);
+      if (state.historyIndex >= i) state.historyIndex -= 1;
+    }
+    state.moves = state.history.slice(1).map((e) => e.move);
+    this.setFromMove(state.history[state.historyIndex].move);
+    emit("history");
+  }
+
+  // ---------------------------------------------------------------- numeric fields
+  /** Show the active handle's transform in the fields (all of them, or all but the one being edited). */
+  syncFields(all = false) {
+    const h = state.transforms[this.active];
+    if (!h) return;
+    const { angle, axis } = axisAngle(h.q);
+    const vals = { tx: h.t[0], ty: h.t[1], tz: h.t[2], angle, scale: h.s };
+    if (axis) Object.assign(vals, { ax: axis[0], ay: axis[1], az: axis[2] });
+    for (const [id, v] of Object.entries(vals)) {
+      const el = $(id);
+      if (!all && document.activeElement === el && !this.dragging) continue;
+      const text = String(Number(v.toFixed(4)));
+      el.value = text;
+      this.shown[id] = [text, v];
+    }
+    this.updateLabel();
+  }
+
+  /** A field's value: the exact transform behind it when the user did not change what it shows. */
+  field(id) {
+    const el = $(id), s = this.shown[id];
+    return s && s[0] === el.value ? s[1] : Number(el.value);
+  }
+
+  applyFields() {
+    if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
+    const h = state.transforms[this.active];
+    const axis = new THREE.Vector3(this.field("ax"), this.field("ay"), this.field("az"));
+    const q = new THREE.Quaternion();
+    const ang = this.field("angle");
+    if (axis.lengthSq() > 0 && ang) q.setFromAxisAngle(axis.normalize(), THREE.MathUtils.degToRad(ang));
+    const s = this.field("scale");
+    h.t = [this.field("tx"), this.field("ty"), this.field("tz")];
+    h.q = q;
+    h.s = s > 0 ? s : 1;
+    this.loadPivot();
+    this.syncFields(true);
+    this.sendAndCommit("numeric");
+  }
+
+  /** Relative move: translate by (dx, dy, dz) and turn by dθ about an axis through the handle's current centre. */
+  moveBy() {
+    if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
+    const h = state.transforms[this.active];
+    const d = [Number($("dx").value) || 0, Number($("dy").value) || 0, Number($("dz").value) || 0];
+    const deg = Number($("dangle").value) || 0;
+    const axis = new THREE.Vector3().setComponent(Number($("daxis").value), 1);
+    h.t = [h.t[0] + d[0], h.t[1] + d[1], h.t[2] + d[2]];
+    if (deg) h.q = new THREE.Quaternion().setFromAxisAngle(axis, THREE.MathUtils.degToRad(deg)).multiply(h.q);
+    this.loadPivot();
+    this.syncFields(true);
+    this.sendAndCommit(`by (${d.map(fmt).join(", ")})${deg ? ` ${fmt(deg)}°` : ""}`);
+  }
+
+  // ---------------------------------------------------------------- read-out
+  updateLabel() {
+    const h = state.transforms[this.active], el = $("gizmo-label");
+    if (!h || !state.sessionId) { el.hidden = true; return; }
+    const dist = Math.hypot(...h.t);
+    const { angle } = axisAngle(h.q);
+    el.textContent = `${this.active}: ${fmt(Number(dist.toFixed(4)))}${unitText()} · ${angle.toFixed(1)}°` +
+      (h.s !== 1 ? ` · ×${fmt(h.s)}` : "");
+    el.dataset.distance = String(dist);
+    el.dataset.angle = String(angle);
+    el.hidden = false;
+  }
+
+  placeLabel() {
+    const el = $("gizmo-label");
+    if (el.hidden) return;
+    const p = this.pivot.position.clone().project(this.viewer.camera);
+    const c = this.viewer.canvas;
+    const x = (p.x + 1) / 2 * c.clientWidth + 28, y = (1 - p.y) / 2 * c.clientHeight - 34;
+    el.style.left = `${Math.max(4, Math.min(c.clientWidth - el.offsetWidth - 4, x))}px`;
+    el.style.top = `${Math.max(4, Math.min(c.clientHeight - el.offsetHeight - 4, y))}px`;
+  }
+
+  // ---------------------------------------------------------------- presets
+  savePreset(name) {
+    name = (name || "").trim() || `preset ${state.presets.length + 1}`;
+    const move = this.move();
+    const i = state.presets.findIndex((p) => p.name === name);
+    if (i >= 0) state.presets[i] = { name, move }; else state.presets.push({ name, move });
+    this.io.savePresets();
+    emit("presets");
+  }
+
+  applyPreset(name) {
+    const p = state.presets.find((x) => x.name === name);
+    if (!p || !state.sessionId) return;
+    this.setFromMove(p.move);
+    this.sendAndCommit(`preset ${name}`);
+  }
+
+  deletePreset(name) {
+    state.presets = state.presets.filter((p) => p.name !== name);
+    this.io.savePresets();
+    emit("presets");
+  }
+}

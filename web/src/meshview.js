@@ -1,0 +1,238 @@
+// The mesh in the view: the shaded boundary surface with its edges, coloured by region or by
+// displacement magnitude; the rest shape as a ghost; the tets cut by the clipping plane; and
+// the poor and inverted tets drawn through the surface (clipped like it). Positions come
+// from the state (rest shape, then each streamed frame).
+import * as THREE from "three";
+import { cutTets, scaledJacobians, tetFaces } from "./quality.js";
+import { emit, state } from "./state.js";
+
+export const QUALITY_COLORS = { inverted: [0.85, 0.1, 0.1], poor: [1.0, 0.8, 0.0], good: [0.72, 0.8, 0.9] };
+export const NONE_COLOR = [0.78, 0.8, 0.83];
+
+/** Rainbow colour map (blue → cyan → green → yellow → red) of t in [0, 1], as CAE post-processors draw. */
+export function rainbow(t) {
+  const x = Math.min(1, Math.max(0, t)) * 4;
+  const k = Math.min(3, Math.floor(x)), f = x - k;
+  switch (k) {
+    case 0: return [0, f, 1];
+    case 1: return [0, 1, 1 - f];
+    case 2: return [f, 1, 0];
+    default: return [1, 1 - f, 0];
+  }
+}
+
+export const css = (c) => `rgb(${Math.round(255 * c[0])}, ${Math.round(255 * c[1])}, ${Math.round(255 * c[2])})`;
+
+export class MeshView {
+  constructor(viewer) {
+    this.viewer = viewer;
+    this.options = { edges: true, clip: false, clipAxis: 2, clipPos: 0.5, bad: true,
+      colorBy: "regions", ghost: false };
+    /** Colour of vertex i by region, or null when it is in none (set by the selection). */
+    this.regionColor = () => null;
+    this.clipPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 0);
+    this.surfGeom = new THREE.BufferGeometry();
+    this.surfMat = new THREE.MeshStandardMaterial({ vertexColors: true, roughness: 0.8, metalness: 0.0,
+      side: THREE.DoubleSide, polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1 });
+    this.surface = new THREE.Mesh(this.surfGeom, this.surfMat);
+    this.edgeMat = new THREE.LineBasicMaterial({ color: 0x38424f, transparent: true, opacity: 0.35 });
+    this.edges = null;
+    this.cutGeom = new THREE.BufferGeometry();
+    this.cutMesh = new THREE.Mesh(this.cutGeom, new THREE.MeshStandardMaterial({ vertexColors: true,
+      side: THREE.DoubleSide, flatShading: true }));
+    this.badGeom = new THREE.BufferGeometry();
+    this.badMat = new THREE.MeshBasicMaterial({ vertexColors: true, transparent: true, opacity: 0.85,
+      depthTest: false, side: THREE.DoubleSide });
+    this.badMesh = new THREE.Mesh(this.badGeom, this.badMat);
+    this.badMesh.renderOrder = 10;
+    this.ghostGeom = new THREE.BufferGeometry();
+    this.ghostMat = new THREE.MeshBasicMaterial({ color: 0x7d8a99, transparent: true, opacity: 0.22,
+      depthWrite: false, side: THREE.DoubleSide });
+    this.ghost = new THREE.Mesh(this.ghostGeom, this.ghostMat);
+    this.ghostEdgeMat = new THREE.LineBasicMaterial({ color: 0x7d8a99, transparent: true, opacity: 0.35 });
+    this.ghostEdges = null;
+    this.ghost.visible = false;
+    this.ghost.renderOrder = 5;
+    for (const m of [this.surfMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]) m.clippingPlanes = [];
+    viewer.scene.add(this.surface, this.cutMesh, this.badMesh, this.ghost);
+    this.dispMax = 0;
+  }
+
+  /** Show the mesh of the state (after a new mesh was loaded into it). */
+  load() {
+    const g = this.surfGeom;
+    g.setAttribute("position", new THREE.BufferAttribute(state.V, 3));
+    g.setIndex(new THREE.BufferAttribute(state.F, 1));
+    g.setAttribute("color", new THREE.BufferAttribute(new Float32Array(state.V.length), 3));
+    g.computeVertexNormals();
+    g.computeBoundingSphere();
+    const scene = this.viewer.scene;
+    if (this.edges) { scene.remove(this.edges); this.edges.geometry.dispose(); }
+    const edgeIndex = this.edgeIndex();
+    this.edges = new THREE.LineSegments(this.indexed(g.getAttribute("position"), edgeIndex), this.edgeMat);
+    this.edges.visible = this.options.edges;
+    scene.add(this.edges);
+    // the rest shape, for the ghost
+    const rest = new THREE.BufferAttribute(state.V0, 3);
+    this.ghostGeom.setAttribute("position", rest);
+    this.ghostGeom.setIndex(new THREE.BufferAttribute(state.F, 1));
+    this.ghostGeom.computeBoundingSphere();
+    if (this.ghostEdges) { this.ghost.remove(this.ghostEdges); this.ghostEdges.geometry.dispose(); }
+    this.ghostEdges = new THREE.LineSegments(this.indexed(rest, edgeIndex), this.ghostEdgeMat);
+    this.ghost.add(this.ghostEdges);
+    this.ghost.visible = this.options.ghost;
+    state.sjRest = scaledJacobians(state.V0, state.T);
+    state.sj = state.sjRest.slice();
+    this.dispMax = 0;
+  }
+
+  setEdges(on) {
+    this.options.edges = on;
+    if (this.edges) this.edges.visible = on;
+  }
+
+  setGhost(on) {
+    this.options.ghost = on;
+    this.ghost.visible = on && !!state.V0;
+  }
+
+  setColorBy(mode) {
+    this.options.colorBy = mode;
+    this.recolor();
+    emit("legend");
+  }
+
+  /** Unique surface edges as an index (pairs of vertex ids). */
+  edgeIndex() {
+    const F = state.F, n = state.V.length / 3;
+    const seen = new Set(), idx = [];
+    for (let f = 0; f < F.length; f += 3) {
+      for (let k = 0; k < 3; k++) {
+        const a = F[f + k], b = F[f + (k + 1) % 3];
+        const key = a < b ? a * n + b : b * n + a;
+        if (!seen.has(key)) { seen.add(key); idx.push(a, b); }
+      }
+    }
+    return new Uint32Array(idx);
+  }
+
+  /** A geometry over a shared position buffer (no copies per frame). */
+  indexed(position, index) {
+    const g = new THREE.BufferGeometry();
+    g.setAttribute("position", position);
+    g.setIndex(new THREE.BufferAttribute(index, 1));
+    return g;
+  }
+
+  /** Bounding box of the surface as drawn. */
+  box() {
+    return new THREE.Box3().setFromBufferAttribute(this.surfGeom.getAttribute("position"));
+  }
+
+  /** Colour the surface: by region, or by displacement magnitude from the rest shape. */
+  recolor() {
+    if (!state.V) return;
+    const col = this.surfGeom.getAttribute("color").array;
+    const n = state.V.length / 3;
+    if (this.options.colorBy === "displacement") {
+      const V = state.V, V0 = state.V0;
+      let max = 0;
+      const d = this.dispScratch && this.dispScratch.length === n ? this.dispScratch : (this.dispScratch = new Float32Array(n));
+      for (let i = 0; i < n; i++) {
+        const x = V[3 * i] - V0[3 * i], y = V[3 * i + 1] - V0[3 * i + 1], z = V[3 * i + 2] - V0[3 * i + 2];
+        d[i] = Math.sqrt(x * x + y * y + z * z);
+        if (state.boundary[i] && d[i] > max) max = d[i];
+      }
+      this.dispMax = max;
+      for (let i = 0; i < n; i++) {
+        const c = rainbow(max > 0 ? d[i] / max : 0);
+        col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
+      }
+    } else {
+      for (let i = 0; i < n; i++) {
+        const c = this.regionColor(i) || NONE_COLOR;
+        col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
+      }
+    }
+    this.surfGeom.getAttribute("color").needsUpdate = true;
+  }
+
+  /** New positions (a frame, or the rest shape): normals, quality and derived views follow. */
+  applyPositions(P) {
+    const t0 = performance.now();
+    state.V.set(P);
+    this.surfGeom.getAttribute("position").needsUpdate = true;  // the edges share this buffer
+    this.surfGeom.computeVertexNormals();
+    this.surfGeom.computeBoundingSphere();
+    state.sj = scaledJacobians(state.V, state.T, state.sj);
+    state.frames += 1;
+    if (this.options.colorBy === "displacement") { this.recolor(); emit("legend"); }
+    this.refresh();
+    state.applyMs = performance.now() - t0;
+  }
+
+  colorOf(sj) {
+    if (sj <= 1e-12) return QUALITY_COLORS.inverted;
+    if (sj < state.threshold) return QUALITY_COLORS.poor;
+    return QUALITY_COLORS.good;
+  }
+
+  trianglesOf(tets, geom) {
+    const F = tetFaces(state.T, tets);
+    const pos = new Float32Array(F.length * 3), col = new Float32Array(F.length * 3);
+    for (let i = 0; i < F.length; i++) {
+      const v = F[i];
+      pos[3 * i] = state.V[3 * v]; pos[3 * i + 1] = state.V[3 * v + 1]; pos[3 * i + 2] = state.V[3 * v + 2];
+      const c = this.colorOf(state.sj[tets[Math.floor(i / 12)]]);
+      col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
+    }
+    geom.setAttribute("position", new THREE.BufferAttribute(pos, 3));
+    geom.setAttribute("color", new THREE.BufferAttribute(col, 3));
+    geom.computeVertexNormals();
+    geom.computeBoundingSphere();
+  }
+
+  /** Cross-section, bad-element overlay and counts, then tell the panels (signal "derived"). */
+  refresh() {
+    if (!state.V) return;
+    const o = this.options;
+    // cross-section: the surface is clipped, the tets cut by the plane are drawn coloured by quality
+    const planes = o.clip ? [this.clipPlane] : [];
+    if (o.clip) {
+      const axis = o.clipAxis;
+      let lo = Infinity, hi = -Infinity;
+      for (let i = axis; i < state.V.length; i += 3) { lo = Math.min(lo, state.V[i]); hi = Math.max(hi, state.V[i]); }
+      const c = lo + o.clipPos * (hi - lo);
+      this.clipPlane.normal.set(0, 0, 0).setComponent(axis, -1);
+      this.clipPlane.constant = c;
+      const tets = cutTets(state.V, state.T, axis, c);
+      state.cut = tets.length;
+      this.trianglesOf(tets, this.cutGeom);
+    } else {
+      this.cutGeom.deleteAttribute("position");
+      state.cut = 0;
+    }
+    if (this.surfMat.clippingPlanes.length !== planes.length) {
+      for (const m of [this.surfMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]) {
+        m.clippingPlanes = planes;
+        m.needsUpdate = true;
+      }
+    }
+    this.cutMesh.visible = o.clip;
+    // poor and inverted elements: counted always, drawn through the surface when asked
+    const sj = state.sj, t = state.threshold;
+    let count = 0, inverted = 0;
+    for (let k = 0; k < sj.length; k++) if (sj[k] < t) { count++; if (sj[k] <= 1e-12) inverted++; }
+    state.badCount = count;
+    state.invertedTets = inverted;
+    if (o.bad && count) {
+      const bad = new Uint32Array(count);
+      for (let k = 0, j = 0; k < sj.length; k++) if (sj[k] < t) bad[j++] = k;
+      this.trianglesOf(bad, this.badGeom);
+    } else {
+      this.badGeom.deleteAttribute("position");
+    }
+    this.badMesh.visible = o.bad && count > 0;
+    emit("derived");
+  }
+}

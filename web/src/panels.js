@@ -1,0 +1,263 @@
+// The panels' read-outs: REPORT table, error panel, scaled-Jacobian histogram with its
+// draggable threshold, the colour legend in the view, model size and units, the session
+// status line and the busy indicator.
+import { $ } from "./dom.js";
+import { explain } from "./messages.js";
+import { css, QUALITY_COLORS, rainbow } from "./meshview.js";
+import { histogram } from "./quality.js";
+import { emit, on, state } from "./state.js";
+
+// ------------------------------------------------------------------ numbers
+/** A number as the panels show it: counts exact with thousands separators, measures to 4 digits. */
+export function fmt(v) {
+  if (typeof v === "boolean") return v ? "yes" : "no";
+  if (typeof v !== "number") return String(v);
+  if (!Number.isFinite(v)) return String(v);
+  if (Number.isInteger(v)) return v.toLocaleString("en-US");
+  const a = Math.abs(v);
+  if (a !== 0 && (a < 1e-3 || a >= 1e7)) return v.toExponential(3);
+  return Number(v.toPrecision(4)).toLocaleString("en-US", { maximumFractionDigits: 8 });
+}
+
+export const unitText = () => (state.units ? ` ${state.units}` : "");
+
+const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
+
+// ------------------------------------------------------------------ errors
+export function showError(e) {
+  const x = explain(e);
+  $("errors").hidden = false;
+  const lines = [];
+  if (x.report) {
+    const r = x.report;
+    lines.push(`inverted elements: ${fmt(r.inverted_elements)}`);
+    if (r.safe_fraction !== undefined) lines.push(`safe fraction: ${fmt(r.safe_fraction)}`);
+    if (r.conflicting_constraints && r.conflicting_constraints.length)
+      lines.push(`conflicting constraints: ${r.conflicting_constraints.length}`);
+  }
+  $("error-text").innerHTML = `<div class="what">${esc(x.text)}</div>` +
+    (x.hint ? `<div class="hint">${esc(x.hint)}</div>` : "") +
+    (lines.length ? `<div class="facts">${lines.map(esc).join("<br>")}</div>` : "") +
+    (x.code ? `<div class="code">code ${esc(x.code)}${x.message && x.message !== x.text
+      ? ` · <span class="raw">${esc(x.message)}</span>` : ""}</div>` : "") +
+    (x.action === "sessions" ? '<button id="error-sessions">Open the session list</button>' : "");
+  const b = $("error-sessions");
+  if (b) b.addEventListener("click", () => emit("open-sessions"));
+  state.error = x;
+}
+
+export function clearError() {
+  $("errors").hidden = true;
+  $("error-text").textContent = "";
+  state.error = null;
+}
+
+// ------------------------------------------------------------------ status
+export function setStatus(text) { $("session-status").textContent = text; }
+export function appendStatus(text) { $("session-status").textContent += text; }
+export function setProgress(f) { $("progress").value = f; }
+
+// ------------------------------------------------------------------ REPORT
+const ROWS = [
+  ["mesh", "mesh"], ["elements", "elements"], ["vertices", "vertices"],
+  ["seq", "MOVE #"], ["dropped", "superseded MOVEs"],
+  ["inverted_elements", "inverted elements"], ["degenerate_elements", "degenerate elements"],
+  ["min_scaled_jacobian", "min scaled Jacobian"], ["safe_fraction", "safe fraction"],
+  ["clamped", "clamped"], ["applied_fraction", "applied fraction"],
+  ["inverted_elements_unclamped", "inverted before clamping"],
+  ["constraint_residual_max", "constraint residual", true], ["max_displacement", "max displacement", true],
+  ["solve_ms", "server update ms"], ["round_trip_ms", "round trip ms"], ["apply_ms", "frame applied ms"],
+  ["reset", "reset"],
+];
+
+export function showReport(rep) {
+  state.report = rep;
+  const rows = [];
+  const row = (key, label, value, bad = false) =>
+    rows.push(`<tr class="${bad ? "bad" : ""}" data-key="${key}"><td title="${key}">${esc(label)}</td>` +
+      `<td>${esc(value)}</td></tr>`);
+  if (rep.rejected) row("rejected", "MOVE", "rejected, not applied", true);
+  for (const [k, label, withUnit] of ROWS) {
+    if (rep[k] === undefined || rep[k] === null) continue;
+    const bad = (k === "inverted_elements" && rep[k] > 0) || (k === "clamped" && rep[k]);
+    row(k, label, fmt(rep[k]) + (withUnit ? unitText() : ""), bad);
+  }
+  if (rep.conflicting_constraints && rep.conflicting_constraints.length)
+    row("conflicting", "conflicting constraints", fmt(rep.conflicting_constraints.length), true);
+  const rp = rep.repair;
+  if (rp) {
+    // the repair's own counts are of tets (a quadratic or mixed element counts as its corner tets)
+    row("repair", "repair, inverted tets", `${fmt(rp.inverted_before)} → ${fmt(rp.inverted_after)}` +
+      (rp.accepted ? "" : " (not applied)"), !rp.success);
+    if (rp.moved_vertices) row("repair_moved", "repair, vertices moved", fmt(rp.moved_vertices));
+    if (rp.reason) row("repair_reason", "repair", rp.reason, true);
+    if (rep.clamped)
+      row("repair_clamped", "repair", `of the full MOVE; not kept: the MOVE was clamped to ${fmt(rep.applied_fraction)} ` +
+        "and that result is not repaired", true);
+  }
+  if (state.sj)
+    row("below", `tets with scaled Jacobian < ${fmt(state.threshold)}`, fmt(state.badCount || 0), state.badCount > 0);
+  $("report").innerHTML = rows.join("");
+}
+
+/** Re-show the last REPORT (the counts it carries from the page changed). */
+export function refreshReport() { if (state.report) showReport(state.report); }
+
+// ------------------------------------------------------------------ model
+export function showModel(header) {
+  const lo = header.bbox[0], hi = header.bbox[1], u = unitText();
+  const size = [0, 1, 2].map((k) => fmt(Number((hi[k] - lo[k]).toPrecision(6))));
+  $("model-info").innerHTML =
+    `<div>${fmt(state.V.length / 3)} vertices · ${fmt(state.elements)} elements</div>` +
+    `<div data-key="size">size ${size.join(" × ")}${u}</div>` +
+    ["x", "y", "z"].map((a, k) => `<div class="muted" data-key="bbox-${a}">${a} ${fmt(lo[k])} … ${fmt(hi[k])}${u}</div>`).join("");
+}
+
+// ------------------------------------------------------------------ histogram
+const HIST = { left: 30, bottom: 16, top: 6, bins: 40 };
+
+export function drawHistogram() {
+  const cv = $("hist"), g = cv.getContext("2d");
+  if (!state.sjRest) { g.clearRect(0, 0, cv.width, cv.height); return; }
+  const { left, bottom, top, bins } = HIST;
+  const hr = histogram(state.sjRest, bins), hn = histogram(state.sj, bins);
+  const maxCount = Math.max(...hr, ...hn, 1);
+  const decades = Math.max(1, Math.ceil(Math.log10(maxCount + 1)));
+  const W = cv.width - left, H = cv.height - bottom - top;
+  const y = (count) => top + H - Math.log10(count + 1) / decades * H;
+  g.clearRect(0, 0, cv.width, cv.height);
+  g.font = "10px sans-serif";
+  // y scale: log counts, one tick per decade
+  g.strokeStyle = "#e3e7ec"; g.fillStyle = "#56616e"; g.textAlign = "right"; g.textBaseline = "middle";
+  const ticks = [];
+  for (let d = 0; d <= decades; d++) {
+    const c = 10 ** d, yy = d === 0 ? y(0) : y(c);
+    const text = d === 0 ? "0" : c >= 1000 ? `${c / 1000}k` : String(c);
+    g.beginPath(); g.moveTo(left, yy); g.lineTo(cv.width, yy); g.stroke();
+    g.fillText(text, left - 3, yy);
+    ticks.push(text);
+  }
+  state.histogramTicks = ticks;
+  const w = W / bins;
+  for (let b = 0; b < bins; b++) {
+    g.fillStyle = "#aab2bd"; g.fillRect(left + b * w, y(hr[b]), w * 0.5, top + H - y(hr[b]));
+    g.fillStyle = "#2e86de"; g.fillRect(left + b * w + w * 0.5, y(hn[b]), w * 0.5, top + H - y(hn[b]));
+  }
+  g.fillStyle = "#56616e"; g.textBaseline = "alphabetic";
+  g.textAlign = "left"; g.fillText("-1", left, cv.height - 3);
+  g.textAlign = "center"; g.fillText("0", left + W / 2, cv.height - 3);
+  g.textAlign = "right"; g.fillText("1", cv.width - 1, cv.height - 3);
+  // the threshold, draggable
+  const x = thresholdX();
+  g.fillStyle = "#d62828"; g.fillRect(x - 1, top, 2, H);
+  g.textAlign = x > cv.width - 40 ? "right" : "left";
+  g.fillText(fmt(state.threshold), x + (x > cv.width - 40 ? -4 : 4), top + 9);
+}
+
+/** Canvas x of the threshold line (of threshold t, default the current one). */
+export function thresholdX(t = state.threshold) {
+  const cv = $("hist");
+  return HIST.left + (t + 1) / 2 * (cv.width - HIST.left);
+}
+
+/** Page x of threshold t on the histogram. */
+export function thresholdPageX(t) {
+  const cv = $("hist"), rect = cv.getBoundingClientRect();
+  return rect.left + thresholdX(t) * rect.width / cv.width;
+}
+
+function thresholdAt(clientX) {
+  const cv = $("hist"), rect = cv.getBoundingClientRect();
+  const x = (clientX - rect.left) * cv.width / rect.width;
+  const t = (x - HIST.left) / (cv.width - HIST.left) * 2 - 1;
+  return Math.round(Math.min(0.99, Math.max(-0.99, t)) * 100) / 100;
+}
+
+/** Wire the histogram's threshold drag and input; `apply(t)` sets the threshold everywhere. */
+export function wireThreshold(apply) {
+  const cv = $("hist");
+  let dragging = false;
+  cv.addEventListener("pointerdown", (ev) => {
+    if (!state.sjRest) return;
+    dragging = true;
+    cv.setPointerCapture(ev.pointerId);
+    apply(thresholdAt(ev.clientX));
+  });
+  cv.addEventListener("pointermove", (ev) => {
+    if (dragging) apply(thresholdAt(ev.clientX));
+    else if (state.sjRest) cv.style.cursor = Math.abs((ev.offsetX * cv.width / cv.clientWidth) - thresholdX()) < 6 ? "ew-resize" : "crosshair";
+  });
+  cv.addEventListener("pointerup", () => { dragging = false; });
+  $("threshold").addEventListener("change", () => {
+    const t = Number($("threshold").value);
+    if (Number.isFinite(t) && t > -1 && t < 1) apply(t);
+  });
+}
+
+// ------------------------------------------------------------------ legend
+/** The colour legend in the view: what each colour on screen means. */
+export function drawLegend(meshView, regions) {
+  const el = $("legend");
+  if (!state.V) { el.hidden = true; return; }
+  const o = meshView.options, items = [];
+  const sw = (c, extra = "") => `<span class="sw" style="background:${typeof c === "string" ? c : css(c)}${extra}"></span>`;
+  if (o.colorBy === "displacement") {
+    const max = meshView.dispMax;
+    const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => `${css(rainbow(t))} ${100 * t}%`).join(", ");
+    items.push(`<div class="lg-title">displacement magnitude${unitText() ? ` (${state.units})` : ""}</div>`,
+      `<div class="ramp" style="background:linear-gradient(to right, ${stops})"></div>`,
+      `<div class="ramp-ticks"><span>0</span><span>${fmt(max / 2)}</span><span data-key="disp-max">${fmt(max)}</span></div>`);
+  } else {
+    for (const r of regions) {
+      if (!r.visible) continue;
+      items.push(`<div data-region="${esc(r.name)}">${sw(r.color)}${esc(r.name)} <span class="muted">${r.kind} · ${fmt(r.count)}</span></div>`);
+    }
+  }
+  if (o.bad || o.clip) {
+    items.push(`<div data-key="legend-poor">${sw(QUALITY_COLORS.poor)}poor tet, scaled Jacobian &lt; ${fmt(state.threshold)}</div>`,
+      `<div data-key="legend-inverted">${sw(QUALITY_COLORS.inverted)}inverted tet</div>`);
+  }
+  if (o.ghost) items.push(`<div>${sw("rgba(125,138,153,.45)")}rest shape</div>`);
+  el.innerHTML = items.join("");
+  el.hidden = items.length === 0;
+}
+
+// ------------------------------------------------------------------ busy
+let busyTimer = null;
+const BUSY_LOG = 200;
+
+/**
+ * Show the busy indicator with elapsed time (`what`: "building", "solving", "loading"), or hide it
+ * (null). With `delayMs` it appears only when the work lasts that long (no flicker while dragging).
+ */
+export function setBusy(what, delayMs = 0) {
+  const el = $("busy");
+  if (!what) {
+    if (state.busy) state.busyLog.push({ what: state.busy.what, ms: performance.now() - state.busy.t0, shown: !!state.busy.shown });
+    state.busy = null;
+    if (state.busyLog.length > BUSY_LOG) state.busyLog.splice(0, state.busyLog.length - BUSY_LOG);
+    clearInterval(busyTimer); busyTimer = null;
+    el.hidden = true;
+    return;
+  }
+  if (state.busy && state.busy.what === what) return;
+  if (state.busy) state.busyLog.push({ what: state.busy.what, ms: performance.now() - state.busy.t0, shown: !!state.busy.shown });
+  state.busy = { what, t0: performance.now(), delayMs };
+  const tick = () => {
+    const b = state.busy;
+    if (!b) return;
+    const ms = performance.now() - b.t0;
+    if (ms < b.delayMs) return;
+    el.hidden = false;
+    b.shown = true;
+    $("busy-text").textContent = `${b.what} ${(ms / 1000).toFixed(1)} s`;
+  };
+  tick();
+  clearInterval(busyTimer);
+  busyTimer = setInterval(tick, 100);
+}
+
+on("derived", () => {
+  $("cut-count").textContent = state.clip ? `${fmt(state.cut)} tets in the section` : "";
+  drawHistogram();
+});

@@ -1,0 +1,346 @@
+// The session's life: create it from the regions (polling a long build), open an existing one,
+// stream MOVEs and show each frame, reset, download, save and reload, close and delete.
+// A session this tab created is deleted when the tab replaces it with a new one, and when the
+// tab closes while it is still building or was never moved; a moved one stays on the service
+// (listed under Sessions) until deleted or removed by the service's idle sweep.
+import { api, apiKey, getJson, headers, postJson } from "./api.js";
+import { decodeFrame } from "./binary.js";
+import { $ } from "./dom.js";
+import { clearError, setBusy, setProgress, setStatus, showError, showReport } from "./panels.js";
+import { emit, state } from "./state.js";
+import { Stream } from "./stream.js";
+
+const presetKey = (id) => `tetmorph-presets:${id}`;
+
+export class SessionControl {
+  constructor(meshView, regions) {
+    this.meshView = meshView;
+    this.regions = regions;
+    this.moves = null;       // set by the wiring (gizmo.js Moves)
+    this.openMesh = null;    // set by the wiring: (id) => Promise, loads a mesh into the view
+    this.own = new Set();    // sessions this tab created
+    this.building = null;    // id of a session being built for this tab
+    this.serverNotes = false; // the service stores client notes with a session (PATCH {notes})
+    window.addEventListener("pagehide", () => this.leaving());
+  }
+
+  policy() { return $("policy").value; }
+  repair() { return $("repair").checked; }
+
+  /** The SPEC Create session sends. */
+  spec() { return this.regions.spec({ inversion: this.policy(), repair: this.repair() }); }
+
+  // ---------------------------------------------------------------- create
+  async create(after) {
+    clearError();
+    if (!state.meshId) { showError("open a mesh first"); return false; }
+    const handles = this.regions.handles();
+    const fixed = state.regions.filter((r) => r.kind === "fixed" && r.count > 0);
+    if (!fixed.length || !handles.length) { showError("select a fixed region and a handle region first"); return false; }
+    const spec = this.spec();
+    // this tab's session on the old regions is replaced, not left behind
+    const old = state.sessionId;
+    if (old && this.own.has(old)) await this.remove(old, true);
+    else this.close();
+    setStatus("building…");
+    setBusy("building");
+    try {
+      let s = await postJson("/v1/sessions", { mesh_id: state.meshId, spec });
+      this.own.add(s.id);
+      this.building = s.id;
+      for (let polls = 0; s.status === "building"; polls++) {
+        setProgress(s.progress || 0);
+        setStatus(`building: ${s.stage} ${Math.round(100 * (s.progress || 0))}%`);
+        await new Promise((r) => setTimeout(r, Math.min(1000, 150 + 50 * polls)));
+        s = await getJson(`/v1/sessions/${s.id}`);
+      }
+      this.building = null;
+      if (s.status !== "ready") throw Object.assign(new Error(`session ${s.status}`), { body: { error: s.error } });
+      setProgress(1);
+      this.serverNotes = Object.prototype.hasOwnProperty.call(s, "notes");
+      this.start(s.id, handles);
+      state.presets = [];
+      if (after) after();
+      const setup = s.setup_timings ? ` · set-up ${Math.round(s.setup_timings.total_ms)} ms` : "";
+      setStatus(`session ${s.id} ready${setup}`);
+      this.note();
+      emit("sessions-changed");
+      return true;
+    } catch (e) {
+      this.building = null;
+      setStatus("no session");
+      showError(e);
+      return false;
+    } finally {
+      setBusy(null);
+    }
+  }
+
+  /** Attach the gizmo and the stream to a ready session. */
+  start(id, handleRegions) {
+    state.sessionId = id;
+    state.specSent = this.spec();
+    this.moves.attach(handleRegions);
+    this.openStream();
+    $("session-note").hidden = true;
+  }
+
+  /** Say what happens to the session when the tab closes. */
+  note() {
+    const el = $("session-note");
+    if (!state.sessionId) { el.hidden = true; return; }
+    const mine = this.own.has(state.sessionId);
+    const moved = state.history.length > 1;
+    el.textContent = !mine
+      ? "Opened from the service: closing this tab leaves it there (Sessions lists it)."
+      : moved
+        ? "Kept on the service when this tab closes (reopen it from Sessions); the service removes it after " +
+          "it has been idle for its time-to-live (24 h by default)."
+        : "Deleted when this tab closes unless you move the handle first.";
+    el.hidden = false;
+  }
+
+  /** pagehide: delete this tab's unfinished session (still building, or never moved). */
+  leaving() {
+    const id = this.building || (state.sessionId && this.own.has(state.sessionId) && state.history.length <= 1
+      ? state.sessionId : null);
+    if (!id) return;
+    try { fetch(`/v1/sessions/${id}`, { method: "DELETE", keepalive: true, headers: headers() }); } catch { /* closing */ }
+  }
+
+  // ---------------------------------------------------------------- open, close, delete
+  /** Open an existing session: its mesh, regions from its SPEC, its current positions and last MOVE. */
+  async open(id) {
+    clearError();
+    setBusy("loading");
+    try {
+      const doc = await getJson(`/v1/sessions/${id}`);
+      if (doc.status === "failed") throw Object.assign(new Error("failed"), { body: { error: doc.error } });
+      if (state.meshId !== doc.mesh_id || !state.V) await this.openMesh(doc.mesh_id);
+      else await this.leave();
+      this.regions.loadSpec(doc.spec);
+      if (doc.spec.inversion) $("policy").value = doc.spec.inversion;
+      $("repair").checked = !!doc.spec.repair;
+      setBusy(doc.status === "ready" ? "loading" : "building");
+      const r = await api(`/v1/sessions/${id}/positions?result=binary&dtype=float32`);
+      const { data } = decodeFrame(await r.arrayBuffer());
+      this.serverNotes = Object.prototype.hasOwnProperty.call(doc, "notes");
+      this.start(id, this.regions.handles());
+      this.meshView.applyPositions(data);
+      if (doc.last_move) {
+        state.history.push({ label: "last MOVE on the service", move: doc.last_move });
+        state.historyIndex = 1;
+        state.moves = [doc.last_move];
+        state.lastMove = doc.last_move;
+        this.moves.setFromMove(doc.last_move);
+      }
+      state.presets = this.loadPresets(id, doc);
+      emit("history"); emit("presets");
+      showReport({ ...(doc.last_report || {}), mesh: state.meshName });
+      setStatus(`session ${id} (${doc.updates} update${doc.updates === 1 ? "" : "s"} on the service)`);
+      this.note();
+      return true;
+    } catch (e) {
+      showError(e);
+      return false;
+    } finally {
+      setBusy(null);
+    }
+  }
+
+  /** Leave the open session: this tab's session is deleted when it was never moved, else kept. */
+  async leave() {
+    const id = state.sessionId;
+    if (id && this.own.has(id) && state.history.length <= 1) await this.remove(id, true);
+    else this.close();
+  }
+
+  /** Leave the session in this tab (it stays on the service). */
+  close() {
+    if (state.ws) state.ws.close();
+    state.ws = null; state.sessionId = null; state.specSent = null;
+    this.moves.detach();
+    setStatus("no session");
+    setProgress(0);
+    $("session-note").hidden = true;
+    setBusy(null);
+  }
+
+  /** Delete a session on the service (the open one is closed first). */
+  async remove(id, quiet = false) {
+    if (id === state.sessionId) this.close();
+    try {
+      await api(`/v1/sessions/${id}`, { method: "DELETE" });
+    } catch (e) {
+      if (!(e.status === 404)) { if (!quiet) showError(e); return false; }
+    }
+    this.own.delete(id);
+    localStorage.removeItem(presetKey(id));
+    emit("sessions-changed");
+    return true;
+  }
+
+  async list() { return getJson("/v1/sessions"); }
+
+  // ---------------------------------------------------------------- stream
+  openStream() {
+    state.ws = new Stream(state.sessionId, apiKey(), {
+      onFrame: (f) => this.frame(f),
+      onMessage: (msg) => this.message(msg),
+      onClose: () => { if (state.sessionId) { setStatus(`${$("session-status").textContent} · stream closed`); setBusy(null); } },
+    });
+  }
+
+  frame({ header, data }) {
+    const rtt = header.seq === state.seq ? performance.now() - state.sentAt : undefined;
+    this.meshView.applyPositions(data);
+    state.lastSeq = header.seq;
+    state.roundTripMs = rtt;
+    const rep = header.report || {};
+    this.moves.solved(header.seq, rep);
+    showReport({ seq: header.seq, dropped: header.dropped, ...rep, round_trip_ms: rtt, apply_ms: state.applyMs });
+    setBusy(null);
+    if (header.seq !== state.seq) setBusy("solving", 250); // newer MOVEs are still out
+    if (rep.inverted_elements > 0 && this.policy() === "warn") {
+      showError({ body: { error: { code: "inverted_elements", message: `${rep.inverted_elements} elements inverted`,
+        details: { report: rep, applied: true } } } });
+    } else if (!rep.conflicting_constraints || !rep.conflicting_constraints.length) {
+      clearError();
+    }
+    this.note();
+  }
+
+  /** A text frame: a MOVE the service refused (the session stays where it was). */
+  message(msg) {
+    if (!msg.error) return;
+    if (msg.seq !== null && msg.seq !== undefined) state.lastSeq = msg.seq;
+    if (msg.seq === state.seq) setBusy(null);
+    showError({ body: msg });
+    this.moves.rejected(msg.seq);
+    const rep = (msg.error.details && msg.error.details.report) || {};
+    const small = {};
+    for (const k of ["inverted_elements", "degenerate_elements", "min_scaled_jacobian", "safe_fraction",
+      "conflicting_constraints"]) if (rep[k] !== undefined) small[k] = rep[k];
+    showReport({ rejected: true, seq: msg.seq, ...small });
+  }
+
+  /** Stream a MOVE; answers its seq, or null when there is no open stream. */
+  send(move) {
+    if (!state.ws || !state.ws.usable) return null;
+    state.lastMove = move;
+    state.seq += 1;
+    state.sentAt = performance.now();
+    state.ws.send({ seq: state.seq, move, inversion: this.policy(), repair: this.repair() });
+    setBusy("solving", 250);
+    return state.seq;
+  }
+
+  /** Wait (bounded) until every MOVE sent has come back. */
+  async settled(ms = 3000) {
+    const t0 = performance.now();
+    while (state.lastSeq < state.seq && performance.now() - t0 < ms) await new Promise((r) => setTimeout(r, 20));
+  }
+
+  async reset(record = true) {
+    if (!state.sessionId) return;
+    clearError();
+    try {
+      await this.settled();
+      await api(`/v1/sessions/${state.sessionId}/reset`, { method: "POST" });
+      this.moves.rested(record);
+      this.meshView.applyPositions(state.V0);
+      showReport({ reset: true });
+    } catch (e) { showError(e); }
+  }
+
+  async download() {
+    if (!state.sessionId) { showError("create a session first"); return; }
+    const fmt = $("format").value;
+    try {
+      const r = await api(`/v1/sessions/${state.sessionId}/mesh${fmt ? `?format=${fmt}` : ""}`);
+      const blob = await r.blob();
+      const cd = r.headers.get("Content-Disposition") || "";
+      const m = /filename="([^"]+)"/.exec(cd);
+      saveBlob(blob, m ? m[1] : `deformed.${fmt || "vtu"}`);
+    } catch (e) { showError(e); }
+  }
+
+  // ---------------------------------------------------------------- presets and saved sessions
+  loadPresets(id, doc) {
+    if (doc && doc.notes && Array.isArray(doc.notes.presets)) return doc.notes.presets;
+    try { return JSON.parse(localStorage.getItem(presetKey(id)) || "[]"); } catch { return []; }
+  }
+
+  /** Store the presets with the session: on the service when it keeps notes, and in this browser. */
+  savePresets() {
+    if (!state.sessionId) return;
+    localStorage.setItem(presetKey(state.sessionId), JSON.stringify(state.presets));
+    if (this.serverNotes) {
+      api(`/v1/sessions/${state.sessionId}`, { method: "PATCH", headers: { "Content-Type": "application/json" },
+        body: JSON.stringify({ notes: { presets: state.presets } }) }).catch(showError);
+    }
+  }
+
+  /** The session as a file: mesh, SPEC, history, presets, view settings. */
+  document() {
+    return {
+      format: "tetmorph-session", version: 1, saved: new Date().toISOString(),
+      mesh: { id: state.meshId, name: state.meshName }, session_id: state.sessionId,
+      spec: state.specSent || this.spec(),
+      history: state.history.map((e) => ({ label: e.label, move: e.move })), history_index: state.historyIndex,
+      presets: state.presets, units: state.units, threshold: state.threshold,
+    };
+  }
+
+  save() {
+    if (!state.meshId) { showError("open a mesh first"); return; }
+    const doc = this.document();
+    const stem = (state.meshName || "mesh").replace(/\.[^.]+$/, "");
+    saveBlob(new Blob([JSON.stringify(doc, null, 1)], { type: "application/json" }), `${stem}.session.json`);
+  }
+
+  /** Reload a saved session: its mesh (by id, else by name), regions, a new session, its history and presets. */
+  async restore(doc) {
+    clearError();
+    if (!doc || doc.format !== "tetmorph-session") { showError("this file is not a saved tetmorph session"); return false; }
+    const meshes = await getJson("/v1/meshes");
+    const m = meshes.find((x) => x.id === doc.mesh.id) || meshes.find((x) => x.name === doc.mesh.name);
+    if (!m) { showError(`the mesh ${doc.mesh.name} (${doc.mesh.id}) is not on this service: upload it first`); return false; }
+    if (state.meshId !== m.id) await this.openMesh(m.id);
+    this.regions.loadSpec(doc.spec);
+    if (doc.spec.inversion) $("policy").value = doc.spec.inversion;
+    $("repair").checked = !!doc.spec.repair;
+    const ok = await this.create(() => {
+      state.history = doc.history.length ? doc.history : [{ label: "rest", move: null }];
+      state.historyIndex = Math.min(doc.history_index ?? 0, state.history.length - 1);
+      state.moves = state.history.slice(1).map((e) => e.move);
+      state.presets = doc.presets || [];
+    });
+    if (!ok) return false;
+    this.savePresets();
+    emit("history"); emit("presets");
+    const cur = state.history[state.historyIndex];
+    if (cur && cur.move) {
+      await this.streamReady();
+      this.moves.setFromMove(cur.move);
+      this.moves.pending.set(this.send(cur.move), cur);
+    }
+    return true;
+  }
+
+  /** Wait (bounded) for the stream to open. */
+  async streamReady(ms = 5000) {
+    const t0 = performance.now();
+    while (state.ws && !state.ws.open && performance.now() - t0 < ms) await new Promise((r) => setTimeout(r, 20));
+  }
+}
+
+export function saveBlob(blob, name) {
+  const a = document.createElement("a");
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  document.body.appendChild(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+}

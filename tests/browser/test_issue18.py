@@ -59,10 +59,12 @@ def test_a_named_set_of_a_quadratic_deck_can_be_fixed(page):
     assert page.is_hidden("#errors")
     spec = page.evaluate("window.tetmorph.spec()")
     assert spec["selections"]["BC_RIMTIRE"] == {"set": "BC_RIMTIRE"}
-    numeric_move(page, t=(0, 0, 0.02))
+    # small enough that no element folds: the set's mid-side nodes are held exactly, which on this deck's
+    # nearly folded elements leaves less room than following the corners did (0.02 folds 21 of them)
+    numeric_move(page, t=(0, 0, 0.005))
     settle(page)
     assert page.is_hidden("#errors")
-    assert np.abs(positions(page) - rest(page)).max() > 0.01
+    assert np.abs(positions(page) - rest(page)).max() > 0.004
     # a region changed by hand is sent as ids: element vertices only, never the mid-side nodes
     mesh = read_mesh(deck)
     page.check("input[name=role][value='0']")  # erase, with a small box, a vertex of the fixed region

@@ -100,7 +100,8 @@ def main() -> None:
                 "fixed": ["f"], "handles": {"h": "h"}, "solve": "split"}
         name = f"cube n={a.n}"
     d = precompute(mesh, spec)
-    Af = sp.csr_matrix(d.data.positions.system.A @ d.data.positions.system.ra.Z)  # boundary rows on the free boundary unknowns
+    system = d.data.positions.system
+    Af = sp.csr_matrix(system.A @ system.ra.Z)  # boundary rows on the free boundary unknowns
     Mb = (Af.T @ Af).tocsc()
     Mi = sp.csr_matrix(d.data.positions.Mfi[:, d.data.positions.free_interior])
     rng = np.random.default_rng(1)

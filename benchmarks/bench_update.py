@@ -64,7 +64,6 @@ def bandwidth_gbs() -> float:
 
 def run_harmonic(deck: Path, k: int) -> dict:
     import igl
-    import scipy.sparse as sp
 
     from solver import read_mesh
     from solver.constraints.move import parse_move

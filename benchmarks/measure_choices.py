@@ -138,7 +138,8 @@ def refine() -> None:
     for name in ("screw.msh", "Armadillo13K.msh", "beam.node", "plate.inp", "bracket.inp"):
         m = load(name)
         d = precompute(m, bend_spec(m))
-        print(f"| {name} | {d.data.positions.refine_probe / d.data.constraints.diag:.2g} | {d.data.positions.refine_steps} |", flush=True)
+        pos = d.data.positions
+        print(f"| {name} | {pos.refine_probe / d.data.constraints.diag:.2g} | {pos.refine_steps} |", flush=True)
 
 
 def midside() -> None:
@@ -286,7 +287,7 @@ def pardiso() -> None:
                 t = time.perf_counter()
                 ps.factorize(A)
                 tf = 1e3 * (time.perf_counter() - t)
-                solve = lambda b, ps=ps: ps.solve(A, b)  # noqa: E731
+                solve = lambda b, ps=ps, A=A: ps.solve(A, b)  # noqa: E731
             x = solve(b)
             t = time.perf_counter()
             for _ in range(10):

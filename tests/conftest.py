@@ -25,7 +25,7 @@ def shared_file(rel: str) -> pathlib.Path:
     return p
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name: str):
     path = DATA / name if (DATA / name).exists() else shared_file(name)
     return read_mesh(path)

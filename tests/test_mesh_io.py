@@ -15,7 +15,7 @@ from solver import (
 )
 from solver.testing import cube_mesh
 
-from .conftest import DATA, load
+from .conftest import load
 
 
 def _tet():
@@ -34,7 +34,7 @@ def test_round_trip_changes_only_coordinates(tmp_path, name, fmt):
     src = m.source
     np.testing.assert_allclose(back.points, V.astype(src.points.dtype), rtol=1e-6, atol=1e-6)
     assert [c.type for c in back.cells] == [c.type for c in src.cells]
-    for a, b in zip(back.cells, src.cells):
+    for a, b in zip(back.cells, src.cells, strict=True):
         np.testing.assert_array_equal(a.data, b.data)
     if fmt is None:
         if ext not in ("msh", "inp"):

@@ -127,11 +127,18 @@ def cmd_morph(args: argparse.Namespace) -> int:
             raise SolverError("with several moves, --output needs '{i}' (e.g. out_{i}.vtu)",
                               code="usage")
     deformer = Deformer(mesh, spec, progress=_progress())
+    quality = "full" if args.quality else "basic"
+    stacked: list[Any] | None = None
+    if len(moves) > 1:  # one multi-column back-substitution for all of them
+        try:
+            stacked = deformer.solve_many(moves, args.inversion, quality)
+        except InversionError:
+            stacked = None  # some move is rejected: solve them one by one to report each
     reports = []
     for i, mv in enumerate(moves):
         out = args.output.replace("{i}", str(i))
         try:
-            res = deformer.solve(mv, args.inversion, "full" if args.quality else "basic")
+            res = stacked[i] if stacked is not None else deformer.solve(mv, args.inversion, quality)
         except InversionError as e:
             reports.append({"move": i, "output": None, **e.report, "error": e.to_dict()})
             _say(f"move {i}: rejected, {e.message}")
@@ -279,6 +286,9 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pt.add_argument("--format", help="surface meshio format name")
     pt.add_argument("--output-format", help="output meshio format name")
     pt.set_defaults(func=cmd_tetrahedralize)
+    from .workflows.commands import add_commands
+
+    add_commands(sub)  # doe, bounds, sensitivities
     if extend is not None:
         extend(sub)
     return p

@@ -208,7 +208,7 @@ def cmd_tetrahedralize(args: argparse.Namespace) -> int:
     _say(f"tetrahedralizing {os.path.basename(args.surface)}: {len(V)} vertices, {len(F)} triangles (fTetWild)")
     mesh, info = tetrahedralize(V, F, edge_length=args.edge_length, edge_length_fac=args.edge_length_fac,
                                 epsilon=args.epsilon, optimize=not args.no_optimize, allow_open=args.allow_open,
-                                retry=not args.no_retry, log=_say)
+                                retry=not args.no_retry, log=_say, threads=args.threads)
     os.makedirs(os.path.dirname(os.path.abspath(args.output)), exist_ok=True)
     w = write_mesh(mesh, mesh.V, args.output, args.output_format)
     used = info["used"]
@@ -282,6 +282,7 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pt.add_argument("--no-optimize", action="store_true", help="skip fTetWild's quality optimisation (faster)")
     pt.add_argument("--allow-open", action="store_true", help="accept a surface with border edges")
     pt.add_argument("--no-retry", action="store_true", help="do not retry with epsilon / 2")
+    pt.add_argument("--threads", type=int, default=0, help="fTetWild's threads (default 0: every core)")
     pt.add_argument("--report", help="write what was done (settings used, attempts) as JSON; '-' for stdout")
     pt.add_argument("--format", help="surface meshio format name")
     pt.add_argument("--output-format", help="output meshio format name")

@@ -165,6 +165,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     if volume and mesh.is_surface:
         raise _surface_error(name, m)
     mesh.path = path
+    mesh.file_format = fmt
     p = patcher_for(path, fmt)
     if p is not None:  # kept to be written back in place
         main, companions = p.files(path)

@@ -47,7 +47,7 @@ def open_edges(F: np.ndarray) -> np.ndarray:
 
 def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length_fac: float = 0.05,
                    epsilon: float = 1e-3, optimize: bool = True, allow_open: bool = False, retry: bool = True,
-                   log: Callable[[str], None] | None = None) -> tuple[Mesh, dict[str, Any]]:
+                   log: Callable[[str], None] | None = None, threads: int = 0) -> tuple[Mesh, dict[str, Any]]:
     """Fill a closed surface with tetrahedra (fTetWild), checked as a manifold tet mesh.
 
     fTetWild's output is validated like any input mesh (:func:`solver.mesh.validate`).
@@ -79,6 +79,10 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
         Run once more with ``epsilon / 2`` when the output is not a valid mesh.
     log : callable, optional
         ``log(message)`` is told about a retry.
+    threads : int
+        fTetWild's threads (0: every core). fTetWild is not deterministic,
+        even on one thread: two runs may differ, and one may need the retry
+        when the other does not.
 
     Returns
     -------
@@ -125,7 +129,7 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
     tries = (epsilon, epsilon / 2) if retry else (epsilon,)
     mesh, flipped = None, 0
     for k, eps in enumerate(tries):
-        Vt, Tt = _ftetwild(V, F, edge_length, edge_length_fac, eps, optimize)
+        Vt, Tt = _ftetwild(V, F, edge_length, edge_length_fac, eps, optimize, threads)
         try:
             mesh, flipped = _checked(Vt, Tt)
         except InvalidMeshError as e:
@@ -144,14 +148,14 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
         break
     assert mesh is not None
     used = {"edge_length": edge_length, "edge_length_fac": edge_length_fac, "epsilon": attempts[-1]["epsilon"],
-            "optimize": optimize}
+            "optimize": optimize, "threads": threads}
     return mesh, {"surface_vertices": int(len(V)), "surface_triangles": int(len(F)),
                   "flipped_elements": flipped, "open_edges": int(len(opened)), "used": used,
                   "retried": len(attempts) > 1, "attempts": attempts}
 
 
 def _ftetwild(V: np.ndarray, F: np.ndarray, edge_length: float | None, edge_length_fac: float, epsilon: float,
-              optimize: bool) -> tuple[np.ndarray, np.ndarray]:
+              optimize: bool, threads: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """One fTetWild run: its points and tets."""
     import pytetwild  # heavy; only needed here
 
@@ -160,7 +164,7 @@ def _ftetwild(V: np.ndarray, F: np.ndarray, edge_length: float | None, edge_leng
     try:
         Vt, Tt = pytetwild.tetrahedralize(V, F.astype(np.int32), edge_length_fac=edge_length_fac,
                                           edge_length_abs=edge_length, epsilon=epsilon,
-                                          optimize=optimize, quiet=True)
+                                          optimize=optimize, num_threads=max(int(threads), 0), quiet=True)
     except Exception as e:  # the C++ side reports failures as RuntimeError
         raise InvalidMeshError(f"fTetWild failed: {e}", code="tetrahedralization_failed") from e
     finally:

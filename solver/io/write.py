@@ -180,7 +180,8 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
     Returns None otherwise, after adding a ``file_content`` loss when the patch failed.
     """
     p = patcher_for(target, fmt)
-    if p is None or mesh.raw is None or mesh.path is None or format_of(mesh.path) != fmt:
+    source_fmt = mesh.file_format or (format_of(mesh.path) if mesh.path else None)
+    if p is None or mesh.raw is None or source_fmt != fmt:
         return None
     if point_data or cell_data or cell_extras or (point_sets and p.name != "abaqus"):
         return None  # extras the format holds: written through the conversion
@@ -196,7 +197,7 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
         if data is None and reason is None:
             reason = "the file's layout is one the in-place writer does not handle (binary, or parametric nodes)"
     if data is None:
-        losses.append(Loss("file_content", os.path.basename(mesh.path), len(mesh.raw),
+        losses.append(Loss("file_content", os.path.basename(mesh.path or "the original file"), len(mesh.raw),
                            f"the original file cannot be patched in place ({reason}); a rewrite keeps the "
                            "mesh, its sets and regions, but not the rest of the file"))
         return None

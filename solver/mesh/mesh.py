@@ -58,6 +58,8 @@ class Mesh:
     companions : dict of str to bytes
         Other files of a format spread over several, by extension, kept byte
         for byte (TetGen: ``{"ele": ...}``).
+    file_format : str, optional
+        meshio format name of the file the mesh was read from.
     T10 : (m, 10) int64 array, optional
         For quadratic tetrahedra (tetra10 / C3D10): every element's ten nodes in
         VTK order (four corners, then the mid-side nodes of edges 01, 12, 02,
@@ -90,6 +92,7 @@ class Mesh:
     degenerate_at_rest: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     coincident_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
     companions: dict[str, bytes] = field(default_factory=dict, repr=False)
+    file_format: str | None = None
 
     @classmethod
     def validated(cls, V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None,
@@ -196,7 +199,12 @@ class Mesh:
         return component_labels(self.F, self.n, self.boundary)
 
     def info(self) -> dict[str, Any]:
-        """Counts, element types, sets and a quality summary (``tetmorph info``)."""
+        """Counts, element types, sets and a quality summary (``tetmorph info``, the upload answer).
+
+        Besides counts: ``degenerate_at_rest`` (``{"count", "ids"}``, the first
+        1000 ids of :attr:`degenerate_at_rest`), ``coincident_nodes`` (pairs),
+        and for surfaces ``open_edges`` and ``rim_vertices``.
+        """
         out: dict[str, Any] = {
             "vertices": self.n,
             "tetrahedra": int(self.T.shape[0]),

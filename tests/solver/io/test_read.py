@@ -215,3 +215,14 @@ def test_tetgen_numbering_and_comments(tmp_path):
     assert z.source.info["tetgen:base"] == 0
     np.testing.assert_array_equal(z.T, b.T)
     np.testing.assert_array_equal(z.V, b.V)
+
+
+def test_a_file_read_with_an_explicit_format_is_written_back_in_place(tmp_path):
+    p = tmp_path / "part.bin"
+    p.write_bytes((DATA / "screw.msh").read_bytes())
+    mesh = read_mesh(p, "gmsh")
+    assert mesh.file_format == "gmsh"
+    from solver import write_mesh
+
+    out = tmp_path / "out.msh"
+    assert write_mesh(mesh, mesh.V, out).patched and out.read_bytes() == p.read_bytes()

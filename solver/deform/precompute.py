@@ -158,7 +158,8 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) 
     t_pos = time.perf_counter() - t2
     report("positions", 0.95)
     midside = MidsideNodes(mesh.V, mesh.T10) if mesh.T10 is not None else None
-    check = _surface_check(mesh) if mesh.is_surface else ElementCheck(mesh.V, mesh.T, mesh.cells, mesh.T10)
+    check = _surface_check(mesh) if mesh.is_surface else ElementCheck(mesh.V, mesh.T, mesh.cells, mesh.T10,
+                                                                      mesh.degenerate_at_rest)
     timings = {"assembly_ms": 1e3 * t_assembly, "rotation_factorization_ms": 1e3 * t_rot,
                "position_factorization_ms": 1e3 * t_pos, "total_ms": 1e3 * (time.perf_counter() - t0)}
     data = DeformData(mesh=mesh, spec=spec, constraints=cs, delta=ops.delta, walls=walls, rotation=rotation,

@@ -183,10 +183,13 @@ class ElementCheck:
     T10 : (m, 10) int array, optional
         Quadratic elements; those already folded at rest are reported apart
         (:attr:`valid_rest`), not counted as inverted by a morph.
+    flat : (k,) int array, optional
+        Elements the mesh's validation found flat at rest (``Mesh.degenerate_at_rest``),
+        besides those whose rest scaled Jacobian is within ``DEGENERATE_TOL`` of 0.
     """
 
     def __init__(self, V0: np.ndarray, T: np.ndarray, cells: dict[str, np.ndarray],
-                 T10: np.ndarray | None = None) -> None:
+                 T10: np.ndarray | None = None, flat: np.ndarray | None = None) -> None:
         small = V0.shape[0] < 2**31 - 1
         self.T = np.ascontiguousarray(T, dtype=np.int32 if small else np.int64)
         self.cells = cells
@@ -194,10 +197,12 @@ class ElementCheck:
         self.valid_rest = node_jacobians(V0, T10).min(axis=1) > 0 if T10 is not None else None
         self.rest_flat: np.ndarray | None = None
         rest = self.check(V0)
-        flat = np.abs(rest.sj) <= DEGENERATE_TOL
-        self.rest_flat = flat if flat.any() else None
+        is_flat = np.abs(rest.sj) <= DEGENERATE_TOL
+        if flat is not None and len(flat):
+            is_flat[np.asarray(flat, np.int64)] = True
+        self.rest_flat = is_flat if is_flat.any() else None
         #: Elements flat at rest (zero volume), reported apart from what a morph inverts.
-        self.degenerate_at_rest = np.flatnonzero(flat)
+        self.degenerate_at_rest = np.flatnonzero(is_flat)
         self.sj_before = (rest.min_sj, rest.p01_sj)
 
     def check(self, P: np.ndarray, placement: Placement | None = None) -> CheckResult:

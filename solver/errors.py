@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 __all__ = [
+    "MAX_IDS",
     "SolverError",
     "InvalidMeshError",
     "UnsupportedElementError",
@@ -24,6 +25,8 @@ __all__ = [
 
 #: How many offending ids an error message lists before it says "...".
 MAX_IDS_IN_MESSAGE = 10
+#: How many ids an error's details and a REPORT list (inverted elements, offending nodes).
+MAX_IDS = 100
 
 
 def format_ids(ids: Any, limit: int = MAX_IDS_IN_MESSAGE) -> str:

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SpecError
+from ..errors import MAX_IDS, SpecError
 from ..mesh import Mesh
 from ..ops.closest_point import TriangleSurface
 from .matching import Matching, match, reflection, rotation
@@ -234,7 +234,7 @@ def _target(mesh: Mesh, k: int, e: TargetEntry, sel_ids: dict[str, np.ndarray], 
     if e.tolerance is not None and (far > e.tolerance).any():
         bad = ids[far > e.tolerance]
         raise SpecError(f"{where}: {bad.size} nodes are farther than {e.tolerance:g} from the target surface "
-                        f"(largest {far.max():.3g})", code="target_too_far", nodes=bad[:100].tolist())
+                        f"(largest {far.max():.3g})", code="target_too_far", nodes=bad[:MAX_IDS].tolist())
     return TargetPoints(k, e.name, ids, q, mids, mq, surf)
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import ConstraintError, format_ids
+from ..errors import MAX_IDS, ConstraintError, format_ids
 from ..ops.closest_point import TriangleSurface
 
 __all__ = ["Matching", "match", "reflection", "rotation"]
@@ -127,5 +127,5 @@ def match(V: np.ndarray, slaves: np.ndarray, master_nodes: np.ndarray, master_fa
         raise ConstraintError(
             f"{what}: {bad.size} of {s} nodes find no partner within {tol:.3g} (first nodes {format_ids(bad)}); "
             "the two sides do not match under the given plane or axis: check it, or raise the tolerance",
-            code="unmatched_nodes", unmatched=int(bad.size), nodes=bad[:100].tolist(), tolerance=tol)
+            code="unmatched_nodes", unmatched=int(bad.size), nodes=bad[:MAX_IDS].tolist(), tolerance=tol)
     return Matching(slaves[done], masters[done], weights[done], A, t, gap[done])

@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
-from ..errors import SpecError, format_ids
+from ..errors import MAX_IDS, SpecError, format_ids
 from ..mesh import Mesh
 from ..ops.boundary_facets import simplex_edges
 from ..ops.rotation import log_to_matrix, rotate_by_log
@@ -47,7 +47,7 @@ __all__ = ["Block", "KINDS", "TARGETS", "block_target", "check_ids", "point_weig
 KINDS = ("fixed", "handle", "target", "tie", "symmetry", "cyclic", "point", "relative", "feature", "motion",
          "sliding")
 #: How many ids a REPORT or an error's details list.
-REPORT_IDS = 100
+REPORT_IDS = MAX_IDS
 
 #: ``rot_at(ids) -> (k, 3)`` quaternion logarithms of boundary vertices.
 RotAt = Callable[[np.ndarray], np.ndarray]

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SpecError, format_ids
+from ..errors import MAX_IDS, SpecError, format_ids
 from ..mesh import Mesh
 from ..ops.boundary_facets import simplex_edges
 from ..ops.elements import midside_edges
@@ -89,11 +89,11 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
         bad = ids[(ids < 0) | (ids >= mesh.n)]
         if bad.size:
             raise SpecError(f"selection {name!r}: ids {format_ids(bad)} are outside 0..{mesh.n - 1}",
-                            code="bad_selection", selection=name, ids=bad[:100].tolist())
+                            code="bad_selection", selection=name, ids=bad[:MAX_IDS].tolist())
         unused = ids[~used[ids]]
         if unused.size:
             raise SpecError(f"selection {name!r}: vertices {format_ids(unused)} belong to no element",
-                            code="bad_selection", selection=name, ids=unused[:100].tolist())
+                            code="bad_selection", selection=name, ids=unused[:MAX_IDS].tolist())
     elif kind == "set":
         if val not in mesh.sets:
             raise SpecError(f"selection {name!r}: the mesh has no set {val!r}; sets: "

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from ..linalg.constrained import METHODS as _SOLVERS
 
 __all__ = ["Spec", "PointDef", "PointEntry", "RelativeEntry", "FeatureEntry", "MotionEntry", "SlidingEntry",
            "SymmetryEntry", "CyclicEntry", "TargetEntry",
@@ -25,8 +26,8 @@ __all__ = ["Spec", "PointDef", "PointEntry", "RelativeEntry", "FeatureEntry", "M
            "CONFLICT_POLICIES", "FEATURE_MODES", "RELATIVE_MODES", "MAX_PENALTY_WEIGHT", "MAX_ID"]
 
 LAPLACIANS = ("cotangent", "uniform")
-#: The constrained-quadratic methods (:mod:`solver.linalg.constrained`).
-METHODS = ("null_space", "kkt", "penalty")
+#: The constrained-quadratic methods, by name (:data:`solver.linalg.constrained.METHODS`).
+METHODS = tuple(_SOLVERS)
 CONFLICT_POLICIES = ("report", "reject")
 #: Default weight of the thin-wall rows (SPEC "thin_walls": true): the weight with the fewest
 #: inverted tets over kiefer_fea_bracket.vtu, Armadillo13K.msh and screw.msh and eight bends

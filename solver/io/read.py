@@ -11,7 +11,7 @@ from typing import Any
 import meshio
 import numpy as np
 
-from ..errors import InvalidMeshError, UnreadableFileError, UnsupportedElementError
+from ..errors import MAX_IDS, InvalidMeshError, UnreadableFileError, UnsupportedElementError
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
 from .diagnose import check_complete, check_file, diagnose
@@ -284,7 +284,7 @@ def _check_basic_coordinates(m: meshio.Mesh, name: str) -> None:
             f"{name!r}: {bad.size} GRID cards give their position in a local coordinate system (CP field), "
             f"e.g. GRID {int(gid[bad[0]])} in system {int(cp[bad[0]])}; tetmorph reads positions in the basic "
             "system only. Export the deck with positions in the basic system.",
-            code="unsupported_coordinate_system", grids=[int(g) for g in gid[bad[:100]]], count=int(bad.size))
+            code="unsupported_coordinate_system", grids=[int(g) for g in gid[bad[:MAX_IDS]]], count=int(bad.size))
 
 
 def mesh_from_meshio(m: meshio.Mesh) -> Mesh:

@@ -14,7 +14,7 @@ from typing import Any
 import meshio
 import numpy as np
 
-from ..errors import InvalidMeshError, LossyWriteError
+from ..errors import MAX_IDS, InvalidMeshError, LossyWriteError
 from ..mesh import Mesh
 from .content import content
 from .conversion import CELL_DATA_FORMATS, Conversion, Loss, abaqus_name, convert
@@ -122,7 +122,7 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     if not np.isfinite(V[mesh.referenced]).all():
         bad = np.flatnonzero(~np.isfinite(V).all(1) & mesh.referenced)
         raise InvalidMeshError(f"{bad.size} positions are not finite (first vertices {bad[:10].tolist()})",
-                               code="non_finite_coordinates", vertices=bad[:100].tolist())
+                               code="non_finite_coordinates", vertices=bad[:MAX_IDS].tolist())
     target = os.fspath(path)
     fmt = format_of(target, file_format)
     if fmt is None:

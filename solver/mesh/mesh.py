@@ -228,13 +228,13 @@ class Mesh:
             out["open_edges"] = int(len(self.rim_edges))
             out["rim_vertices"] = int(self.rim.sum())
         if not self.is_surface:
-            from ..validity.quality import element_quality
+            from ..validity.quality import element_quality, first_percentile
 
             q = element_quality(self.V, self.T, self.cells)
             sj, vol = q["scaled_jacobian"], q["volume"]
             out["quality"] = {
                 "min_scaled_jacobian": float(sj.min()),
-                "p01_scaled_jacobian": float(np.percentile(sj, 1)),
+                "p01_scaled_jacobian": first_percentile(sj),
                 "median_scaled_jacobian": float(np.median(sj)),
                 "min_volume": float(vol.min()),
                 "total_volume": float(vol.sum()),

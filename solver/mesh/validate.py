@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import InvalidMeshError, TopologyError, format_ids
+from ..errors import MAX_IDS, InvalidMeshError, TopologyError, format_ids
 from ..ops.boundary_facets import boundary_facets
 from ..ops.elements import LINEAR_TYPES, boundary_faces, corner_jacobians, element_blocks
 from ..validity.quality import degenerate_mask, signed_volumes
@@ -125,7 +125,7 @@ def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None,
             raise InvalidMeshError(
                 f"{inv.size} of {len(T)} input tetrahedra are inverted (negative volume); first "
                 f"tets {format_ids(inv)}. Swap two nodes of each to fix the orientation.",
-                code="inverted_input", tets=inv[:100].tolist(), count=int(inv.size))
+                code="inverted_input", tets=inv[:MAX_IDS].tolist(), count=int(inv.size))
         degenerate = np.flatnonzero(degen).astype(np.int64)
         if degenerate.size == len(T) and not cells:
             raise InvalidMeshError(
@@ -142,7 +142,7 @@ def validate(V: np.ndarray, T: np.ndarray, surface: np.ndarray | None = None,
                 f"{bad.size} of {len(det)} input {kind} elements are inverted or flat (a corner "
                 f"Jacobian <= 0); first elements {format_ids(bad + base)} (tets first, then "
                 f"{', '.join(LINEAR_TYPES[1:])}), e.g. {kind} {bad[0]} = {cells[kind][bad[0]].tolist()}",
-                code="inverted_input", elements=(bad[:100] + base).tolist(), count=int(bad.size))
+                code="inverted_input", elements=(bad[:MAX_IDS] + base).tolist(), count=int(bad.size))
         base += len(det)
     if cells:
         F, _ = boundary_faces(element_blocks(T, cells), n)
@@ -175,21 +175,21 @@ def _check_indices(V: np.ndarray, C: np.ndarray, what: str) -> None:
         raise InvalidMeshError(
             f"{bad.size} {what} reference vertices outside 0..{n - 1}; first elements "
             f"{format_ids(bad)}, e.g. element {bad[0]} = {C[bad[0]].tolist()}",
-            code="index_out_of_range", elements=bad[:100].tolist(), vertices=n)
+            code="index_out_of_range", elements=bad[:MAX_IDS].tolist(), vertices=n)
     used = np.zeros(n, bool)
     used[C.ravel()] = True
     nonfinite = np.flatnonzero(used & ~np.isfinite(V).all(1))
     if nonfinite.size:
         raise InvalidMeshError(
             f"{nonfinite.size} vertices have non-finite coordinates; first vertices "
-            f"{format_ids(nonfinite)}", code="non_finite_coordinates", vertices=nonfinite[:100].tolist())
+            f"{format_ids(nonfinite)}", code="non_finite_coordinates", vertices=nonfinite[:MAX_IDS].tolist())
     S = np.sort(C, axis=1)
     rep = np.flatnonzero((S[:, 1:] == S[:, :-1]).any(1))
     if rep.size:
         raise InvalidMeshError(
             f"{rep.size} {what} repeat a vertex index; first elements {format_ids(rep)}, "
             f"e.g. element {rep[0]} = {C[rep[0]].tolist()}",
-            code="repeated_index", elements=rep[:100].tolist())
+            code="repeated_index", elements=rep[:MAX_IDS].tolist())
 
 
 def coincident_pairs(V: np.ndarray, used: np.ndarray, tol: float = COINCIDENT_TOL) -> np.ndarray:
@@ -253,7 +253,7 @@ def _check_manifold_edges(F: np.ndarray, n: int) -> None:
         raise TopologyError(
             f"{bad.size} boundary edges are shared by more than two boundary faces (non-manifold: "
             f"bodies that touch along an edge); first edges {e[:5].tolist()} (in "
-            f"{counts[bad][:5].tolist()} faces)", code="non_manifold_boundary", edges=e[:100].tolist(),
+            f"{counts[bad][:5].tolist()} faces)", code="non_manifold_boundary", edges=e[:MAX_IDS].tolist(),
             count=int(bad.size))
     directed = He[:, 0] * n + He[:, 1]
     if np.unique(directed).size != directed.size:
@@ -354,7 +354,7 @@ def _check_manifold_vertices(F: np.ndarray, n: int, T: np.ndarray | None, used: 
             f"more separate fans (parts that touch at a vertex or along an edge through the body, a "
             f"bow-tie); first vertices {format_ids(bad)}. Separate the parts (duplicate the shared nodes "
             "and tie them in the SPEC) or remove the elements that touch.",
-            code="non_manifold_vertex", vertices=bad[:100].tolist(), count=int(bad.size), kind="boundary_fans")
+            code="non_manifold_vertex", vertices=bad[:MAX_IDS].tolist(), count=int(bad.size), kind="boundary_fans")
     if T is None:
         return
     chi = link_euler(T, n, F)
@@ -366,7 +366,7 @@ def _check_manifold_vertices(F: np.ndarray, n: int, T: np.ndarray | None, used: 
         raise TopologyError(
             f"{bad.size} vertices are non-manifold: the tetrahedra around each do not form one ball (the "
             f"link of vertex {bad[0]} has Euler characteristic {chi[bad[0]]}, not {want[bad[0]]}); first "
-            f"vertices {format_ids(bad)}", code="non_manifold_vertex", vertices=bad[:100].tolist(),
+            f"vertices {format_ids(bad)}", code="non_manifold_vertex", vertices=bad[:MAX_IDS].tolist(),
             count=int(bad.size), kind="link")
 
 
@@ -390,4 +390,4 @@ def _duplicates(pairs: np.ndarray, cause: TopologyError) -> TopologyError:
         f"mesh where it should be one piece ({cause.message[:1].lower() + cause.message[1:]}). Merge them "
         "if the mesh is one part; if the parts are meant to be separate bodies that stay joined, keep them "
         "apart and let the SPEC's ties (default \"auto\") join coincident nodes of different bodies.",
-        code="duplicate_nodes", pairs=pairs[:100].tolist(), count=int(len(pairs)), cause=cause.code)
+        code="duplicate_nodes", pairs=pairs[:MAX_IDS].tolist(), count=int(len(pairs)), cause=cause.code)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidMeshError, format_ids
+from ..errors import MAX_IDS, InvalidMeshError, format_ids
 
 __all__ = ["TET_FACES", "boundary_facets", "face_keys", "simplex_edges"]
 
@@ -112,7 +112,7 @@ def boundary_facets(T: np.ndarray, n: int | None = None) -> tuple[np.ndarray, np
             f"{int(np.sum(counts > 2))} faces are shared by more than two tetrahedra "
             f"(non-manifold volume); first tets: {format_ids(bad)}",
             code="non_manifold_volume",
-            tets=bad[:100].tolist(),
+            tets=bad[:MAX_IDS].tolist(),
         )
     once = order[starts[counts == 1]]
     once.sort()

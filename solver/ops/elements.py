@@ -31,6 +31,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ..errors import MAX_IDS
+
 __all__ = ["LINEAR_TYPES", "FACES", "CORNERS", "EDGES", "SJ_SCALE", "opposite_triangles",
            "triangulate", "element_tables", "corner_jacobians", "element_volumes", "element_edges",
            "boundary_faces", "oriented", "MIRROR", "element_blocks", "check_tets"]
@@ -289,7 +291,7 @@ def boundary_faces(blocks: list[tuple[str, np.ndarray]], n: int) -> tuple[np.nda
             raise InvalidMeshError(
                 f"{int(np.sum(counts > 2))} faces are shared by more than two elements "
                 f"(non-manifold volume); first elements: {format_ids(bad)}",
-                code="non_manifold_volume", elements=bad[:100].tolist())
+                code="non_manifold_volume", elements=bad[:MAX_IDS].tolist())
         once = np.flatnonzero(counts[inv] == 1)
         for a, b, c in triangulate(tuple(range(width))):
             F_out.append(faces[once][:, [a, b, c]])

@@ -69,14 +69,29 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray,
     ptr, inc = vertex_tets(E, n)
     rows = np.flatnonzero(interior).astype(np.int64)
     opp = _OPPOSITE
-    counts = _row_sizes(E, kind, opp, ptr, inc, rows)
+    # one pass: each row's neighbours and weights into a slot of 3 entries per opposite face (an upper
+    # bound on its distinct neighbours), then compacted
+    faces = (opp[:, :, :, 0] >= 0).sum(axis=2)  # (types, corners): opposite triangles of each corner
+    per = np.zeros(len(inc), np.int64)
+    if len(inc):
+        w = E.shape[1]
+        per = 3 * faces[kind[inc // w], inc % w]
+    cum = np.zeros(len(inc) + 1, np.int64)
+    np.cumsum(per, out=cum[1:])
+    slot = np.zeros(rows.size + 1, np.int64)
+    slot[1:] = cum[ptr[rows + 1]] - cum[ptr[rows]]
+    np.cumsum(slot, out=slot)
+    cols = np.empty(slot[-1], np.int64)
+    vals = np.empty(slot[-1])
+    count = np.zeros(rows.size, np.int64)
+    S = np.zeros(n)
+    _fill_rows(V, E, kind, opp, ptr, inc, rows, slot, cols, vals, count, S, MVC_EPS)
     indptr = np.zeros(n + 1, np.int64)
-    indptr[rows + 1] = counts
+    indptr[rows + 1] = count
     indptr = np.cumsum(indptr)
     indices = np.empty(indptr[-1], np.int64)
     data = np.empty(indptr[-1])
-    S = np.zeros(n)
-    _fill_rows(V, E, kind, opp, ptr, inc, rows, indptr, indices, data, S, MVC_EPS)
+    _compact(rows, slot, cols, vals, count, indptr, indices, data)
     W = sp.csr_matrix((data, indices, indptr), shape=(n, n))
     W.eliminate_zeros()
     return W, S
@@ -161,21 +176,14 @@ def _neighbours(E, kind, opp, ptr, inc, i):  # pragma: no cover - compiled
     return np.unique(nb[:c])
 
 
-@numba.njit(parallel=True, cache=True)
-def _row_sizes(E, kind, opp, ptr, inc, rows):  # pragma: no cover - compiled
-    out = np.empty(rows.size, np.int64)
-    for r in numba.prange(rows.size):
-        out[r] = _neighbours(E, kind, opp, ptr, inc, rows[r]).size
-    return out
-
-
 @numba.njit(parallel=True, cache=True, error_model="numpy")
-def _fill_rows(V, E, kind, opp, ptr, inc, rows, indptr, indices, data, S, eps):  # pragma: no cover
+def _fill_rows(V, E, kind, opp, ptr, inc, rows, slot, indices, data, count, S, eps):  # pragma: no cover
     w_ = E.shape[1]
     for r in numba.prange(rows.size):
         i = rows[r]
         cols = _neighbours(E, kind, opp, ptr, inc, i)
-        lo = indptr[i]
+        lo = slot[r]
+        count[r] = cols.size
         acc = np.zeros(cols.size)
         w = np.empty(3)
         wk = np.empty((8, 3))
@@ -207,3 +215,12 @@ def _fill_rows(V, E, kind, opp, ptr, inc, rows, indptr, indices, data, S, eps): 
             indices[lo + c] = cols[c]
             data[lo + c] = acc[c] / tot if tot != 0.0 else 0.0
         S[i] = area
+
+
+@numba.njit(parallel=True, cache=True)
+def _compact(rows, slot, cols, vals, count, indptr, indices, data):  # pragma: no cover - compiled
+    for r in numba.prange(rows.size):
+        a, b = slot[r], indptr[rows[r]]
+        for c in range(count[r]):
+            indices[b + c] = cols[a + c]
+            data[b + c] = vals[a + c]

@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import minimize
 
+from ..errors import MAX_IDS
 from .quality import DEGENERATE_TOL, signed_volumes, tet_quality
 
 __all__ = ["RepairResult", "repair_inverted"]
@@ -154,16 +155,16 @@ def repair_inverted(V0: np.ndarray, P: np.ndarray, T: np.ndarray, movable: np.nd
     out = cur if accepted else P
     fixed_ids = np.flatnonzero(bad0 & ~bad) if accepted else np.zeros(0, np.int64)
     rep.update(success=success, accepted=accepted, inverted_after=int(bad.sum()) if accepted else int(bad0.sum()),
-               repaired_elements=fixed_ids[:100].tolist(),
+               repaired_elements=fixed_ids[:MAX_IDS].tolist(),
                moved_vertices=int(moved.sum()) if accepted else 0,
                min_scaled_jacobian_after=float(sj.min()) if accepted else float(sj0.min()),
                passes=passes, ms=1e3 * (time.perf_counter() - t0))
     if not success:
         left = bad if accepted else bad0
         stuck = np.flatnonzero(left)
-        no_free = [int(t) for t in stuck[:100] if not movable[T[t]].any()]
+        no_free = [int(t) for t in stuck[:MAX_IDS] if not movable[T[t]].any()]
         rep["reason"] = (f"{int(left.sum())} tets stay inverted"
                          + (f"; {len(no_free)} of them have no free interior vertex (thin walls: all four "
                             "vertices on the boundary or constrained)" if no_free else ""))
-        rep["unrepaired_ids"] = stuck[:100].tolist()
+        rep["unrepaired_ids"] = stuck[:MAX_IDS].tolist()
     return RepairResult(out, success, rep)

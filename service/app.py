@@ -99,8 +99,12 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
 
     app = FastAPI(title="tetmorph", version=_version(), description=DESCRIPTION, lifespan=lifespan,
                   default_response_class=JSONResponse,
-                  responses={422: {"model": ErrorEnvelope, "description": "invalid request: the error "
-                                   "names the field (code invalid_request)"}})
+                  responses={400: {"model": ErrorEnvelope, "description": "the body cannot be parsed "
+                                   "(bad_request): not JSON, or a broken multipart form"},
+                             422: {"model": ErrorEnvelope, "description": "invalid request: the error "
+                                   "names the field (code invalid_request)"},
+                             500: {"model": ErrorEnvelope, "description": "a fault of the server "
+                                   "(internal_error); the request is not at fault"}})
     app.state.settings = settings
     app.state.registry = reg
     app.state.auth = auth

@@ -33,6 +33,7 @@ log = logging.getLogger("tetmorph.service")
 #: The HTTP status of each error code. Codes not listed take the status of their exception type.
 CODE_STATUS: dict[str, int] = {
     # 401: who is asking
+    "bad_request": 400,
     "missing_api_key": 401, "invalid_api_key": 401,
     # 404: unknown resources (or another key's), unknown routes
     "mesh_not_found": 404, "session_not_found": 404, "job_not_found": 404, "not_found": 404,

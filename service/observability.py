@@ -34,7 +34,7 @@ def redact(query: str) -> str:
     >>> redact("kind=positions&api_key=s3cret&dtype=float32")
     'kind=positions&api_key=[redacted]&dtype=float32'
     """
-    return _SECRET_PARAM.sub(r"\\1[redacted]", query)
+    return _SECRET_PARAM.sub(r"\1[redacted]", query)
 
 
 class RequestIdFilter(logging.Filter):
@@ -103,6 +103,14 @@ class RequestContext:
         self.app = app
         self.metrics = metrics
 
+    @staticmethod
+    def _template(scope: Scope) -> str:
+        """The matched route's path template (``/v1/sessions/{session_id}``), so ids do not become labels."""
+        if scope.get("endpoint") is None:
+            return "unmatched"
+        names = {str(v): k for k, v in (scope.get("path_params") or {}).items()}
+        return "/".join(f"{{{names[seg]}}}" if seg in names else seg for seg in str(scope.get("path", "")).split("/"))
+
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         """Handle one ASGI connection."""
         if scope["type"] not in ("http", "websocket"):
@@ -125,8 +133,7 @@ class RequestContext:
             await self.app(scope, receive, tagged_send)
         finally:
             dt = time.perf_counter() - t0
-            route = scope.get("route")
-            path = getattr(route, "path", None) or "unmatched"
+            path = self._template(scope)
             method = scope.get("method", "WS")
             if scope["type"] == "http":
                 self.metrics.requests.labels(method, path, str(status)).inc()

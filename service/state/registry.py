@@ -19,6 +19,7 @@ import ctypes.util
 import gc
 import logging
 import math
+import os
 import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
@@ -64,8 +65,14 @@ def all_finite(doc: Any) -> bool:
 
 
 def _release_memory() -> None:
-    """Collect garbage and hand freed heap pages back to the system (glibc)."""
+    """Collect garbage, empty MKL's buffer pool, and hand freed heap pages back to the system (glibc)."""
     gc.collect()
+    mkl = os.environ.get("PYPARDISO_MKL_RT")  # set by the solver when it located MKL
+    if mkl:
+        try:
+            ctypes.CDLL(mkl).mkl_free_buffers()
+        except (OSError, AttributeError):
+            pass
     name = ctypes.util.find_library("c")
     if name:
         try:

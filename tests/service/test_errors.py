@@ -114,3 +114,11 @@ def test_not_found_and_conflict_codes(client, tc):
     assert r.status_code == 404 and err(r)["code"] == "session_not_found"
     r = tc.get("/v1/meshes/m_0000")
     assert r.status_code == 404 and err(r)["code"] == "mesh_not_found"
+
+
+def test_unparsable_bodies_are_bad_request(tc):
+    r = tc.post("/v1/meshes", content=b"--x\r\nbroken", headers={"content-type": "multipart/form-data; boundary=x"})
+    assert r.status_code in (400, 422), r.text
+    r = tc.post("/v1/sessions", content=b"[" * 50_000 + b"]" * 50_000, headers={"content-type": "application/json"})
+    e = err(r)
+    assert r.status_code == 400 and e["code"] == "bad_request", e

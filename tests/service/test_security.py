@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from service.client import TetmorphError
+from service.client import Client, TetmorphError
 
 from .conftest import BRACKET_SPEC, MOVES, err, running, upload_bracket
 
@@ -46,3 +46,62 @@ def test_connection_slots_per_key():
     a.release()  # idempotent
     slots.acquire("k")
     b.release()
+
+
+def test_owner_ids_are_salted_per_installation_and_legacy_ids_move(tmp_path):
+    import hashlib
+    import json
+    import stat
+
+    from service.security import SECRET_FILE
+
+    with running(tmp_path / "a", api_keys="alpha") as tc:
+        Client(http=tc, api_key="alpha").upload_arrays(*_tet(), name="t")
+    secret = tmp_path / "a" / SECRET_FILE
+    assert stat.S_IMODE(secret.stat().st_mode) == 0o600 and len(secret.read_text().strip()) == 64
+    (meta,) = [json.loads(p.read_text()) for p in (tmp_path / "a" / "meshes").rglob("meta.json")]
+    unsalted = "k_" + hashlib.sha256(b"alpha").hexdigest()[:16]
+    assert meta["owner"] != unsalted and meta["owner"].startswith("o_")
+    with running(tmp_path / "b", api_keys="alpha") as tc:  # another installation: another owner id
+        Client(http=tc, api_key="alpha").upload_arrays(*_tet(), name="t")
+    (meta_b,) = [json.loads(p.read_text()) for p in (tmp_path / "b" / "meshes").rglob("meta.json")]
+    assert meta_b["owner"] != meta["owner"]
+    # data written by an earlier version under the unsalted id is still alpha's after the upgrade
+    path = next((tmp_path / "a" / "meshes").rglob("meta.json"))
+    path.write_text(json.dumps({**meta, "owner": unsalted}))
+    with running(tmp_path / "a", api_keys="alpha") as tc:
+        assert [m["id"] for m in tc.get("/v1/meshes", headers={"X-API-Key": "alpha"}).json()] == [meta["id"]]
+    assert json.loads(path.read_text())["owner"] == meta["owner"]
+
+
+def test_rotating_a_key_keeps_its_data(tmp_path):
+    with running(tmp_path, api_keys="acme=old") as tc:
+        mid = Client(http=tc, api_key="old").upload_arrays(*_tet(), name="t")["id"]
+    with running(tmp_path, api_keys="acme=old,acme=new") as tc:  # both work during the change
+        for key in ("old", "new"):
+            assert tc.get(f"/v1/meshes/{mid}", headers={"X-API-Key": key}).status_code == 200
+    with running(tmp_path, api_keys="acme=new") as tc:
+        assert tc.get(f"/v1/meshes/{mid}", headers={"X-API-Key": "new"}).status_code == 200
+        assert err(tc.get(f"/v1/meshes/{mid}", headers={"X-API-Key": "old"}))["code"] == "invalid_api_key"
+    with running(tmp_path / "bare", api_keys="k1") as tc:  # a bare key rotates under its own name
+        mid = Client(http=tc, api_key="k1").upload_arrays(*_tet(), name="t")["id"]
+    with running(tmp_path / "bare", api_keys="k1=k2") as tc:
+        assert tc.get(f"/v1/meshes/{mid}", headers={"X-API-Key": "k2"}).status_code == 200
+
+
+def test_access_log_redacts_the_query_key(tmp_path, caplog):
+    import logging
+
+    with running(tmp_path, api_keys="s3cret-key") as tc, caplog.at_level(logging.INFO, logger="tetmorph.access"):
+        tc.get("/v1/meshes?api_key=s3cret-key&limit=5")
+        tc.get("/v1/meshes", headers={"X-API-Key": "s3cret-key", "X-Request-ID": "req-42"})
+    lines = [r.getMessage() for r in caplog.records if r.name == "tetmorph.access"]
+    assert len(lines) == 2 and "api_key=[redacted]" in lines[0]
+    assert "s3cret-key" not in caplog.text
+    assert "s3cret-key" not in "".join(p.read_text(errors="replace") for p in tmp_path.rglob("*") if p.is_file())
+
+
+def _tet():
+    import numpy as np
+
+    return np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]), np.array([[0, 1, 2, 3]])

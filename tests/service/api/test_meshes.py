@@ -130,3 +130,17 @@ def test_mixed_element_deck_over_rest(client, tc, tmp_path):
     src = (DATA / "mixed.msh").read_bytes()
     assert body.split(b"$Nodes")[0] == src.split(b"$Nodes")[0]
     assert body.split(b"$EndNodes")[1] == src.split(b"$EndNodes")[1]
+
+
+def test_tetgen_upload_downloads_as_a_zip_of_its_original_files(tc):
+    import io
+    import zipfile
+
+    node, ele = (DATA / "beam.node").read_bytes(), (DATA / "beam.ele").read_bytes()
+    r = tc.post("/v1/meshes", files=[("file", ("beam.node", node)), ("companions", ("beam.ele", ele))])
+    assert r.status_code == 201, r.text
+    got = tc.get(f"/v1/meshes/{r.json()['id']}/file")
+    assert got.headers["content-type"] == "application/zip"
+    with zipfile.ZipFile(io.BytesIO(got.content)) as z:
+        assert sorted(z.namelist()) == ["beam.ele", "beam.node"]
+        assert z.read("beam.node") == node and z.read("beam.ele") == ele

@@ -1,0 +1,67 @@
+"""/health, /ready, /metrics, /v1/formats and the request id."""
+
+from __future__ import annotations
+
+from ..conftest import BRACKET_SPEC, MOVES, upload_bracket
+
+
+def test_ready_metrics_and_request_ids(client, tc):
+    r = tc.get("/ready")
+    assert r.status_code == 200 and r.json() == {"ready": True, "checks": {"store_writable": True, "workers": True,
+                                                                           "sweeper": True}}
+    s = client.create_session(upload_bracket(client)["id"], BRACKET_SPEC)
+    client.deform(s["id"], MOVES[0])
+    tc.get("/v1/sessions/s_nope")
+    text = tc.get("/metrics").text
+    assert 'tetmorph_requests_total{method="POST",route="/v1/sessions/{session_id}/deform",status="200"} 1.0' in text
+    assert 'tetmorph_requests_total{method="GET",route="/v1/sessions/{session_id}",status="404"} 1.0' in text
+    assert "tetmorph_solve_seconds_count 1.0" in text and "tetmorph_build_seconds_count 1.0" in text
+    assert 'tetmorph_sessions{status="ready"} 1.0' in text and 'tetmorph_queue_depth{pool="tetrahedralize"}' in text
+    cache = float(next(ln.split()[1] for ln in text.splitlines() if ln.startswith("tetmorph_cache_bytes ")))
+    assert cache == tc.get("/health").json()["cache_bytes"] > 0
+    r = tc.get("/health", headers={"X-Request-ID": "abc-123"})
+    assert r.headers["x-request-id"] == "abc-123"
+    ids = {tc.get("/health").headers["x-request-id"] for _ in range(3)}
+    assert len(ids) == 3
+    assert tc.get("/v1/nowhere").headers["x-request-id"]
+
+
+def test_ready_says_what_fails(tc):
+    import os
+    import stat
+
+    folder = tc.app.state.registry.store.sessions_dir
+    mode = folder.stat().st_mode
+    os.chmod(folder, stat.S_IREAD | stat.S_IEXEC)
+    try:
+        if os.access(folder, os.W_OK):  # root ignores the mode: stop the sweeper instead
+            tc.portal.call(tc.app.state.sweeper.stop)
+            r = tc.get("/ready")
+            assert r.status_code == 503 and r.json()["checks"]["sweeper"] is False
+        else:
+            r = tc.get("/ready")
+            assert r.status_code == 503 and r.json()["checks"]["store_writable"] is False
+    finally:
+        os.chmod(folder, mode)
+
+
+def test_formats_are_what_round_trips(tc, tmp_path):
+    rows = {r["name"]: r for r in tc.get("/v1/formats").json()}
+    assert rows["abaqus"]["available"] and rows["abaqus"]["sets"] and rows["abaqus"]["quadratic"]
+    assert not rows["ugrid"]["available"]  # it does not round-trip a tet mesh: not offered
+    r = tc.get("/v1/meshes/m_x/file?format=ugrid")
+    assert r.status_code in (404, 422)
+    offered = [n for n, row in rows.items() if row["available"]]
+    assert {"xdmf", "exodus", "vtu", "gmsh", "tetgen"} <= set(offered)
+
+
+def test_every_offered_format_downloads(client, tc):
+    mid = upload_bracket(client)["id"]
+    offered = [r["name"] for r in tc.get("/v1/formats").json() if r["available"]]
+    failed = {}
+    for name in offered:
+        r = tc.get(f"/v1/meshes/{mid}/file", params={"format": name})
+        if r.status_code != 200 or not r.content:
+            failed[name] = r.text[:200]
+        assert "/tmp" not in r.text and str(tc.app.state.settings.data_dir) not in r.text
+    assert failed == {}

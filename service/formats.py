@@ -126,49 +126,65 @@ def resolve_format(fmt: str | None, filename: str | None = None,
 
 
 def scrubbed(e: SolverError, *folders: str | os.PathLike[str]) -> SolverError:
-    """The error with server paths (the data or a temporary directory) cut from its message."""
-    msg = e.message
-    for d in folders:
-        msg = msg.replace(os.fspath(d).rstrip("/") + "/", "")
-    msg = re.sub(r"/\S*/(tetmorph-[\w-]+|tmp\w*)/", "", msg)
+    """The error with server paths (the data or a temporary directory) cut from its message and details."""
+
+    def clean(text: str) -> str:
+        for d in folders:
+            text = text.replace(os.fspath(d).rstrip("/") + "/", "")
+        return re.sub(r"/\S*/(tetmorph-[\w-]+|tmp\w*)/", "", text)
+
+    def walk(v: Any) -> Any:
+        if isinstance(v, str):
+            return clean(v)
+        if isinstance(v, dict):
+            return {k: walk(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [walk(x) for x in v]
+        return v
+
+    msg = clean(e.message)
     if msg != e.message:
         e.message = msg
         e.args = (msg,)
+    e.details = walk(e.details)
     return e
 
 
-def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = False
-                ) -> tuple[bytes, str, str]:
+def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = False, lossy: bool = False
+                ) -> tuple[bytes, str, str, list[dict[str, Any]]]:
     """Write ``mesh`` with positions ``V`` in a format, as bytes.
 
     With ``quality`` the per-element metrics are written as cell data where
     the format stores it. Formats that write several files (TetGen ``.node``
-    + ``.ele``) come back as one zip archive.
+    + ``.ele``) come back as one zip archive. A format that cannot hold
+    something the mesh carries (sets, an element type) is refused unless
+    ``lossy``; then the losses come back as the fourth value.
 
     Returns
     -------
-    (body, filename, media_type)
+    (body, filename, media_type, dropped)
 
     Raises
     ------
     InvalidMeshError
-        meshio cannot write the mesh in that format (no server path in the message).
+        meshio cannot write the mesh in that format, or ``lossy_write`` (no server path in the message).
     """
     name, ext = resolve_format(fmt)
     with tempfile.TemporaryDirectory(prefix="tetmorph-export-") as tmp:
         path = Path(tmp) / f"{stem}{ext}"
         try:
-            write_mesh(mesh, V, path, file_format=name, quality=quality)
+            written = write_mesh(mesh, V, path, file_format=name, quality=quality, lossy=lossy)
         except SolverError as e:
             raise scrubbed(e, tmp) from None
+        dropped = list(written.dropped) if written is not None else []
         files = sorted(p for p in Path(tmp).iterdir() if p.is_file())
         if len(files) == 1:
-            return files[0].read_bytes(), files[0].name, "application/octet-stream"
+            return files[0].read_bytes(), files[0].name, "application/octet-stream", dropped
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
             for p in files:
                 z.write(p, arcname=os.path.basename(p))
-        return buf.getvalue(), f"{stem}.{name}.zip", "application/zip"
+        return buf.getvalue(), f"{stem}.{name}.zip", "application/zip", dropped
 
 
 def _probe_meshes() -> dict[str, meshio.Mesh]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import json
 import zipfile
 from typing import Annotated, Any
 
@@ -133,6 +134,9 @@ async def download_mesh(
     format: Annotated[str | None, Query(max_length=40, description="format name or extension (GET "
                                         "/v1/formats); omit for the upload byte for byte (TetGen: a zip "
                                         "of its two files; JSON arrays: VTU)")] = None,
+    lossy: Annotated[bool, Query(description="write what the format can hold when it cannot hold everything "
+                                 "(sets, element types); X-Tetmorph-Dropped lists the rest. Without it such a "
+                                 "conversion answers 422 lossy_write")] = False,
 ) -> Response:
     """The uploaded file unchanged, or the mesh converted to another format."""
     if format is None and meta["format"] != "arrays":
@@ -141,8 +145,11 @@ async def download_mesh(
     mesh = await reg.mesh(meta)
     fmt = format or "vtu"
     stem = safe_name(meta["name"].rsplit(".", 1)[0], "mesh")
-    body, fname, media = await reg.run(export_mesh, mesh, mesh.V, fmt, stem)
-    return _file(body, fname, media)
+    body, fname, media, dropped = await reg.run(export_mesh, mesh, mesh.V, fmt, stem, False, lossy)
+    resp = _file(body, fname, media)
+    if dropped:
+        resp.headers["X-Tetmorph-Dropped"] = json.dumps(dropped, separators=(",", ":"))
+    return resp
 
 
 @router.get("/meshes/{mesh_id}/geometry", summary="Vertices, boundary faces, tets and sets, binary",

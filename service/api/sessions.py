@@ -137,12 +137,14 @@ async def deform(
 
 
 async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
-                         report: dict[str, Any] | None, quality: bool = False) -> Response:
+                         report: dict[str, Any] | None, quality: bool = False, lossy: bool = False) -> Response:
     mesh = await reg.session_mesh(s)
     meta = reg.store.mesh_meta(s.mesh_id) or {}
     stem = safe_name(str(meta.get("name", "mesh")).rsplit(".", 1)[0], "mesh") + "_deformed"
-    body, fname, media = await reg.run(export_mesh, mesh, V, fmt, stem, quality)
+    body, fname, media, dropped = await reg.run(export_mesh, mesh, V, fmt, stem, quality, lossy)
     headers = {"Content-Disposition": f'attachment; filename="{fname}"'}
+    if dropped:
+        headers["X-Tetmorph-Dropped"] = json.dumps(dropped, separators=(",", ":"))
     if report is not None:
         small = {k: report[k] for k in ("inverted_elements", "degenerate_elements",
                                         "min_scaled_jacobian", "constraint_residual_max",
@@ -158,10 +160,12 @@ async def download_current(
     s: SessionDep, reg: RegistryDep,
     format: Annotated[str, Query(max_length=40, description="format name or extension")] = "vtu",
     quality: Annotated[bool, Query(description="per-element quality metrics as cell data")] = False,
+    lossy: Annotated[bool, Query(description="write what the format can hold; X-Tetmorph-Dropped lists "
+                                 "the rest (else 422 lossy_write)")] = False,
 ) -> Response:
     """The mesh at the session's last MOVE (rest shape before any), in any format."""
     V = await reg.positions(s)
-    return await _mesh_response(reg, s, V, format, s.report, quality)
+    return await _mesh_response(reg, s, V, format, s.report, quality, lossy)
 
 
 @router.get("/sessions/{session_id}/quality", summary="Per-element quality of the current mesh",

@@ -2,11 +2,19 @@
 
 Client → server, text frames: ``{"seq": 7, "move": MOVE, "inversion": "warn", "repair": false}``
 (``move`` required, nothing else allowed). Server → client: for each solved MOVE a binary frame
-(:mod:`service.binary`) whose header carries ``seq``, ``dropped`` (MOVEs
+(:mod:`service.binary`) whose header carries ``seq``, ``frame: "full"``, ``dropped`` (MOVEs
 superseded while the previous one was solving) and a small REPORT; for a
 frame or MOVE that fails, a text frame ``{"seq": 7, "error": {...}}`` (the
 session is unchanged). MOVEs that arrive while one is being solved replace
 each other: only the newest is solved next.
+
+With ``?frames=boundary`` (split solves) each MOVE first gets a ``frame:
+"boundary"`` binary frame as soon as the boundary system is solved: the
+positions (or displacements) of the boundary vertices only, in ascending
+vertex order (the ``boundary`` flags of the geometry bundle), shape (b, 3);
+then the ``full`` frame of the same ``seq`` with every vertex, the check and
+the REPORT. A newer MOVE that arrives in between supersedes the pending
+interior solve: its ``full`` frame is not sent and the MOVE is not committed.
 
 Close codes: 4401 no or unknown API key, 4404 unknown session, 4410 expired
 session, 4429 too many connections of the key, 1009 frame over the size
@@ -82,7 +90,8 @@ async def _close(ws: WebSocket, code: int, reason: str) -> None:
 
 @router.websocket("/sessions/{session_id}/stream")
 async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "displacements"] =
-                 "positions", dtype: Literal["float32", "float64"] = "float32") -> None:
+                 "positions", dtype: Literal["float32", "float64"] = "float32",
+                 frames: Literal["full", "boundary"] = "full") -> None:
     """Solve streamed MOVEs, dropping stale ones (close codes in the module docstring)."""
     state = ws.app.state
     reg: Registry = state.registry
@@ -95,7 +104,7 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
         return
     try:
         await ws.accept()
-        await _serve(ws, reg, s, kind, dtype, state.settings.max_frame_bytes)
+        await _serve(ws, reg, s, kind, dtype, state.settings.max_frame_bytes, frames == "boundary")
     except WebSocketDisconnect:
         pass
     except Exception as e:  # noqa: BLE001 - a server fault still closes with a code and reason
@@ -105,7 +114,8 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
         slot.release()
 
 
-async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, limit: int) -> None:
+async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, limit: int,
+                 boundary_first: bool = False) -> None:
     pending: StreamFrame | None = None
     dropped = 0
     wake = asyncio.Event()
@@ -148,20 +158,35 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
             if frame is None:
                 continue
             s.last_used = time.time()  # a streamed MOVE is activity
+            if V0 is None:
+                mesh = await reg.session_mesh(s)
+                V0, on_boundary = mesh.V, mesh.boundary
             try:
-                r = await reg.deform(s, frame.move.dump(), frame.inversion, "basic", frame.repair)
+                if boundary_first:
+                    t0 = time.perf_counter()
+                    d, stage, move = await reg.boundary_stage(s, frame.move.dump())
+                    if d.solve_mode == "split":
+                        B = stage.P[on_boundary]
+                        X = B if kind == "positions" else B - V0[on_boundary]
+                        head = {"seq": frame.seq, "frame": "boundary", "dropped": skipped,
+                                "solve_ms": 1e3 * (time.perf_counter() - t0)}
+                        await ws.send_bytes(encode_frame(X, head, dtype, kind))
+                        await asyncio.sleep(0)  # let a newer MOVE in
+                        if pending is not None:  # superseded: its interior is never solved
+                            continue
+                    r = await reg.complete_stage(s, d, stage, move, frame.inversion, frame.repair)
+                else:
+                    r = await reg.deform(s, frame.move.dump(), frame.inversion, "basic", frame.repair)
             except Exception as e:  # noqa: BLE001 - every failed MOVE is answered, the session unchanged
                 if status_of(e) >= 500:
                     raise
                 await ws.send_json({"seq": frame.seq, "dropped": skipped, **error_body(e)[1]})
                 continue
-            if V0 is None:
-                V0 = (await reg.session_mesh(s)).V
             X = r.V if kind == "positions" else r.V - V0
             small = {k: r.report.get(k) for k in STREAM_REPORT}
             small["solve_ms"] = r.report["timings"]["update"]["total_ms"]
-            await ws.send_bytes(encode_frame(X, {"seq": frame.seq, "dropped": skipped, "report": small},
-                                             dtype, kind))
+            await ws.send_bytes(encode_frame(X, {"seq": frame.seq, "frame": "full", "dropped": skipped,
+                                                 "report": small}, dtype, kind))
     finally:
         receiver.cancel()
 

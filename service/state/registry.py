@@ -378,19 +378,48 @@ class Registry:
             t0 = time.perf_counter()
             r = await self.builder.solve(d.solve, mv, inversion, quality, repair)
             self.observe_solve(time.perf_counter() - t0)
-            finite = bool(np.isfinite(r.V).all()) and all_finite(r.report)
-            r.report["finite"] = finite
-            if not finite:
-                raise ServiceError("non_finite_result", "the solve produced non-finite numbers; the "
-                                   "session is unchanged", session_id=s.id)
-            # a clamped MOVE is stored as applied, so a rebuild reproduces these positions
-            applied = r.move.to_dict() if r.report.get("clamped") and r.move is not None else move
-            rec = {**s.record(), "last_move": applied, "last_used": time.time()}
-            self.store.save_session(rec)  # disk first: a failed write leaves memory unchanged
-            s.positions, s.report, s.last_move = r.V, small_report(r.report), applied
-            s.updates += 1
-            s.last_used = rec["last_used"]
-            return r
+            return self._commit(s, r, move)
+
+    async def boundary_stage(self, s: Session, move: dict[str, Any]) -> tuple[Deformer, Any, dict[str, Any]]:
+        """The boundary positions of a MOVE first (nothing is committed): ``(deformer, stage, move)``.
+
+        Pass them to :meth:`complete_stage` for the interior, the check and the commit.
+        """
+        async with s.lock:
+            d = await self.deformer(s)
+            move = reduced_move(move)
+            check_move_extent(move, *self._bbox(d.mesh))
+            mv = d.parse_move(move)
+            stage = await self.builder.solve(d.solve_boundary, mv)
+            return d, stage, move
+
+    async def complete_stage(self, s: Session, d: Deformer, stage: Any, move: dict[str, Any],
+                             inversion: str | None = None, repair: bool | None = None) -> DeformResult:
+        """Finish a :meth:`boundary_stage` solve and commit it like :meth:`deform`."""
+        async with s.lock:
+            if s.deformer is not d:  # rebuilt or evicted in between: solve afresh
+                d = await self.deformer(s)
+                stage = d.parse_move(move)
+            t0 = time.perf_counter()
+            r = await self.builder.solve(d.solve, stage, inversion, "basic", repair)
+            self.observe_solve(time.perf_counter() - t0)
+            return self._commit(s, r, move)
+
+    def _commit(self, s: Session, r: DeformResult, move: dict[str, Any]) -> DeformResult:
+        """Make a solved MOVE the session's state, memory and disk, if every number is finite."""
+        finite = bool(np.isfinite(r.V).all()) and all_finite(r.report)
+        r.report["finite"] = finite
+        if not finite:
+            raise ServiceError("non_finite_result", "the solve produced non-finite numbers; the "
+                               "session is unchanged", session_id=s.id)
+        # a clamped MOVE is stored as applied, so a rebuild reproduces these positions
+        applied = r.move.to_dict() if r.report.get("clamped") and r.move is not None else move
+        rec = {**s.record(), "last_move": applied, "last_used": time.time()}
+        self.store.save_session(rec)  # disk first: a failed write leaves memory unchanged
+        s.positions, s.report, s.last_move = r.V, small_report(r.report), applied
+        s.updates += 1
+        s.last_used = rec["last_used"]
+        return r
 
     def _bbox(self, mesh: Mesh) -> tuple[list[float], list[float]]:
         key = id(mesh)

@@ -101,3 +101,31 @@ def test_websocket_rejections_say_why(tmp_path):
             assert decode_frame(ws.receive_bytes())[1]["seq"] == 1
         r = tc.get("/v1/meshes?api_key=alpha")  # the query key is for the WebSocket upgrade only
         assert r.status_code == 401 and err(r)["code"] == "missing_api_key"
+
+
+def test_boundary_frames_come_first_and_match_the_full_frame(client, tc, bracket_library):
+    d, expected = bracket_library
+    mesh = upload_bracket(client)
+    s = client.create_session(mesh["id"], BRACKET_SPEC)
+    B = d.mesh.boundary
+    url = f"/v1/sessions/{s['id']}/stream?dtype=float64&frames=boundary"
+    with tc.websocket_connect(url) as ws:
+        for k, m in enumerate(MOVES, 1):  # one at a time: each gets both frames
+            ws.send_text(json.dumps({"seq": k, "move": m}))
+            Xb, hb = decode_frame(ws.receive_bytes())
+            Xf, hf = decode_frame(ws.receive_bytes())
+            assert (hb["frame"], hf["frame"]) == ("boundary", "full") and hb["seq"] == hf["seq"] == k
+            assert Xb.shape == (int(B.sum()), 3) and "report" not in hb and "report" in hf
+            np.testing.assert_array_equal(Xb, Xf[B])  # the boundary frame is already final
+            np.testing.assert_allclose(Xf, expected[k - 1], atol=1e-12)
+        # a burst: superseded MOVEs may get their boundary frame, never a full frame; the last one ends full
+        burst = [{"handles": {"tip": {"translation": [0, 0, 0.2 * j]}}} for j in range(1, 30)]
+        for j, m in enumerate(burst, 100):
+            ws.send_text(json.dumps({"seq": j, "move": m}))
+        full = []
+        while not full or full[-1] != 100 + len(burst) - 1:
+            _, h = decode_frame(ws.receive_bytes())
+            if h["frame"] == "full":
+                full.append(h["seq"])
+    assert full == sorted(full) and len(full) < len(burst)
+    assert client.session(s["id"])["last_move"] == burst[-1]

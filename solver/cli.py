@@ -100,8 +100,14 @@ def _dropped(w: Any, what: str) -> None:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    from .constraints.symmetry_candidates import abaqus_cyclic, resolve_cyclic, symmetry_candidates
+
     mesh = read_mesh(args.mesh, args.format)
-    _dump(mesh.info(), None)
+    out = mesh.info()
+    if not mesh.is_surface:  # ready-to-paste SPEC entries (SPEC.symmetry, SPEC.cyclic)
+        out["symmetry"] = {"planes": symmetry_candidates(mesh),
+                           "cyclic": [resolve_cyclic(mesh, e) for e in abaqus_cyclic(mesh.raw)]}
+    _dump(out, None)
     return EXIT_OK
 
 

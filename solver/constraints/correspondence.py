@@ -154,7 +154,8 @@ def _symmetry(mesh: Mesh, k: int, e: SymmetryEntry, tol: float, mid: np.ndarray)
     h = (V - c) @ n
     corner_b = B & mesh.referenced
     pos, neg, on = corner_b & (h > tol), corner_b & (h < -tol), corner_b & (np.abs(h) <= tol)
-    faces = _faces_within(mesh.F, corner_b & (h >= -tol))
+    # the positive side's faces, with those that cross the plane (nodes near it map onto them)
+    faces = mesh.F[(h[mesh.F] > tol).any(axis=1) | (np.abs(h[mesh.F]) <= tol).all(axis=1)]
     m = match(V, np.flatnonzero(neg), np.flatnonzero(pos | on), faces, M, t, tol, f"SPEC.symmetry[{k}] ({e.name!r})")
     mm = None
     if mid.any():

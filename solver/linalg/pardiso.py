@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FactorizationError
+from .threads import SOLVE_THREADS, mkl_local_threads
 
 __all__ = ["PardisoFactor", "mkl_runtime"]
 
@@ -184,7 +185,11 @@ class PardisoFactor:
         B = np.asfortranarray(np.reshape(b, (shape[0], -1)), dtype=self.dtype)
         X = np.empty_like(B, order="F")
         with self._lock:
-            err = self._call(33, B, X)
+            prev = mkl_local_threads(self._lib, SOLVE_THREADS)  # memory-bound: see solver.linalg.threads
+            try:
+                err = self._call(33, B, X)
+            finally:
+                mkl_local_threads(self._lib, prev)
         if err:
             raise FactorizationError(f"PARDISO back-substitution failed ({_ERRORS.get(err, err)})",
                                      code="factorization_failed")

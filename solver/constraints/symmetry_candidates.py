@@ -99,19 +99,18 @@ def _params(text: bytes) -> dict[str, str]:
 
 
 def abaqus_cyclic(raw: bytes | None) -> list[dict[str, Any]]:
-    """``SPEC.cyclic`` entries from an Abaqus deck's ``*TIE, CYCLIC SYMMETRY`` and ``*CYCLIC SYMMETRY MODEL``.
+    r"""``SPEC.cyclic`` entries from an Abaqus deck's ``*TIE, CYCLIC SYMMETRY`` and ``*CYCLIC SYMMETRY MODEL``.
 
     Node surfaces (``*SURFACE, TYPE=NODE``) are resolved to their node sets.
     Abaqus names the slave surface first: the entry's faces are ``[master,
     slave]`` (A maps onto B). The sector angle is ``360 / N``; its sign (which
-    way A turns onto B) depends on the geometry, so both signs are listed
-    where the deck does not tell.
+    way A turns onto B) depends on the geometry: :func:`resolve_cyclic` picks it.
 
     Examples
     --------
-    >>> deck = (b"*SURFACE,NAME=l,TYPE=NODE\\nNL\\n*SURFACE,NAME=r,TYPE=NODE\\nNR\\n"
-    ...         b"*TIE,POSITION TOLERANCE=0.001,CYCLIC SYMMETRY,NAME=T1\\nl,r\\n"
-    ...         b"*CYCLIC SYMMETRY MODEL,N=12\\n0.,0.,0.,1.,0.,0.\\n")
+    >>> deck = (b"*SURFACE,NAME=l,TYPE=NODE\nNL\n*SURFACE,NAME=r,TYPE=NODE\nNR\n"
+    ...         b"*TIE,POSITION TOLERANCE=0.001,CYCLIC SYMMETRY,NAME=T1\nl,r\n"
+    ...         b"*CYCLIC SYMMETRY MODEL,N=12\n0.,0.,0.,1.,0.,0.\n")
     >>> abaqus_cyclic(deck)[0]["faces"], abaqus_cyclic(deck)[0]["angle_deg"]
     (['NR', 'NL'], 30.0)
     """

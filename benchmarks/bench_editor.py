@@ -13,7 +13,8 @@ Prints a table::
 
 With ``--views``, a second table gives, for each view of the editor (plain, rest ghost,
 displacement colour map, clipping plane, bad-element overlay off), the median time of a
-complete frame (render and GPU finish, ``window.tetmorph.measureFrames``) and the page's
+complete frame (render, then one pixel read back, which waits for the frame to be drawn;
+``window.tetmorph.measureFrames``) and the page's
 send → frame applied time of MOVEs sent with that view on.
 """
 

@@ -210,7 +210,8 @@ def create(pg, policy: str = "warn", timeout: float = 60000) -> None:
     before = json.dumps(pg.evaluate("window.tetmorph.state.sessionId"))
     pg.click("#create")
     pg.wait_for_function(f"window.tetmorph.state.sessionId !== null && window.tetmorph.state.sessionId !== {before}"
-                         " && window.tetmorph.state.ws && window.tetmorph.state.ws.open", timeout=timeout)
+                         " && window.tetmorph.state.ws && (window.tetmorph.state.ws.open || "
+                         "window.tetmorph.state.ws.readyState === 1)", timeout=timeout)
 
 
 def bracket_session(pg, policy: str = "warn") -> None:

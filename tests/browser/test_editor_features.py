@@ -507,15 +507,21 @@ def test_errors_are_said_in_the_users_words(page):
 
 # ---------------------------------------------------------------------------- keyboard
 def test_keyboard_only_upload_keys_and_esc(page):
+    choosers = []
+    page.on("filechooser", lambda fc: choosers.append(fc))  # intercepts the file dialog from here on
     page.evaluate("document.body.focus()")
     for _ in range(12):  # Tab to the Upload button
         page.keyboard.press("Tab")
         if page.evaluate("document.activeElement.id") == "upload-btn":
             break
     assert page.evaluate("document.activeElement.id") == "upload-btn"
-    with page.expect_file_chooser() as fc:
-        page.keyboard.press("Enter")
-    fc.value.set_files(str(BRACKET))
+    page.keyboard.press("Enter")
+    for _ in range(100):
+        if choosers:
+            break
+        page.wait_for_timeout(50)
+    assert choosers, "Enter on the Upload button opened no file dialog"
+    choosers[0].set_files(str(BRACKET))
     page.wait_for_function("window.tetmorph.state.meshName === 'bracket.inp'")
     assign_set(page, "FIXED", 1)
     assign_set(page, "LOAD", 2)

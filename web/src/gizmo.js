@@ -240,11 +240,13 @@ export class Moves {
     const entry = this.pending.get(seq);
     for (const k of this.pending.keys()) if (k <= seq) this.pending.delete(k);
     if (!report || !report.clamped) return;
+    if (!entry && seq !== state.seq) return;  // an older frame of a drag: the newest one decides
     const f = report.applied_fraction;
     const sent = entry ? entry.move : state.lastMove;
     if (!sent) return;
     const applied = Moves.scaled(sent, f);
     if (entry) { entry.move = applied; entry.label += ` · clamped to ${fmt(f)}`; emit("history"); }
+    if (seq === state.seq) state.lastMove = applied;  // what the session holds
     if (!this.dragging && (!entry || entry === state.history[state.historyIndex])) this.setFromMove(applied);
   }
 
@@ -259,7 +261,8 @@ export class Moves {
       if (state.historyIndex >= i) state.historyIndex -= 1;
     }
     state.moves = state.history.slice(1).map((e) => e.move);
-    this.setFromMove(state.history[state.historyIndex].move);
+    state.lastMove = state.history[state.historyIndex].move;  // what the session holds
+    this.setFromMove(state.lastMove);
     emit("history");
   }
 

@@ -54,7 +54,6 @@ export function clearError() {
 
 // ------------------------------------------------------------------ status
 export function setStatus(text) { $("session-status").textContent = text; }
-export function appendStatus(text) { $("session-status").textContent += text; }
 export function setProgress(f) { $("progress").value = f; }
 
 // ------------------------------------------------------------------ REPORT

@@ -57,9 +57,12 @@ export class Regions {
   tool() { return radio("tool"); }
   role() { return Number(radio("role")); }
 
+  /** A name the SPEC can use: letters, digits and _ . : = - only. */
+  static clean(base) { return String(base).replace(/[^A-Za-z0-9_.:=-]/g, "_").slice(0, 60) || "region"; }
+
   uniqueName(base) {
     const names = new Set(state.regions.map((r) => r.name));
-    let name = base.replace(/[^A-Za-z0-9_.:=-]/g, "_").slice(0, 60) || "region";
+    const name = Regions.clean(base);
     if (!names.has(name)) return name;
     for (let k = 2; ; k++) if (!names.has(`${name}_${k}`)) return `${name}_${k}`;
   }
@@ -161,7 +164,7 @@ export class Regions {
 
   /** A region holding exactly these vertices (a named set, a feature candidate, an imported selection). */
   fromIds(name, kind, ids, source) {
-    let r = state.regions.find((x) => x.name === name && x.kind === kind);
+    let r = state.regions.find((x) => x.name === Regions.clean(name) && x.kind === kind);
     if (!r) r = this.add(kind, name);
     this.apply(ids, "replace", r);
     r.source = source || null;
@@ -204,12 +207,6 @@ export class Regions {
     for (let i = 0; i < this.owner.length; i++) {
       if (this.owner[i] === region.id && (!usedOnly || state.used[i])) out.push(i);
     }
-    return out;
-  }
-
-  idsOfRole(r) {
-    const out = [];
-    for (let i = 0; i < state.role.length; i++) if (state.role[i] === r) out.push(i);
     return out;
   }
 

@@ -44,8 +44,10 @@ export class SessionControl {
     else this.close();
     setStatus("building…");
     setBusy("building");
+    let sid = null;
     try {
       let s = await postJson("/v1/sessions", { mesh_id: state.meshId, spec });
+      sid = s.id;
       this.own.add(s.id);
       this.building = s.id;
       for (let polls = 0; s.status === "building"; polls++) {
@@ -61,6 +63,7 @@ export class SessionControl {
       this.start(s.id, handles);
       state.presets = [];
       if (after) after();
+      emit("presets");
       const setup = s.setup_timings ? ` · set-up ${Math.round(s.setup_timings.total_ms)} ms` : "";
       setStatus(`session ${s.id} ready${setup}`);
       this.note();
@@ -68,6 +71,7 @@ export class SessionControl {
       return true;
     } catch (e) {
       this.building = null;
+      if (sid && state.sessionId !== sid) this.remove(sid, true);  // a build that failed leaves nothing behind
       setStatus("no session");
       showError(e);
       return false;
@@ -126,6 +130,7 @@ export class SessionControl {
       const { data } = decodeFrame(await r.arrayBuffer());
       this.serverNotes = Object.prototype.hasOwnProperty.call(doc, "notes");
       this.start(id, this.regions.handles());
+      state.specSent = doc.spec;
       this.meshView.applyPositions(data);
       if (doc.last_move) {
         state.history.push({ label: "last MOVE on the service", move: doc.last_move });

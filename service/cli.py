@@ -51,7 +51,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     from .observability import configure_logging
     from .settings import Settings
 
-    overrides: dict[str, Any] = {"demo": args.demo}
+    overrides: dict[str, Any] = {"demo": True} if args.demo else {}  # TETMORPH_DEMO=1 still applies
     if args.data_dir:
         overrides["data_dir"] = args.data_dir
     settings = Settings(**overrides)

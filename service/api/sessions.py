@@ -67,10 +67,13 @@ async def create_session(body: SessionCreate, owner: OwnerDep, reg: RegistryDep)
 @router.get("/sessions", summary="List your sessions", response_model=list[SessionDoc],
             responses={200: {"headers": PAGE_HEADERS}, **error_responses(*_AUTH, 422)})
 def list_sessions(owner: OwnerDep, reg: RegistryDep, request: Request, response: Response,
-                  limit: LimitQuery = 100, cursor: CursorQuery = None,
-                  name: NameQuery = None) -> list[dict[str, Any]]:
+                  limit: LimitQuery = 100, cursor: CursorQuery = None, name: NameQuery = None,
+                  mesh_id: Annotated[str | None, Query(max_length=64, description="only sessions of this mesh")]
+                  = None) -> list[dict[str, Any]]:
     """The caller's sessions, oldest first; ``name`` filters by a substring of the mesh's name."""
     rows = reg.list_sessions(owner)
+    if mesh_id is not None:
+        rows = [s for s in rows if s.mesh_id == mesh_id]
     if name is not None:
         names = {m["id"]: str(m.get("name", "")) for m in reg.list_meshes(owner)}
         rows = [s for s in rows if name in names.get(s.mesh_id, "")]

@@ -157,6 +157,26 @@ export class MeshView {
     this.surfGeom.getAttribute("color").needsUpdate = true;
   }
 
+  /** Boundary positions of a boundary-first frame (boundary vertices in ascending order): the surface only. */
+  applyBoundary(B) {
+    const t0 = performance.now();
+    if (!this.boundaryIds || this.boundaryIds.length !== B.length / 3) {
+      const ids = [];
+      for (let i = 0; i < state.boundary.length; i++) if (state.boundary[i]) ids.push(i);
+      this.boundaryIds = Int32Array.from(ids);
+    }
+    const V = state.V, ids = this.boundaryIds;
+    if (ids.length * 3 !== B.length) return;  // not this mesh's boundary: wait for the full frame
+    for (let k = 0; k < ids.length; k++) {
+      const i = 3 * ids[k];
+      V[i] = B[3 * k]; V[i + 1] = B[3 * k + 1]; V[i + 2] = B[3 * k + 2];
+    }
+    this.surfGeom.getAttribute("position").needsUpdate = true;
+    this.surfGeom.computeVertexNormals();
+    state.boundaryFrames = (state.boundaryFrames || 0) + 1;
+    state.boundaryApplyMs = performance.now() - t0;
+  }
+
   /** New positions (a frame, or the rest shape): normals, quality and derived views follow. */
   applyPositions(P) {
     const t0 = performance.now();

@@ -197,6 +197,10 @@ export class SessionControl {
   }
 
   frame({ header, data }) {
+    if (header.frame === "boundary") {  // the surface at once; quality and the REPORT come with the full frame
+      this.meshView.applyBoundary(data);
+      return;
+    }
     const rtt = header.seq === state.seq ? performance.now() - state.sentAt : undefined;
     this.meshView.applyPositions(data);
     state.lastSeq = header.seq;

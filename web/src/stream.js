@@ -1,5 +1,7 @@
 // The WebSocket of a session: MOVEs out as JSON text frames, solved positions back as TMF1
-// binary frames (service/api/stream.py). Latest MOVE wins on the server.
+// binary frames (service/api/stream.py). Latest MOVE wins on the server. The stream asks for
+// boundary-first frames: each MOVE's boundary positions as soon as the boundary system is solved
+// (header.frame "boundary", the boundary vertices in ascending order), then its full frame.
 import { decodeFrame } from "./binary.js";
 
 export class Stream {
@@ -12,7 +14,7 @@ export class Stream {
    */
   constructor(sessionId, key, { onFrame, onMessage, onClose }) {
     const proto = location.protocol === "https:" ? "wss" : "ws";
-    const q = `kind=positions&dtype=float32${key ? `&api_key=${encodeURIComponent(key)}` : ""}`;
+    const q = `kind=positions&dtype=float32&frames=boundary${key ? `&api_key=${encodeURIComponent(key)}` : ""}`;
     this.ws = new WebSocket(`${proto}://${location.host}/v1/sessions/${sessionId}/stream?${q}`);
     this.ws.binaryType = "arraybuffer";
     this.ws.onmessage = (ev) => {

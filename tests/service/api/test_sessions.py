@@ -303,3 +303,15 @@ def test_listings_are_paginated_and_filtered(client, tc):
     assert [m["name"] for m in tc.get("/v1/meshes?name=cube3").json()] == ["cube3"]
     r = tc.get("/v1/meshes?cursor=bogus")
     assert r.status_code == 422 and err(r)["code"] == "invalid_request"
+
+
+def test_sessions_are_listed_per_mesh(client, tc):
+    a = client.upload_arrays(*cube_mesh(2), name="a")
+    b = client.upload_arrays(*cube_mesh(2), name="b")
+    spec = {"selections": {"lo": {"box": {"min": [0, 0, 0], "max": [1, 1, 0]}},
+                           "hi": {"box": {"min": [0, 0, 1], "max": [1, 1, 1]}}},
+            "fixed": ["lo"], "handles": {"h": "hi"}}
+    sa = client.create_session(a["id"], spec)["id"]
+    client.create_session(b["id"], spec)
+    assert [s["id"] for s in tc.get("/v1/sessions", params={"mesh_id": a["id"]}).json()] == [sa]
+    assert tc.get("/v1/sessions", params={"mesh_id": "m_none"}).json() == []

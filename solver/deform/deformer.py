@@ -18,7 +18,6 @@ from typing import Any
 
 from ..constraints.move import Move, parse_move, scaled_move
 from ..constraints.spec import Spec, parse_spec
-from ..linalg.threads import update_threads
 from ..mesh import Mesh
 from ..validity.quality import element_quality, summarize_quality
 from ..validity.safe_fraction import SAFE_TOL
@@ -85,8 +84,7 @@ class Deformer:
 
         Pass the stage to :meth:`solve` for the rest.
         """
-        with update_threads():
-            return solve_boundary(self.data, self.parse_move(move))
+        return solve_boundary(self.data, self.parse_move(move))
 
     def scaled_move(self, move: Move | dict[str, Any], f: float) -> Move:
         """The MOVE scaled by ``f`` in [0, 1] (:func:`~solver.constraints.move.scaled_move`)."""
@@ -95,8 +93,7 @@ class Deformer:
     def safe_fraction(self, move: Move | dict[str, Any], tol: float = SAFE_TOL,
                       inverts: bool | None = None) -> tuple[float, int]:
         """Largest fraction of a MOVE that inverts no element, and the solves used (bisection)."""
-        with update_threads():
-            return move_safe_fraction(self.data, self.parse_move(move), tol, inverts)
+        return move_safe_fraction(self.data, self.parse_move(move), tol, inverts)
 
     def quality_before(self) -> dict[str, Any]:
         """Summary of every quality metric of the rest mesh."""
@@ -133,17 +130,16 @@ class Deformer:
         t0 = time.perf_counter()
         policy = inversion or self.spec.inversion
         check_options(policy, quality)
-        with update_threads():
-            if isinstance(move, BoundaryStage):
-                mv, t1 = move.move, time.perf_counter()
-                solved = complete(self.data, move)
-            else:
-                mv = self.parse_move(move)
-                t1 = time.perf_counter()
-                solved = solve_positions(self.data, mv)
-            t2 = time.perf_counter()
-            return update(self.data, mv, solved, policy, quality, self.spec.repair if repair is None else repair,
-                          (t0, t1, t2))
+        if isinstance(move, BoundaryStage):
+            mv, t1 = move.move, time.perf_counter()
+            solved = complete(self.data, move)
+        else:
+            mv = self.parse_move(move)
+            t1 = time.perf_counter()
+            solved = solve_positions(self.data, mv)
+        t2 = time.perf_counter()
+        return update(self.data, mv, solved, policy, quality, self.spec.repair if repair is None else repair,
+                      (t0, t1, t2))
 
     def solve_many(self, moves: list[Move | dict[str, Any]], inversion: str | None = None,
                    quality: str = "basic", repair: bool | None = None) -> list[DeformResult]:
@@ -156,15 +152,13 @@ class Deformer:
         policy = inversion or self.spec.inversion
         check_options(policy, quality)
         mvs = [self.parse_move(m) for m in moves]
-        with update_threads():
-            t1 = time.perf_counter()
-            solved = solve_positions_many(self.data, mvs)
-            t2 = time.perf_counter()
-            k = max(len(mvs), 1)
-            share = (t0, t0 + (t1 - t0) / k, t0 + (t2 - t0) / k)
-            rep = self.spec.repair if repair is None else repair
-            return [update(self.data, mv, s, policy, quality, rep, share)
-                    for mv, s in zip(mvs, solved, strict=True)]
+        t1 = time.perf_counter()
+        solved = solve_positions_many(self.data, mvs)
+        t2 = time.perf_counter()
+        k = max(len(mvs), 1)
+        share = (t0, t0 + (t1 - t0) / k, t0 + (t2 - t0) / k)
+        rep = self.spec.repair if repair is None else repair
+        return [update(self.data, mv, s, policy, quality, rep, share) for mv, s in zip(mvs, solved, strict=True)]
 
 
 def precompute(mesh: Mesh, spec: Spec | dict[str, Any]) -> Deformer:

@@ -8,9 +8,11 @@ on the 107k-tet bracket while this 2-core machine ran other work: the
 interior PARDISO solve 5.0-13.3 ms with one thread against 4.9-12.7 ms with
 two, and the whole update 14.6-34.1 ms against 35.5-99.0 ms (a script timing
 ``Deformer.solve`` under ``threadpool_limits``; ``benchmarks/bench_update.py``
-gives the tables). So updates run on ``SOLVE_THREADS`` threads (default 1,
-``TETMORPH_SOLVE_THREADS`` to change), set per calling thread for MKL and
-numba; factorizations keep every thread.
+gives the tables). So PARDISO back-substitutions run on ``SOLVE_THREADS``
+threads (default 1, ``TETMORPH_SOLVE_THREADS`` to change), set per calling
+thread; factorizations keep every thread. The element check is arithmetic,
+not bandwidth: it keeps numba's threads (1M tets: 16 ms on one, 8.5 ms on two).
+:func:`update_threads` limits numba for callers that want one thread.
 """
 
 from __future__ import annotations

@@ -42,10 +42,12 @@ class CheckResult:
         Degenerate elements.
     min_sj, p01_sj : float or None
         Smallest and 1st-percentile (order statistic ``m // 100``) scaled Jacobian.
-    sj : (M,) float array
-        Scaled Jacobian of every element (corner tets for quadratic meshes).
+    sj_ordered : (M,) float array
+        Scaled Jacobian of every element, in the order the check ran them (``order``).
     node_jacobians : (m, 10) float array or None
         Quadratic meshes only.
+    order : (M,) int array or None
+        Element of each entry of ``sj_ordered`` (None: element order).
     """
 
     count: int
@@ -53,11 +55,21 @@ class CheckResult:
     degenerate: int
     min_sj: float | None
     p01_sj: float | None
-    sj: np.ndarray
+    sj_ordered: np.ndarray
     node_jacobians: np.ndarray | None = None
+    order: np.ndarray | None = None
+
+    @property
+    def sj(self) -> np.ndarray:
+        """(M,) scaled Jacobian of every element in element order (corner tets for quadratic meshes)."""
+        if self.order is None:
+            return self.sj_ordered
+        out = np.empty_like(self.sj_ordered)
+        out[self.order] = self.sj_ordered
+        return out
 
 
-@numba.njit(parallel=True, cache=True, nogil=True)
+@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
 def _tet_check_kernel(V, T, tol, rest_flat, nbins, sj, counts, mins, first, hist):  # pragma: no cover
     m = T.shape[0]
     nch = counts.shape[0]
@@ -130,17 +142,22 @@ def _select_p01(sj: np.ndarray, hist: np.ndarray) -> float:
 
 
 def tet_check(V: np.ndarray, T: np.ndarray, tol: float = DEGENERATE_TOL,
-              rest_flat: np.ndarray | None = None) -> CheckResult:
+              rest_flat: np.ndarray | None = None, order: np.ndarray | None = None) -> CheckResult:
     """The check of linear tetrahedra in one compiled pass (see the module docstring).
 
     Parameters
     ----------
     V : (n, 3) float array
     T : (m, 4) int32 or int64 array
+        The tets, in the order to visit them (``order[k]`` is the element id of ``T[k]``).
     tol : float
         Degeneracy threshold of ``|scaled Jacobian|``.
     rest_flat : (m,) bool array, optional
-        Tets flat (degenerate) at rest: counted only when inverted beyond ``tol``.
+        Tets flat (degenerate) at rest (in ``T``'s order): counted only when inverted beyond ``tol``.
+    order : (m,) int array, optional
+        Element ids of the rows of ``T`` (a permutation; None: the identity). Visiting tets
+        sorted by their smallest vertex keeps the vertex reads local (1M-tet bracket, one
+        thread: 25 ms in file order, 16 ms sorted).
 
     Returns
     -------
@@ -164,9 +181,16 @@ def tet_check(V: np.ndarray, T: np.ndarray, tol: float = DEGENERATE_TOL,
     hist = np.zeros((nch, SJ_BINS), np.int64)
     flat = np.zeros(m, np.uint8) if rest_flat is None else rest_flat.view(np.uint8)
     _tet_check_kernel(np.ascontiguousarray(V, dtype=np.float64), T, tol, flat, SJ_BINS, sj, counts, mins, first, hist)
-    ids = np.concatenate([first[c, :min(int(counts[c, 0]), REPORT_IDS)] for c in range(nch)])[:REPORT_IDS]
-    return CheckResult(int(counts[:, 0].sum()), ids, int(counts[:, 1].sum()), float(mins.min()),
-                       _select_p01(sj, hist.sum(axis=0)), sj)
+    count = int(counts[:, 0].sum())
+    if order is None:
+        ids = np.concatenate([first[c, :min(int(counts[c, 0]), REPORT_IDS)] for c in range(nch)])[:REPORT_IDS]
+    elif count <= REPORT_IDS:  # every bad tet was collected: their element ids, ascending
+        ids = np.sort(order[np.concatenate([first[c, :int(counts[c, 0])] for c in range(nch)])])
+    else:  # the smallest element ids among many: from the scaled Jacobians
+        bad = sj <= tol if rest_flat is None else np.where(rest_flat, sj < -tol, sj <= tol)
+        ids = np.sort(order[np.flatnonzero(bad)])[:REPORT_IDS]
+    return CheckResult(count, ids, int(counts[:, 1].sum()), float(mins.min()), _select_p01(sj, hist.sum(axis=0)), sj,
+                       order=order)
 
 
 class ElementCheck:
@@ -192,6 +216,10 @@ class ElementCheck:
                  T10: np.ndarray | None = None, flat: np.ndarray | None = None) -> None:
         small = V0.shape[0] < 2**31 - 1
         self.T = np.ascontiguousarray(T, dtype=np.int32 if small else np.int64)
+        #: Tets sorted by their smallest vertex (local vertex reads), and the element id of each.
+        self.order = np.argsort(self.T.min(axis=1), kind="stable") if len(self.T) else np.zeros(0, np.int64)
+        self.T_sorted = np.ascontiguousarray(self.T[self.order])
+        self._flat_sorted: np.ndarray | None = None
         self.cells = cells
         self.T10 = T10
         self.valid_rest = node_jacobians(V0, T10).min(axis=1) > 0 if T10 is not None else None
@@ -201,6 +229,8 @@ class ElementCheck:
         if flat is not None and len(flat):
             is_flat[np.asarray(flat, np.int64)] = True
         self.rest_flat = is_flat if is_flat.any() else None
+        if self.rest_flat is not None and not self.cells and self.T10 is None:
+            self._flat_sorted = np.ascontiguousarray(self.rest_flat[self.order])
         #: Elements flat at rest (zero volume), reported apart from what a morph inverts.
         self.degenerate_at_rest = np.flatnonzero(is_flat)
         self.sj_before = (rest.min_sj, rest.p01_sj)
@@ -220,7 +250,7 @@ class ElementCheck:
         CheckResult
         """
         if not self.cells and self.T10 is None:
-            return tet_check(P, self.T, rest_flat=self.rest_flat)
+            return tet_check(P, self.T_sorted, rest_flat=self._flat_sorted, order=self.order)
         vol6, sj = element_jacobians(P, self.T, self.cells)
         degenerate = np.abs(sj) <= DEGENERATE_TOL
         bad = (vol6 <= 0) | degenerate

@@ -80,6 +80,13 @@ _ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering pr
            -15: "internal error"}
 
 
+def check_index_range(nnz: int, what: str) -> None:
+    """Refuse a matrix whose nonzeros do not fit PARDISO's 32-bit indices (``too_large``)."""
+    if nnz >= 2**31:
+        raise FactorizationError(f"{what}: {nnz} nonzeros exceed PARDISO's 32-bit indices", code="too_large",
+                                 nonzeros=nnz)
+
+
 class PardisoFactor:
     """A PARDISO factorization of one sparse matrix, owned by this object.
 
@@ -124,8 +131,7 @@ class PardisoFactor:
         A = sp.csr_matrix(M)
         A.sum_duplicates()
         A.sort_indices()
-        if A.nnz >= 2**31:
-            raise FactorizationError(f"{what}: {A.nnz} nonzeros exceed PARDISO's 32-bit indices", code="too_large")
+        check_index_range(int(A.nnz), what)
         self._a = np.ascontiguousarray(A.data, dtype=self.dtype)
         self._ia = np.ascontiguousarray(A.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(A.indices, dtype=np.int32)

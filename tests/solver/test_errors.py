@@ -104,3 +104,12 @@ def test_unconstrained_shell_when_voids_are_refused():
     with pytest.raises(ConstraintError) as e:
         precompute(m, spec)
     assert e.value.code == "unconstrained_shell"
+
+
+def test_too_large_for_pardiso_indices():
+    from solver.linalg.pardiso import check_index_range
+
+    check_index_range(2**31 - 1, "fits")
+    with pytest.raises(FactorizationError) as e:
+        check_index_range(2**31, "interior mean-value system")
+    assert e.value.code == "too_large" and e.value.details["nonzeros"] == 2**31

@@ -237,13 +237,13 @@ class SplitPositions(Positions):
 
         scale = np.array([max(float(np.sqrt((dx[:, 3 * j:3 * j + 3] ** 2).sum(axis=1)).max()), 1e-300)
                           for j in range(k)])
-        rels = [rel(res, j, scale) for j in range(k)]
-        refined = [r > MIXED_TOL for r in rels]
+        rels = [float(rel(res, j, scale)) for j in range(k)]
+        refined = [bool(r > MIXED_TOL) for r in rels]
         if any(refined):
             cols = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
             P[np.ix_(fi, cols)] -= np.asarray(self.interior.solve(res[:, cols]), dtype=np.float64)
             res = self.Mfi @ P
-            rels = [rel(res, j, scale) if refined[j] else rels[j] for j in range(k)]
+            rels = [float(rel(res, j, scale)) if refined[j] else rels[j] for j in range(k)]
         return [PositionSolve(P[:, 3 * j:3 * j + 3].copy(), rels[j], refined[j]) for j in range(k)]
 
 

@@ -56,3 +56,11 @@ def test_mixed_precision_is_within_its_stated_accuracy_of_the_exact_solve(name, 
     assert np.array_equal(mixed.V[fixed], mesh.V[fixed])
     assert rep["constraint_residual_max"] <= 1e-12 * d.data.constraints.diag
     assert rep["inverted_elements"] == exact.report["inverted_elements"]
+
+
+def test_the_report_is_plain_json(bracket):
+    import json
+
+    r = precompute(bracket, bend_spec(bracket)).solve(bend_move(bracket, angle=10.0, frac=0.01))
+    assert r.report["interior_precision"] == "single"
+    json.dumps(r.report, allow_nan=False)  # only Python numbers, bools and strings: no numpy scalars

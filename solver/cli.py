@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from .documents import dump_json, load_json
 from .errors import InversionError, SolverError
 from .io import read_mesh, write_mesh
 
@@ -51,27 +52,6 @@ def _version() -> str:
         from . import __version__
 
         return __version__
-
-
-def _load_json(path: str, what: str) -> Any:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
-    except FileNotFoundError:
-        raise SolverError(f"{what} file not found: {path}", code="file_not_found") from None
-    except json.JSONDecodeError as e:
-        raise SolverError(f"{what} file {path} is not valid JSON: {e}", code="invalid_json") from None
-
-
-def _dump(obj: Any, path: str | None) -> None:
-    text = json.dumps(obj, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o))
-    if path is None or path == "-":
-        sys.stdout.write(text + "\n")
-        sys.stdout.flush()
-    else:
-        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
 
 
 def _progress(after: float | None = None) -> Callable[[str, float], None]:
@@ -107,7 +87,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     if not mesh.is_surface:  # ready-to-paste SPEC entries (SPEC.symmetry, SPEC.cyclic)
         out["symmetry"] = {"planes": symmetry_candidates(mesh),
                            "cyclic": [resolve_cyclic(mesh, e) for e in abaqus_cyclic(mesh.raw)]}
-    _dump(out, None)
+    dump_json(out, None)
     return EXIT_OK
 
 
@@ -117,15 +97,15 @@ def cmd_morph(args: argparse.Namespace) -> int:
     if (args.move is None) == (args.moves is None):
         raise SolverError("give exactly one of --move MOVE.json or --moves MOVES.json", code="usage")
     mesh = read_mesh(args.mesh, args.format)
-    spec = _load_json(args.spec, "SPEC")
+    spec = load_json(args.spec, "SPEC")
     if args.repair:
         if not isinstance(spec, dict):
             raise SolverError(f"{args.spec} must hold a JSON object (the SPEC)", code="invalid_json")
         spec = {**spec, "repair": True}
     if args.move is not None:
-        moves = [_load_json(args.move, "MOVE")]
+        moves = [load_json(args.move, "MOVE")]
     else:
-        moves = _load_json(args.moves, "MOVES")
+        moves = load_json(args.moves, "MOVES")
         if not isinstance(moves, list) or not moves:
             raise SolverError(f"{args.moves} must hold a non-empty JSON list of MOVE documents",
                               code="invalid_json")
@@ -164,7 +144,7 @@ def cmd_morph(args: argparse.Namespace) -> int:
     _say(f"setup {deformer.setup_timings['total_ms']:.0f} ms ({deformer.solve_mode} solve, "
          f"{deformer.factorizations} factorizations for {len(moves)} moves)")
     if args.report:
-        _dump(reports[0] if args.move is not None else reports, args.report)
+        dump_json(reports[0] if args.move is not None else reports, args.report)
     rejected = sum(r["output"] is None for r in reports)
     return EXIT_REJECTED if rejected else EXIT_OK
 
@@ -201,7 +181,7 @@ def cmd_features(args: argparse.Namespace) -> int:
         w = write_mesh(mesh, mesh.V, args.write, args.output_format, point_sets=sets, lossy=args.lossy)
         _dropped(w, args.write)
         out["written"] = {"path": args.write, "sets": sorted(sets), **w.to_dict()}
-    _dump(out, None)
+    dump_json(out, None)
     return EXIT_OK
 
 
@@ -223,7 +203,7 @@ def cmd_tetrahedralize(args: argparse.Namespace) -> int:
          + (f"{used['edge_length']:g}" if used["edge_length"] else f"{used['edge_length_fac']:g} of the diagonal")
          + (", after a retry" if info["retried"] else "") + ")")
     if args.report:
-        _dump({"source": args.surface, "output": args.output, "vertices": mesh.n, "tetrahedra": int(len(mesh.T)),
+        dump_json({"source": args.surface, "output": args.output, "vertices": mesh.n, "tetrahedra": int(len(mesh.T)),
                **info, "written": w.to_dict()}, args.report)
     return EXIT_OK
 
@@ -322,7 +302,7 @@ def main(argv: list[str] | None = None, extend: Callable[[Any], None] | None = N
     except SolverError as e:
         _say(f"tetmorph: error [{e.code}]: {e.message}")
         if getattr(args, "report", None):
-            _dump({"error": e.to_dict()}, args.report)
+            dump_json({"error": e.to_dict()}, args.report)
         return EXIT_ERROR
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..constraints.rows import REPORT_IDS
 from .midside import Placement, node_jacobians
-from .quality import DEGENERATE_TOL, element_jacobians, first_percentile
+from .quality import DEGENERATE_TOL, element_jacobians, first_percentile, tet_det_sj
 
 __all__ = ["ElementCheck", "SurfaceCheck", "CheckResult", "tet_check", "triangle_quality"]
 
@@ -81,22 +81,7 @@ def _tet_check_kernel(V, T, tol, rest_flat, nbins, sj, counts, mins, first, hist
         ndeg = 0
         smin = 2.0
         for t in range(lo, hi):
-            a, b, cc, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
-            x0, y0, z0 = V[a, 0], V[a, 1], V[a, 2]
-            ux, uy, uz = V[b, 0] - x0, V[b, 1] - y0, V[b, 2] - z0
-            vx, vy, vz = V[cc, 0] - x0, V[cc, 1] - y0, V[cc, 2] - z0
-            wx, wy, wz = V[d, 0] - x0, V[d, 1] - y0, V[d, 2] - z0
-            det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)
-            l01 = ux * ux + uy * uy + uz * uz
-            l02 = vx * vx + vy * vy + vz * vz
-            l03 = wx * wx + wy * wy + wz * wz
-            l12 = (vx - ux) ** 2 + (vy - uy) ** 2 + (vz - uz) ** 2
-            l13 = (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
-            l23 = (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
-            corner = max(max(l01 * l02 * l03, l01 * l12 * l13), max(l02 * l12 * l23, l03 * l13 * l23))
-            s = 0.0
-            if det != 0.0:
-                s = min(1.0, max(-1.0, 1.4142135623730951 * det / np.sqrt(corner)))
+            det, s = tet_det_sj(V, T[t, 0], T[t, 1], T[t, 2], T[t, 3])
             sj[t] = s
             degen = abs(s) <= tol
             if degen:

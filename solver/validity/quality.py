@@ -59,27 +59,34 @@ def _edges2(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 
+@numba.njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def tet_det_sj(V, a, b, c, d):  # pragma: no cover - compiled
+    """Six times the signed volume and the scaled Jacobian of the tet ``(a, b, c, d)`` of ``V``.
+
+    ``sj = sqrt(2) det / sqrt(max over corners of the product of its three squared edge lengths)``,
+    clipped to [-1, 1]; 0 for a flat tet. Compiled inline into the kernels that call it.
+    """
+    x0, y0, z0 = V[a, 0], V[a, 1], V[a, 2]
+    ux, uy, uz = V[b, 0] - x0, V[b, 1] - y0, V[b, 2] - z0
+    vx, vy, vz = V[c, 0] - x0, V[c, 1] - y0, V[c, 2] - z0
+    wx, wy, wz = V[d, 0] - x0, V[d, 1] - y0, V[d, 2] - z0
+    det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)
+    l01 = ux * ux + uy * uy + uz * uz
+    l02 = vx * vx + vy * vy + vz * vz
+    l03 = wx * wx + wy * wy + wz * wz
+    l12 = (vx - ux) ** 2 + (vy - uy) ** 2 + (vz - uz) ** 2
+    l13 = (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
+    l23 = (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
+    corner = max(max(l01 * l02 * l03, l01 * l12 * l13), max(l02 * l12 * l23, l03 * l13 * l23))
+    if det == 0.0:
+        return det, 0.0
+    return det, min(1.0, max(-1.0, 1.4142135623730951 * det / np.sqrt(corner)))
+
+
 @numba.njit(parallel=True, cache=True, nogil=True)
 def _tet_quality_kernel(V, T, vol6, sj):  # pragma: no cover - compiled
     for t in numba.prange(T.shape[0]):
-        a, b, c, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
-        x0, y0, z0 = V[a, 0], V[a, 1], V[a, 2]
-        ux, uy, uz = V[b, 0] - x0, V[b, 1] - y0, V[b, 2] - z0
-        vx, vy, vz = V[c, 0] - x0, V[c, 1] - y0, V[c, 2] - z0
-        wx, wy, wz = V[d, 0] - x0, V[d, 1] - y0, V[d, 2] - z0
-        det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)
-        l01 = ux * ux + uy * uy + uz * uz
-        l02 = vx * vx + vy * vy + vz * vz
-        l03 = wx * wx + wy * wy + wz * wz
-        l12 = (vx - ux) ** 2 + (vy - uy) ** 2 + (vz - uz) ** 2
-        l13 = (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
-        l23 = (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
-        corner = max(max(l01 * l02 * l03, l01 * l12 * l13), max(l02 * l12 * l23, l03 * l13 * l23))
-        vol6[t] = det
-        if det == 0.0:
-            sj[t] = 0.0
-        else:
-            sj[t] = min(1.0, max(-1.0, 1.4142135623730951 * det / np.sqrt(corner)))
+        vol6[t], sj[t] = tet_det_sj(V, T[t, 0], T[t, 1], T[t, 2], T[t, 3])
 
 
 def tet_quality(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,14 +15,13 @@ rejected, 2 usage errors.
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
 from typing import Any
 
 import numpy as np
 
 from ..deform.deformer import Deformer, precompute
+from ..documents import dump_json, load_json
 from ..errors import SolverError
 from ..io import read_mesh
 from ..mesh import Mesh
@@ -35,30 +34,10 @@ from .shapes import Shapes, parse_shapes
 __all__ = ["add_commands", "build_parser", "main"]
 
 
-def _load_json(path: str, what: str) -> Any:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
-    except FileNotFoundError:
-        raise SolverError(f"{what} file not found: {path}", code="file_not_found") from None
-    except json.JSONDecodeError as e:
-        raise SolverError(f"{what} file {path} is not valid JSON: {e}", code="invalid_json") from None
-
-
-def _dump(obj: Any, path: str | None) -> None:
-    text = json.dumps(obj, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o))
-    if path is None or path == "-":
-        print(text)
-        return
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(text + "\n")
-
-
 def _setup(args: argparse.Namespace) -> tuple[Mesh, Deformer, Shapes]:
     """Read the mesh, factor the SPEC, parse the shapes (in that order of cost: documents first)."""
-    spec = _load_json(args.spec, "SPEC")
-    shapes_doc = _load_json(args.shapes, "SHAPES")
+    spec = load_json(args.spec, "SPEC")
+    shapes_doc = load_json(args.shapes, "SHAPES")
     mesh = read_mesh(args.mesh, args.format)
     deformer = precompute(mesh, spec)
     return mesh, deformer, parse_shapes(shapes_doc, deformer)
@@ -92,7 +71,7 @@ def cmd_doe(args: argparse.Namespace) -> int:
           f"solve {t['solve_ms']:.0f} ms ({t['per_variant_ms']:.1f} ms per variant), writing "
           f"{t['output_ms']:.0f} ms; summary {args.summary}")
     if args.report:
-        _dump({**result.to_dict(), "reports": [v.report for v in result.variants]}, args.report)
+        dump_json({**result.to_dict(), "reports": [v.report for v in result.variants]}, args.report)
     return 1 if any(v.status != "ok" for v in result.variants) else 0
 
 
@@ -101,7 +80,7 @@ def cmd_bounds(args: argparse.Namespace) -> int:
     lo, hi = (args.range if args.range is not None else (None, None))
     _, deformer, shapes = _setup(args)
     result = shape_bounds(deformer, shapes, lo=lo, hi=hi, tol=args.tol)
-    _dump(result.to_dict(), args.output)
+    dump_json(result.to_dict(), args.output)
     return 0
 
 

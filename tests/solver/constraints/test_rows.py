@@ -6,42 +6,12 @@ exactly on cylinders of radius 6 with axes along z.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from solver import ConstraintError, SpecError, precompute, read_mesh
 from solver.linalg import factorization as fz
-
-DATA = Path(__file__).resolve().parents[2] / "data"
-
-
-RADIUS = 6.0
-
-
-HOLES = {1: (160 / 3, 80 / 3), 2: (320 / 3, 80 / 3), 3: (160 / 3, 160 / 3), 4: (320 / 3, 160 / 3)}
-
-
-EXACT = ("null_space", "kkt")
-
-
-@pytest.fixture(scope="module")
-def plate():
-    return read_mesh(DATA / "plate.inp")
-
-
-def _diag(m):
-    return float(np.linalg.norm(m.V.max(0) - m.V.min(0)))
-
-
-def _spec(**extra):
-    sels = {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}, "bottom": {"set": "BOTTOM"},
-            **{f"hole{k}": {"set": f"HOLE{k}"} for k in HOLES}}
-    return {"selections": sels, "fixed": ["fix"], "handles": {"tip": "load"}, **extra}
-
-
-BEND = {"handles": {"tip": {"translation": [0, 0, 20], "rotation": {"axis": [0, 1, 0], "angle_deg": -25}}}}
+from tests.solver.plate import BEND, EXACT, HOLES, PLATE, RADIUS, diag, plate_spec
 
 
 def _procrustes(P0, P):
@@ -58,6 +28,11 @@ def _radii(P, axis_point, axis_dir):
     return np.linalg.norm(d - np.outer(d @ axis_dir, axis_dir), axis=1)
 
 
+@pytest.fixture(scope="module")
+def plate():
+    return read_mesh(PLATE)
+
+
 def test_plate_hole_nodes_are_on_their_cylinders(plate):
     for k, (x, y) in HOLES.items():
         ids = plate.sets[f"HOLE{k}"]
@@ -67,7 +42,7 @@ def test_plate_hole_nodes_are_on_their_cylinders(plate):
 
 @pytest.mark.parametrize("method", EXACT)
 def test_rigid_holes_stay_circles_of_their_radius_and_scale_exactly(plate, method):
-    spec = _spec(features=[{"selection": "hole1", "mode": "rigid", "name": "H1"},
+    spec = plate_spec(features=[{"selection": "hole1", "mode": "rigid", "name": "H1"},
                            {"selection": "hole2", "mode": "rigid", "name": "H2"},
                            {"selection": "hole3", "mode": "keep_direction", "name": "H3"},
                            {"selection": "hole4", "mode": "rigid", "name": "H4"}],
@@ -100,7 +75,7 @@ def test_rigid_holes_stay_circles_of_their_radius_and_scale_exactly(plate, metho
 
 def test_without_features_the_holes_deform(plate):
     """The same bend without features distorts the holes: the features are what holds them."""
-    r = precompute(plate, _spec()).solve(BEND)
+    r = precompute(plate, plate_spec()).solve(BEND)
     errs = [_procrustes(plate.V[plate.sets[f"HOLE{k}"]], r.V[plate.sets[f"HOLE{k}"]])[0] for k in HOLES]
     assert max(errs) > 1e-3
 
@@ -108,13 +83,13 @@ def test_without_features_the_holes_deform(plate):
 @pytest.mark.parametrize("method", EXACT)
 @pytest.mark.parametrize("solve", ["auto", "joint"])
 def test_on_plane_on_line_and_sliding_are_exact(plate, method, solve):
-    spec = _spec(sliding=[{"selection": "bottom", "normal": [0, 0, 1]}],
+    spec = plate_spec(sliding=[{"selection": "bottom", "normal": [0, 0, 1]}],
                  motion=[{"name": "c1", "selection": "hole1", "plane": {"normal": [1, 1, 0]}},
                          {"name": "c2", "selection": "hole2", "line": {"direction": [0, 0, 1]}}],
                  constraints={"method": method}, solve=solve)
     d = precompute(plate, spec)
     n0 = fz.STATS["factorizations"]
-    tol = 1e-12 * _diag(plate)
+    tol = 1e-12 * diag(plate)
     normal = np.array([1.0, 1.0, 0]) / np.sqrt(2)
     for k, (p1, p2) in enumerate((([50, 0, 0], [110, 30, 0]), ([56, 2, 3], [104, 25, 7]))):
         mv = {"handles": {"tip": {"translation": [4.0 * k, 3, 0],
@@ -132,7 +107,7 @@ def test_on_plane_on_line_and_sliding_are_exact(plate, method, solve):
 
 
 def test_sliding_nodes_that_are_also_fixed_are_redundant_not_conflicting(plate):
-    spec = _spec(sliding=[{"selection": "bottom", "normal": [0, 0, 1]}])
+    spec = plate_spec(sliding=[{"selection": "bottom", "normal": [0, 0, 1]}])
     rep = precompute(plate, spec).solve(
         {"handles": {"tip": {"translation": [3, 1, 0]}}}).report
     both = np.intersect1d(plate.sets["BOTTOM"], np.union1d(plate.sets["FIXED"], plate.sets["LOAD"]))
@@ -143,22 +118,22 @@ def test_sliding_nodes_that_are_also_fixed_are_redundant_not_conflicting(plate):
     rep = precompute(plate, spec).solve({"handles": {"tip": {"translation": [0, 0, 2]}}}).report
     assert len(rep["conflicting_constraints"]) == np.intersect1d(both, plate.sets["LOAD"]).size
     assert all(abs(e["residual"] - 2) < 1e-9 for e in rep["conflicting_constraints"])
-    assert rep["constraint_residual_max"] <= 1e-12 * _diag(plate)
+    assert rep["constraint_residual_max"] <= 1e-12 * diag(plate)
 
 
 @pytest.mark.parametrize("method", EXACT)
 def test_two_positions_for_one_vertex_conflict_and_the_rest_stays_exact(plate, method):
     v = int(plate.sets["FIXED"][5])
-    spec = _spec(points=[{"name": "pull", "vertices": [v], "target": (plate.V[v] + [1, 0, 0]).tolist()}],
+    spec = plate_spec(points=[{"name": "pull", "vertices": [v], "target": (plate.V[v] + [1, 0, 0]).tolist()}],
                  features=[{"selection": "hole1", "mode": "rigid", "name": "H1"}],
                  constraints={"method": method})
     r = precompute(plate, spec).solve(BEND)
     (c,) = r.report["conflicting_constraints"]
     assert (c["kind"], c["name"], c["index"], c["vertices"]) == ("point", "pull", 0, [v])
     assert abs(c["residual"] - 1.0) < 1e-9
-    assert r.report["constraint_residual_max"] <= 1e-11 * _diag(plate)
+    assert r.report["constraint_residual_max"] <= 1e-11 * diag(plate)
     # the fixed vertex, listed first, wins: to the bit by elimination, to round-off by KKT
-    assert np.abs(r.V[v] - plate.V[v]).max() <= (0.0 if method == "null_space" else 1e-12 * _diag(plate))
+    assert np.abs(r.V[v] - plate.V[v]).max() <= (0.0 if method == "null_space" else 1e-12 * diag(plate))
     assert np.isfinite(r.V).all()
     with pytest.raises(ConstraintError) as e:
         precompute(plate, {**spec, "conflicts": "reject"})
@@ -168,7 +143,7 @@ def test_two_positions_for_one_vertex_conflict_and_the_rest_stays_exact(plate, m
 
 def test_conflict_created_by_a_move_is_rejected_when_asked(plate):
     v = int(plate.sets["FIXED"][5])
-    spec = _spec(points=[{"name": "p", "vertices": [v]}], conflicts="reject")
+    spec = plate_spec(points=[{"name": "p", "vertices": [v]}], conflicts="reject")
     d = precompute(plate, spec)  # consistent at rest: accepted
     assert d.solve(BEND).report["redundant_constraints"][0]["name"] == "p"
     with pytest.raises(ConstraintError) as e:
@@ -179,26 +154,26 @@ def test_conflict_created_by_a_move_is_rejected_when_asked(plate):
 
 def test_duplicated_constraint_is_redundant_and_changes_nothing(plate):
     feats = [{"selection": "hole1", "mode": "rigid", "name": "H1"}]
-    base = precompute(plate, _spec(features=feats)).solve(BEND)
-    dup = precompute(plate, _spec(features=feats + [{"selection": "hole1", "mode": "rigid",
+    base = precompute(plate, plate_spec(features=feats)).solve(BEND)
+    dup = precompute(plate, plate_spec(features=feats + [{"selection": "hole1", "mode": "rigid",
                                                         "name": "H1again"}])).solve(BEND)
     kinds = {(e["system"], e["name"]) for e in dup.report["redundant_constraints"]}
     assert kinds == {("positions", "H1again"), ("rotations", "H1again")}
     assert dup.report["conflicting_constraints"] == []
-    assert np.abs(dup.V - base.V).max() <= 1e-12 * _diag(plate)
+    assert np.abs(dup.V - base.V).max() <= 1e-12 * diag(plate)
 
 
 def test_points_on_edges_faces_and_relative_constraints(plate):
     i, j, k = (int(x) for x in plate.T[100, :3])
     a, b = (int(x) for x in plate.sets["HOLE2"][:2])
-    spec = _spec(points=[{"name": "e", "edge": [i, j], "t": 0.25},
+    spec = plate_spec(points=[{"name": "e", "edge": [i, j], "t": 0.25},
                          {"name": "f", "face": [i, j, k], "barycentric": [0.2, 0.3, 0.5]}],
                  relative=[{"name": "keep", "vertices": [a, b], "mode": "rotate"}], solve="joint")
     d = precompute(plate, spec)
     ue, uf = plate.V[i] + [1, 2, 0.5], plate.V[k] + [0.5, 0.5, 0.5]
     r = d.solve({**BEND, "points": {"e": ue.tolist(), "f": uf.tolist()}})
     P = r.V
-    tol = 1e-11 * _diag(plate)
+    tol = 1e-11 * diag(plate)
     assert np.abs(0.25 * P[i] + 0.75 * P[j] - ue).max() <= tol
     assert np.abs(0.2 * P[i] + 0.3 * P[j] + 0.5 * P[k] - uf).max() <= tol
     assert abs(np.linalg.norm(P[a] - P[b]) - np.linalg.norm(plate.V[a] - plate.V[b])) <= tol
@@ -209,7 +184,7 @@ def test_points_on_edges_faces_and_relative_constraints(plate):
 
 def test_split_refuses_constraints_on_interior_vertices(plate):
     inner = int(np.flatnonzero(plate.interior)[0])
-    spec = _spec(points=[{"name": "p", "vertices": [inner]}])
+    spec = plate_spec(points=[{"name": "p", "vertices": [inner]}])
     with pytest.raises(SpecError) as e:
         precompute(plate, {**spec, "solve": "split"})
     assert "interior" in str(e.value)
@@ -229,12 +204,12 @@ def test_split_refuses_constraints_on_interior_vertices(plate):
 ])
 def test_bad_constraint_specs_are_named(plate, bad, msg):
     with pytest.raises(SpecError) as e:
-        precompute(plate, _spec(**bad))
+        precompute(plate, plate_spec(**bad))
     assert msg in str(e.value)
 
 
 def test_move_names_must_exist(plate):
-    d = precompute(plate, _spec(features=[{"selection": "hole1", "name": "H1"}]))
+    d = precompute(plate, plate_spec(features=[{"selection": "hole1", "name": "H1"}]))
     with pytest.raises(SpecError, match="unknown features"):
         d.solve({"features": {"H9": {"scale": 2}}})
     with pytest.raises(SpecError, match="scale"):

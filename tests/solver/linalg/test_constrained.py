@@ -6,57 +6,22 @@ exactly on cylinders of radius 6 with axes along z.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
 from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from solver import precompute, read_mesh
 from solver.linalg.constrained import constrained_solver
+from tests.solver.linalg.strategies import constraint_rows
+from tests.solver.plate import BEND, EXACT, PLATE, diag, plate_spec
 
-DATA = Path(__file__).resolve().parents[2] / "data"
-
-
-HOLES = {1: (160 / 3, 80 / 3), 2: (320 / 3, 80 / 3), 3: (160 / 3, 160 / 3), 4: (320 / 3, 160 / 3)}
-
-
-EXACT = ("null_space", "kkt")
+# --------------------------------------------------------------------- engine
 
 
 @pytest.fixture(scope="module")
 def plate():
-    return read_mesh(DATA / "plate.inp")
-
-
-def _diag(m):
-    return float(np.linalg.norm(m.V.max(0) - m.V.min(0)))
-
-
-def _spec(**extra):
-    sels = {"fix": {"set": "FIXED"}, "load": {"set": "LOAD"}, "bottom": {"set": "BOTTOM"},
-            **{f"hole{k}": {"set": f"HOLE{k}"} for k in HOLES}}
-    return {"selections": sels, "fixed": ["fix"], "handles": {"tip": "load"}, **extra}
-
-
-BEND = {"handles": {"tip": {"translation": [0, 0, 20], "rotation": {"axis": [0, 1, 0], "angle_deg": -25}}}}
-
-
-# --------------------------------------------------------------------- engine
-@st.composite
-def _constraints(draw):
-    rng = np.random.default_rng(draw(st.integers(0, 2 ** 31)))
-    N = draw(st.integers(2, 12))
-    m = draw(st.integers(1, N))
-    C = rng.standard_normal((m, N)) * (rng.random((m, N)) < 0.4)
-    C[np.arange(m), rng.integers(0, N, m)] += 1.0  # no empty rows
-    dup = draw(st.lists(st.integers(0, m - 1), max_size=3))
-    combos = [C[i] * rng.uniform(0.5, 2) for i in dup]
-    if m >= 2 and draw(st.booleans()):
-        combos.append(C[0] - 2 * C[1])  # a combination of two earlier rows
-    return np.vstack([C, *combos]) if combos else C, rng
+    return read_mesh(PLATE)
 
 
 @pytest.mark.parametrize("solve", ["auto", "joint"])
@@ -67,26 +32,26 @@ def test_three_methods_agree_and_the_penalty_residual_shrinks(plate, solve):
                  points=[{"name": "e", "edge": [int(plate.sets["HOLE3"][0]), int(plate.sets["HOLE3"][1])],
                           "t": 0.3}])
     mv = {**BEND, "features": {"H1": {"scale": 0.9}}, "motion": {"c2": {"point": [0, 0, 3]}}}
-    P = {m: precompute(plate, _spec(**extra, constraints={"method": m}, solve=solve)).solve(mv).V
+    P = {m: precompute(plate, plate_spec(**extra, constraints={"method": m}, solve=solve)).solve(mv).V
          for m in EXACT}
-    diag = _diag(plate)
-    assert np.abs(P["null_space"] - P["kkt"]).max() <= 1e-8 * diag
+    dg = diag(plate)
+    assert np.abs(P["null_space"] - P["kkt"]).max() <= 1e-8 * dg
     if solve == "joint":
         # the penalty residual shrinks as beta^-2 and the result approaches the exact one; past
         # beta ~ 1e4 a rigid feature's rows make the penalised system too ill-conditioned for
         # that to continue (measured; README), so the check stops there
         residuals, errors = [], []
         for beta in (1e2, 1e3, 1e4):
-            r = precompute(plate, _spec(**extra, constraints={"method": "penalty", "penalty_weight": beta},
+            r = precompute(plate, plate_spec(**extra, constraints={"method": "penalty", "penalty_weight": beta},
                                         solve=solve)).solve(mv)
             residuals.append(r.report["constraint_residual_max"])
             errors.append(np.abs(r.V - P["null_space"]).max())
         assert residuals[0] > 50 * residuals[1] > 2500 * residuals[2]
-        assert errors[0] > errors[1] and errors[1] <= 1e-5 * diag
+        assert errors[0] > errors[1] and errors[1] <= 1e-5 * dg
 
 
 @settings(max_examples=30, deadline=None)
-@given(_constraints())
+@given(constraint_rows())
 def test_null_space_and_kkt_agree_on_random_problems(case):
     C, rng = case
     N = C.shape[1]

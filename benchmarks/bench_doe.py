@@ -22,7 +22,15 @@ of the ratios), and the same ratio of this process's CPU time (user + system,
 all threads), which counts work rather than waiting for a busy machine. The
 machine is a shared VM: compare columns of one run.
 
+With ``--components B`` it also prints where one variant's time goes in a
+stacked solve of ``B`` rows against a single update (median of 3, per
+variant): the right-hand sides, the interior back-substitution (3 columns
+against 3 B), the interior right-hand side ``M_f P`` over every column
+against ``M_fb dP_b`` over the boundary columns only, the element check, the
+stacked positions and the stacked updates.
+
     python benchmarks/bench_doe.py [--sizes 0.95,0.44] [--blocks 1,4,16,64] [--rows 64] [--repeats 3]
+                                   [--components 16]
 """
 
 from __future__ import annotations
@@ -121,6 +129,53 @@ def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int) -
               f"| {np.median(check[b]):.1f} |")
 
 
+def timed(f, n: int = 3) -> tuple[float, float]:
+    """Median wall and CPU milliseconds of ``n`` calls."""
+    w, c = [], []
+    for _ in range(n):
+        t, p = time.perf_counter(), time.process_time()
+        f()
+        w.append(1e3 * (time.perf_counter() - t))
+        c.append(1e3 * (time.process_time() - p))
+    return float(np.median(w)), float(np.median(c))
+
+
+def components(size: float, block: int) -> None:
+    from solver import precompute, read_mesh
+    from solver.deform.solve import check_positions, solve_positions, solve_positions_many
+    from solver.workflows import parse_shapes, variant_move
+
+    mesh = read_mesh(bracket_deck(size))
+    d = precompute(mesh, {"selections": {"bottom": {"set": "FIXED"}, "top": {"set": "LOAD"}},
+                          "fixed": ["bottom"], "handles": {"top": "top"}})
+    shapes = parse_shapes(SHAPES, d)
+    rng = np.random.default_rng(0)
+    mvs = [variant_move(d, shapes, rng.uniform(-1, 1, shapes.count)) for _ in range(block)]
+    pos = d.data.positions
+    fi, Mfi = pos.free_interior, pos.Mfi
+    rest = np.setdiff1d(np.flatnonzero(mesh.referenced), fi)
+    Mfb = Mfi[:, rest].tocsr()
+    P = np.hstack([solve_positions(d.data, mv).P for mv in mvs])
+    dPb = np.ascontiguousarray(P[rest] - np.hstack([mesh.V[rest]] * block))
+    B3, Bk = rng.normal(size=(fi.size, 3)), rng.normal(size=(fi.size, 3 * block))
+    d.solve(mvs[0])
+    s = solve_positions(d.data, mvs[0])
+    rows = [("single `solve` (morph update)", timed(lambda: d.solve(mvs[1]), 5), 1),
+            ("right-hand sides of one MOVE", timed(lambda: d.data.rhs(mvs[1]), 5), 1),
+            ("interior back-substitution, 3 columns", timed(lambda: pos.interior.solve(B3)), 1),
+            (f"interior back-substitution, {3 * block} columns", timed(lambda: pos.interior.solve(Bk)), block),
+            (f"interior rhs M_f P, {3 * block} columns (nnz {Mfi.nnz:,})", timed(lambda: Mfi @ P), block),
+            (f"interior rhs M_fb dP_b, {3 * block} columns (nnz {Mfb.nnz:,})", timed(lambda: Mfb @ dPb), block),
+            ("element check", timed(lambda: check_positions(d.data, s), 5), 1),
+            (f"solve_positions_many, {block} MOVEs", timed(lambda: solve_positions_many(d.data, mvs)), block),
+            (f"solve_many (updates with REPORTs), {block} MOVEs", timed(lambda: d.solve_many(mvs)), block)]
+    print(f"\n### where a variant's time goes: bracket {size:g}, {mesh.T.shape[0]:,} tets, block {block}\n")
+    print("| step | wall ms per variant | CPU ms per variant |")
+    print("|---|---:|---:|")
+    for label, (w, c), k in rows:
+        print(f"| {label} | {w / k:.1f} | {c / k:.1f} |")
+
+
 def plan_row(plan, i: int) -> dict:
     return {c: float(plan.values[i, j]) for j, c in enumerate(plan.columns)}
 
@@ -132,9 +187,12 @@ def main() -> None:
     ap.add_argument("--rows", type=int, default=64)
     ap.add_argument("--singles", type=int, default=8, help="rows also solved one at a time per repeat")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--components", type=int, default=0, help="also print the cost breakdown for this block size")
     a = ap.parse_args()
     for size in (float(s) for s in a.sizes.split(",")):
         run(size, [int(b) for b in a.blocks.split(",")], a.rows, a.singles, a.repeats)
+        if a.components:
+            components(size, a.components)
 
 
 if __name__ == "__main__":

@@ -27,7 +27,8 @@ stacked solve of ``B`` rows against a single update (median of 3, per
 variant): the right-hand sides, the interior back-substitution (3 columns
 against 3 B), the interior right-hand side ``M_f P`` over every column
 against ``M_fb dP_b`` over the boundary columns only, the element check, the
-stacked positions and the stacked updates.
+stacked positions and the stacked updates; then a profile of one stacked
+``solve_many`` by each function's own time.
 
     python benchmarks/bench_doe.py [--sizes 0.95,0.44] [--blocks 1,4,16,64] [--rows 64] [--repeats 3]
                                    [--components 16]
@@ -36,6 +37,8 @@ stacked positions and the stacked updates.
 from __future__ import annotations
 
 import argparse
+import cProfile
+import pstats
 import resource
 import sys
 import time
@@ -174,6 +177,16 @@ def components(size: float, block: int) -> None:
     print("|---|---:|---:|")
     for label, (w, c), k in rows:
         print(f"| {label} | {w / k:.1f} | {c / k:.1f} |")
+    prof = cProfile.Profile()
+    prof.runcall(d.solve_many, mvs)
+    st = pstats.Stats(prof)
+    top = sorted(st.stats.items(), key=lambda kv: -kv[1][2])[:12]  # type: ignore[attr-defined]
+    print(f"\nsolve_many of {block} MOVEs under cProfile, by own time (ms per variant):\n")
+    print("| function | calls | own ms per variant |")
+    print("|---|---:|---:|")
+    for (file, line, name), (_, calls, own, _, _) in top:
+        where = f"{Path(file).parent.name}/{Path(file).name}:{line}" if line else "builtin"
+        print(f"| `{name}` ({where}) | {calls} | {1e3 * own / block:.1f} |")
 
 
 def plan_row(plan, i: int) -> dict:

@@ -18,6 +18,7 @@ checked before each block.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import os
 import time
 from collections.abc import Callable
@@ -210,7 +211,7 @@ def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOC
             v = _variant(i + 1, params, res, "ok")
             if output is not None:
                 t3 = time.perf_counter()
-                v = Variant(**{**v.__dict__, "file": output(i + 1, res)})
+                v = dataclasses.replace(v, file=output(i + 1, res))
                 output_s += time.perf_counter() - t3
             variants.append(v)
         if progress is not None:

@@ -11,7 +11,7 @@ from solver.workflows import sensitivities as sens_mod
 from solver.workflows.sensitivities import left_jacobian, rotation_derivative, shape_sensitivities
 from solver.workflows.shapes import parse_shapes, variant_move
 from tests.conftest import bend_spec, load
-from tests.solver.workflows.conftest import constraint_spec, plate_shapes
+from tests.solver.workflows.conftest import constraint_spec, plate_shapes, plate_spec
 
 TURNS = {"shapes": {
     "bend": {"handles": {"end": {"translation": [0, 0, 8], "rotation": {"axis": [0, 1, 0], "angle_deg": -6}}}},
@@ -43,8 +43,10 @@ def assert_matches(S, fd, rel=1e-7):
         assert err <= rel * scale, (name, err, scale)
 
 
-def test_handles_turned_moved_and_scaled(plate_exact):
-    d = plate_exact
+@pytest.mark.parametrize("mode", ["split", "joint"])
+def test_handles_turned_moved_and_scaled(plate, plate_exact, mode):
+    d = plate_exact if mode == "split" else precompute(plate, plate_spec(precision="exact", solve="joint"))
+    assert d.solve_mode == mode and d.data.walls is not None  # the plate's thin-wall rows turn too
     shapes = parse_shapes(TURNS, d)
     theta = np.array([0.8, -1.5, 1.2, 0.6, 1.0])
     S = shape_sensitivities(d, shapes, theta)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -180,12 +181,25 @@ class SplitPositions(Positions):
     Mfi : (f, n) csr matrix
         Their mean-value rows ``p_i - sum_j w_ij p_j``.
     interior : Factor or None
-        LU of ``Mfi[:, free_interior]``.
+        LU of ``Mff = Mfi[:, free_interior]``.
+    Mff : (f, f) csr matrix
+        The rows on the free interior vertices.
+    Mfb : (f, c) csr matrix
+        The rows on the other vertices they touch (``coupled``): a MOVE changes the
+        interior's right-hand side only through them, ``M_f P = r0 + Mfb (P_c - P0_c)``.
+    coupled : (c,) int array
+    r0 : (f, 3) float array
+        ``Mfi @ V0``, the mean-value residual at rest (round-off).
     """
 
     free_interior: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     Mfi: sp.csr_matrix | None = None
     interior: fz.Factor | None = None
+    Mff: sp.csr_matrix | None = None
+    Mfb: sp.csr_matrix | None = None
+    coupled: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    r0: np.ndarray | None = None
+    rest_coupled: np.ndarray | None = None
 
     mode = "split"
 
@@ -214,37 +228,50 @@ class SplitPositions(Positions):
     def interior_solve_many(self, Ps: list[np.ndarray]) -> list[PositionSolve]:
         """Interior positions for boundary positions ``Ps`` (new arrays), in one solve.
 
-        Residual form ``P_f -= M_ff^{-1} (M_f P)``, every position array a block of columns.
-
-        In single precision the double-precision residual of the mean-value rows
-        is measured per array, and one refinement step is taken when it exceeds
-        :data:`MIXED_TOL` of the interior displacement.
+        Residual form ``P_f -= M_ff^{-1} (M_f P)``, every position array a block of
+        columns; the right-hand side comes from the change of the coupled vertices only
+        (``r0 + Mfb (P_c - P0_c)``, :attr:`Mfb`). In single precision the
+        double-precision residual of the mean-value rows is measured per array, and one
+        refinement step is taken when it exceeds :data:`MIXED_TOL` of the interior
+        displacement.
         """
-        if self.interior is None or self.Mfi is None or not Ps:
+        if self.interior is None or self.Mfb is None or self.Mff is None or self.r0 is None or not Ps:
             return [PositionSolve(P.copy()) for P in Ps]
-        fi = self.free_interior
-        k = len(Ps)
-        P = np.hstack(Ps)  # (n, 3k)
-        dx = np.asarray(self.interior.solve(self.Mfi @ P), dtype=np.float64)
-        P[fi] -= dx
-        if self.interior_precision != "single":
-            return [PositionSolve(P[:, 3 * j:3 * j + 3].copy()) for j in range(k)]
-        res = self.Mfi @ P
+        fi, cols, k = self.free_interior, self.coupled, len(Ps)
+        R = np.empty((fi.size, 3 * k))
+        for j, P in enumerate(Ps):
+            R[:, 3 * j:3 * j + 3] = self.r0 + self.Mfb @ (P[cols] - self._rest_coupled)
+        dx = np.asarray(self.interior.solve(R), dtype=np.float64)
+        single = self.interior_precision == "single"
+        rels: list[float | None] = [None] * k
+        refined = [False] * k
+        if single:
+            res = R - self.Mff @ dx  # the mean-value rows at the new positions, in double precision
 
-        def rel(R: np.ndarray, j: int, scale: np.ndarray) -> float:
-            r = R[:, 3 * j:3 * j + 3]
-            return float(np.sqrt((r * r).sum(axis=1)).max()) / scale[j]
+            def rel(Rm: np.ndarray, j: int) -> float:
+                r = Rm[:, 3 * j:3 * j + 3]
+                d = dx[:, 3 * j:3 * j + 3]
+                scale = max(float(np.sqrt((d * d).sum(axis=1)).max()), 1e-300)
+                return float(np.sqrt((r * r).sum(axis=1)).max()) / scale
 
-        scale = np.array([max(float(np.sqrt((dx[:, 3 * j:3 * j + 3] ** 2).sum(axis=1)).max()), 1e-300)
-                          for j in range(k)])
-        rels = [float(rel(res, j, scale)) for j in range(k)]
-        refined = [bool(r > MIXED_TOL) for r in rels]
-        if any(refined):
-            cols = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
-            P[np.ix_(fi, cols)] -= np.asarray(self.interior.solve(res[:, cols]), dtype=np.float64)
-            res = self.Mfi @ P
-            rels = [float(rel(res, j, scale)) if refined[j] else rels[j] for j in range(k)]
-        return [PositionSolve(P[:, 3 * j:3 * j + 3].copy(), rels[j], refined[j]) for j in range(k)]
+            rels = [rel(res, j) for j in range(k)]
+            refined = [bool(r is not None and r > MIXED_TOL) for r in rels]
+            if any(refined):
+                c = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
+                dx[:, c] += np.asarray(self.interior.solve(res[:, c]), dtype=np.float64)
+                res = R - self.Mff @ dx
+                rels = [rel(res, j) if refined[j] else rels[j] for j in range(k)]
+        out = []
+        for j, P in enumerate(Ps):
+            Q = P.copy()
+            Q[fi] -= dx[:, 3 * j:3 * j + 3]
+            out.append(PositionSolve(Q, rels[j], refined[j]) if single else PositionSolve(Q))
+        return out
+
+    @property
+    def _rest_coupled(self) -> np.ndarray:
+        assert self.rest_coupled is not None
+        return self.rest_coupled
 
 
 RhsFor = Callable[[Move, np.ndarray], RightHandSides]
@@ -320,14 +347,25 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
         probe = refinement_probe(system, cs.vector, mesh.V[cs.unknowns], rhs_for(probe_move(cs), rows))
     steps = 0 if probe <= REFINE_TOL * cs.diag else REFINE_STEPS
     nf = system.factorizations if system is not None else 0
-    common = dict(system=system, unknowns=cs.unknowns, rows=rows, vector=cs.vector, refine_steps=steps,
-                  refine_probe=probe)
+    common: dict[str, Any] = dict(system=system, unknowns=cs.unknowns, rows=rows, vector=cs.vector,
+                                  refine_steps=steps, refine_probe=probe)
     if cs.mode == "joint":
-        return JointPositions(factorizations=nf, **common)  # type: ignore[arg-type]
+        return JointPositions(factorizations=nf, **common)
     fi = np.flatnonzero(mesh.interior & ~np.isin(np.arange(mesh.n), cs.constrained) & mesh.referenced)
-    Mfi = interior = None
+    Mfi = interior = Mff = Mfb = r0 = rest_coupled = None
+    coupled = np.zeros(0, np.int64)
     if fi.size:
         Mfi = csr(ops.Mi[fi])
-        interior = fz.lu(Mfi[:, fi].tocsc(), "interior mean-value system", single=spec.precision == "mixed")
+        Mff = csr(Mfi[:, fi])
+        interior = fz.lu(Mff.tocsc(), "interior mean-value system", single=spec.precision == "mixed")
         nf += 1
-    return SplitPositions(factorizations=nf, free_interior=fi, Mfi=Mfi, interior=interior, **common)  # type: ignore
+        is_free = np.zeros(mesh.n, bool)
+        is_free[fi] = True
+        used = np.zeros(mesh.n, bool)
+        used[Mfi.indices] = True
+        coupled = np.flatnonzero(used & ~is_free)
+        Mfb = csr(Mfi[:, coupled])
+        r0 = Mfi @ mesh.V
+        rest_coupled = np.ascontiguousarray(mesh.V[coupled])
+    return SplitPositions(factorizations=nf, free_interior=fi, Mfi=Mfi, interior=interior, Mff=Mff, Mfb=Mfb,
+                          coupled=coupled, r0=r0, rest_coupled=rest_coupled, **common)

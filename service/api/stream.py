@@ -15,6 +15,8 @@ vertex order (the ``boundary`` flags of the geometry bundle), shape (b, 3);
 then the ``full`` frame of the same ``seq`` with every vertex, the check and
 the REPORT. A newer MOVE that arrives in between supersedes the pending
 interior solve: its ``full`` frame is not sent and the MOVE is not committed.
+Under the ``reject`` inversion policy no boundary frame is sent (the check,
+which may refuse the MOVE, comes only with the full solve).
 
 Close codes: 4401 no or unknown API key, 4404 unknown session, 4410 expired
 session, 4429 too many connections of the key, 1009 frame over the size
@@ -161,8 +163,9 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
             if V0 is None:
                 mesh = await reg.session_mesh(s)
                 V0, on_boundary = mesh.V, mesh.boundary
+            policy = frame.inversion or str(s.spec.get("inversion", "warn"))
             try:
-                if boundary_first:
+                if boundary_first and policy != "reject":  # a rejected MOVE must never be drawn
                     t0 = time.perf_counter()
                     d, stage, move = await reg.boundary_stage(s, frame.move.dump())
                     if d.solve_mode == "split":

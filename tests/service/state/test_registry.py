@@ -88,6 +88,7 @@ def test_restart_keeps_meshes_sessions_and_last_move(tmp_path, bracket_library):
 def test_concurrent_updates_serialize_per_session_and_run_across_sessions(tmp_path,
                                                                           bracket_library):
     import asyncio
+    from concurrent.futures import ThreadPoolExecutor
 
     import httpx
 
@@ -109,7 +110,9 @@ def test_concurrent_updates_serialize_per_session_and_run_across_sessions(tmp_pa
             docs = [(await ac.get(f"/v1/sessions/{s}")).json() for s in sids]
             return rs, docs
 
-    rs, docs = asyncio.run(scenario())
+    # in a thread of its own: a session-wide Playwright browser keeps an event loop running in this one
+    with ThreadPoolExecutor(1) as pool:
+        rs, docs = pool.submit(asyncio.run, scenario()).result()
     assert [r.status_code for r in rs] == [200] * 12
     for k, r in enumerate(rs):  # every answer is its own MOVE's exact result
         np.testing.assert_allclose(decode_frame(r.content)[0], expected[k % 3], atol=1e-12)

@@ -155,6 +155,7 @@ class LocalCluster:
     def start(self, timeout: float = 120.0) -> LocalCluster:
         """PostgreSQL, every replica (started together), the balancer."""
         self.folder.mkdir(parents=True, exist_ok=True)
+        os.chmod(self.folder, self.folder.stat().st_mode | 0o711)  # PostgreSQL's user reaches pg/ inside
         self.data.mkdir(parents=True, exist_ok=True)
         self.pg.start()
         for name in self.names():

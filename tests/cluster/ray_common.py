@@ -25,7 +25,8 @@ def reference(folder: Path, p: Plan, block: int) -> DoeResult:
     """``tetmorph doe``'s run: one process, decks plate_{i}.inp and summary.csv in ``folder``."""
     mesh = read_mesh(PLATE)
     d = Deformer(mesh, plate_spec())
-    r = run_doe(d, parse_shapes(plate_shapes(), d), p, block=block, output=deck_writer(mesh, str(folder / "plate_{i}.inp")))
+    out = deck_writer(mesh, str(folder / "plate_{i}.inp"))
+    r = run_doe(d, parse_shapes(plate_shapes(), d), p, block=block, output=out)
     write_summary(r, folder / "summary.csv")
     return r
 

@@ -67,7 +67,8 @@ def connect(address: str | None = None, **init: Any) -> tuple[Any, bool]:
                           code="missing_extra") from None
     if ray.is_initialized():
         return ray, False
-    if address is None:  # a Ray of this machine only: every server on the loopback address
+    if address is None:  # a new Ray of this machine only: every server on the loopback address
+        address = "local"
         init = {"_node_ip_address": "127.0.0.1", "include_dashboard": False, **init}
     ray.init(address=address, namespace=NAMESPACE, log_to_driver=False, **init)
     return ray, True

@@ -2,13 +2,15 @@
 #   make run    create .venv, install everything, serve the REST API on 127.0.0.1:8000
 #               with the demo beam and a ready session (s_demo)
 #   make test   create .venv, install everything, run the test suite
+#   make cluster       PostgreSQL, 3 replicas and HAProxy on 127.0.0.1 (balancer on :8100), detached
+#   make cluster-down  stop them
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test bench compare sysdeps install web browser lint clean
+.PHONY: run morph-demo test bench compare sysdeps install web browser lint clean cluster cluster-down clusterdeps
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -23,8 +25,36 @@ morph-demo: install
 	  --output out/beam_{i}.vtu --report out/report.json
 	@echo "deformed meshes in out/, reports in out/report.json"
 
-test: install web browser
+test: install web browser clusterdeps
 	$(BIN)/python -m pytest -q
+
+# The local cluster (README, "Cluster"): Debian's PostgreSQL (initdb under CLUSTER_DIR, run as an
+# unprivileged user), 3 `tetmorph serve` replicas and HAProxy, all on 127.0.0.1; balancer on :8100.
+CLUSTER_DIR ?= /tmp/tetmorph-cluster
+CLUSTER_STAMP := $(VENV)/.cluster-installed
+
+cluster: install clusterdeps
+	$(BIN)/python -m service.cluster up --dir $(CLUSTER_DIR) --port 8100
+
+cluster-down:
+	@if [ -x $(BIN)/python ]; then $(BIN)/python -m service.cluster down --dir $(CLUSTER_DIR); \
+	else echo "no $(BIN)/python: nothing was started"; fi
+
+# PostgreSQL server and HAProxy from apt (as root; Debian 12: PostgreSQL 15, HAProxy 2.6), without
+# the package's own database cluster; then the `cluster` extra (Ray, psycopg 3).
+clusterdeps: install $(CLUSTER_STAMP)
+	@need=""; ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || command -v initdb >/dev/null || need="$$need postgresql"; \
+	command -v haproxy >/dev/null || [ -x /usr/sbin/haproxy ] || need="$$need haproxy"; \
+	if [ -n "$$need" ]; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing$$need (apt)"; mkdir -p /etc/postgresql-common; \
+	    [ -f /etc/postgresql-common/createcluster.conf ] || echo "create_main_cluster = false" > /etc/postgresql-common/createcluster.conf; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq -o Dpkg::Options::=--force-confold $$need >/dev/null; \
+	  else echo "ERROR: the cluster and its tests need$$need (apt install$$need)"; exit 1; fi; fi
+
+$(CLUSTER_STAMP): pyproject.toml | $(STAMP)
+	$(BIN)/python -m pip install -q -e ".[cluster]"
+	touch $(CLUSTER_STAMP)
 
 bench: install
 	$(BIN)/python benchmarks/bench_solver.py

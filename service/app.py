@@ -20,15 +20,16 @@ from fastapi import FastAPI
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 
-from .api import health, meshes, sessions, stream, tetrahedralize
+from .api import batch, health, meshes, sessions, stream, tetrahedralize
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
 from .demo import load_demo
 from .middleware import BodyLimit, ErrorShield
 from .models.error import ErrorEnvelope
 from .observability import Metrics, RequestContext
-from .security import Authenticator, ConnectionSlots, RateLimiter, load_secret
+from .security import Authenticator, ConnectionSlots, RateLimiter, SharedRateLimiter, load_secret
 from .settings import Settings
+from .state.batch import clear_jobs
 from .state.jobs import JobRunner
 from .state.registry import Registry
 from .state.sweeper import Sweeper
@@ -73,6 +74,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     if moved:
         log.info("moved %d records to the salted owner ids of the configured keys", moved)
         reg = Registry(settings)  # reload the records with their new owners
+    clear_jobs(settings.data_dir, settings.replica_id)  # jobs live in memory: older files are orphans
     removed = reg.store.remove_orphans()
     if removed:
         log.info("removed %d leftovers of interrupted uploads: %s", len(removed), removed[:10])
@@ -96,6 +98,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
             await sweeper.stop()
             await app.state.jobs.close()
             reg.close()
+            reg.close_store()
 
     app = FastAPI(title="tetmorph", version=_version(), description=DESCRIPTION, lifespan=lifespan,
                   default_response_class=JSONResponse,
@@ -108,16 +111,19 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     app.state.settings = settings
     app.state.registry = reg
     app.state.auth = auth
-    app.state.limiter = RateLimiter(settings.rate_limit_per_s, settings.rate_burst)
+    take = getattr(reg.store, "take_token", None)
+    app.state.limiter = (SharedRateLimiter(take, settings.rate_limit_per_s, settings.rate_burst) if take else
+                         RateLimiter(settings.rate_limit_per_s, settings.rate_burst))
     app.state.connections = ConnectionSlots(settings.max_connections_per_key)
-    app.state.jobs = JobRunner(settings.tetra_workers, settings.tetra_time_limit_s)
+    app.state.jobs = JobRunner(settings.tetra_workers, settings.tetra_time_limit_s,
+                               task_workers=settings.batch_workers)
     app.state.metrics = metrics
     app.state.sweeper = sweeper
     install_handlers(app)
     app.add_middleware(BodyLimit, limit=settings.max_upload_bytes)
     app.add_middleware(ErrorShield)
-    app.add_middleware(RequestContext, metrics=metrics)
-    for mod in (meshes, tetrahedralize, sessions, stream):
+    app.add_middleware(RequestContext, metrics=metrics, replica=settings.replica_id)
+    for mod in (meshes, tetrahedralize, sessions, batch, stream):
         app.include_router(mod.router, prefix="/v1")
     app.include_router(health.router)
     _mount_editor(app)

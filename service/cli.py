@@ -71,8 +71,30 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _doe(args: argparse.Namespace, local: Any) -> int:
+    """``tetmorph doe``: this process, or Ray actors with ``--engine ray``."""
+    if args.engine == "ray":
+        from solver.workflows.ray_engine import cmd_doe_ray
+
+        return cmd_doe_ray(args)
+    return int(local(args))
+
+
+def add_engine(sub: Any) -> None:
+    """Give ``tetmorph doe`` its ``--engine ray [--address ADDR] [--actors N]`` options."""
+    from solver.workflows.ray_engine import add_ray_options
+
+    doe = sub.choices.get("doe")
+    if doe is None:
+        return
+    add_ray_options(doe)
+    local = doe.get_default("func")
+    doe.set_defaults(func=lambda args: _doe(args, local))
+
+
 def add_serve(sub: Any) -> None:
-    """Add the ``serve`` subcommand to the solver's parser."""
+    """Add the ``serve`` subcommand to the solver's parser (and the Ray engine of ``doe``)."""
+    add_engine(sub)
     ps = sub.add_parser("serve", help="run the REST service (uvicorn, one worker; needs the service extra)")
     ps.add_argument("--host", default="127.0.0.1")
     ps.add_argument("--port", type=int, default=8000)

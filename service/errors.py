@@ -40,6 +40,8 @@ CODE_STATUS: dict[str, int] = {
     "method_not_allowed": 405,
     # 409: the resource's state forbids the request
     "mesh_in_use": 409, "session_exists": 409, "job_finished": 409,
+    "version_conflict": 409,  # another replica committed first: retry (README, "Cluster")
+    "job_not_finished": 409,
     # 410: a session removed after its idle time
     "session_expired": 410,
     "payload_too_large": 413,
@@ -47,6 +49,8 @@ CODE_STATUS: dict[str, int] = {
     "invalid_request": 422, "invalid_message": 422, "unknown_format": 422, "unknown_metric": 422,
     "too_many_elements": 422, "too_many_triangles": 422, "non_finite_result": 422,
     "out_of_range": 422, "index_out_of_range": 422, "job_time_limit": 422,
+    "surface_not_found": 422, "not_a_surface": 422, "too_many_rows": 422, "engine_unavailable": 422,
+    "result_too_large": 422, "bounds_time_limit": 422,
     # 429: limits per key
     "rate_limited": 429, "session_limit": 429, "connection_limit": 429,
     # 5xx: faults of the server, never of the request

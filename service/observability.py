@@ -1,7 +1,8 @@
 """Request ids, access logs (API keys redacted), JSON logs and Prometheus metrics.
 
 Every response carries ``X-Request-ID`` (the client's, if it sent a sane one,
-else a new one); every log line written while the request runs carries it too.
+else a new one) and ``X-Tetmorph-Replica`` (which replica answered); every log
+line written while the request runs carries the request id too.
 """
 
 from __future__ import annotations
@@ -99,9 +100,10 @@ class Metrics:
 class RequestContext:
     """ASGI middleware: request id, access log line, request metrics."""
 
-    def __init__(self, app: ASGIApp, metrics: Metrics) -> None:
+    def __init__(self, app: ASGIApp, metrics: Metrics, replica: str = "") -> None:
         self.app = app
         self.metrics = metrics
+        self.replica = replica.encode("latin-1", "replace")
 
     @staticmethod
     def _template(scope: Scope) -> str:
@@ -126,7 +128,10 @@ class RequestContext:
             nonlocal status
             if msg["type"] == "http.response.start":
                 status = msg["status"]
-                msg["headers"] = [*msg.get("headers", []), (b"x-request-id", rid.encode())]
+                msg["headers"] = [*msg.get("headers", []), (b"x-request-id", rid.encode()),
+                                  (b"x-tetmorph-replica", self.replica)]
+            elif msg["type"] == "websocket.accept":
+                msg["headers"] = [*msg.get("headers", []), (b"x-tetmorph-replica", self.replica)]
             await send(msg)
 
         try:

@@ -22,13 +22,14 @@ import math
 import os
 import secrets
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from .errors import ServiceError
 from .settings import Settings
 
-__all__ = ["Authenticator", "RateLimiter", "ConnectionSlots", "PUBLIC", "load_secret", "legacy_owner", "parse_keys"]
+__all__ = ["Authenticator", "RateLimiter", "SharedRateLimiter", "ConnectionSlots",
+           "PUBLIC", "load_secret", "legacy_owner", "parse_keys"]
 
 PUBLIC = "public"
 SECRET_FILE = "secret.key"
@@ -160,6 +161,36 @@ class RateLimiter:
             self._buckets[owner] = (tokens, now)
             raise e
         self._buckets[owner] = (tokens - 1.0, now)
+
+
+class SharedRateLimiter:
+    """The token buckets of :class:`RateLimiter`, kept in the shared store so that every replica charges one.
+
+    Parameters
+    ----------
+    take : callable
+        ``take(owner, rate, burst) -> (granted, tokens_left)``, one atomic
+        update of the owner's bucket (:meth:`~service.state.pg_store.PgStore.take_token`).
+    rate : float
+    burst : int
+    """
+
+    def __init__(self, take: Callable[[str, float, int], tuple[bool, float]], rate: float, burst: int) -> None:
+        self.take = take
+        self.rate = rate
+        self.burst = burst
+
+    def check(self, owner: str, now: float | None = None) -> None:
+        """Take one token, or raise 429 with ``Retry-After``."""
+        if self.rate <= 0:
+            return
+        granted, tokens = self.take(owner, self.rate, self.burst)
+        if not granted:
+            wait = (1.0 - tokens) / self.rate
+            e = ServiceError("rate_limited", f"rate limit exceeded: {self.rate:g} requests/s with bursts "
+                             f"of {self.burst}; retry in {wait:.2f} s", retry_after_s=round(wait, 3))
+            e.headers["Retry-After"] = str(max(1, math.ceil(wait)))
+            raise e
 
 
 class Slot:

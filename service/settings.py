@@ -10,6 +10,7 @@ Examples
 from __future__ import annotations
 
 import os
+import socket
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -68,6 +69,20 @@ class Settings(BaseSettings):
     job_wait_s: float = Field(5.0, ge=0,
                               description="How long POST /v1/tetrahedralize waits before answering 202.")
     log_json: bool = Field(False, description="Write logs as one JSON object per line.")
+    database_url: str | None = Field(None, description="postgresql://... : keep mesh and session records in "
+                                     "PostgreSQL, shared by replicas (default: the data directory alone).")
+    replica_id: str = Field(default_factory=lambda: f"{socket.gethostname()}-{os.getpid()}", max_length=64,
+                            description="This replica's name, sent as X-Tetmorph-Replica on every answer.")
+    ray_address: str | None = Field(None, description="Ray cluster address (ray://host:10001, auto, or "
+                                    "host:6379): POST /v1/sessions/{id}/batch accepts engine 'ray'.")
+    ray_actors: int = Field(2, gt=0, description="Ray actors per batch (each holds one factorization).")
+    batch_max_rows: int = Field(10_000, gt=0, description="Most plan rows per batch (422 above).")
+    batch_max_result_mb: float = Field(1024.0, gt=0,
+                                       description="Largest zip a batch may produce (the job fails above).")
+    batch_time_limit_s: float = Field(3600.0, gt=0, description="A batch running longer is stopped.")
+    batch_workers: int = Field(1, gt=0, description="Batches solved at once per replica (more queue).")
+    bounds_time_limit_s: float = Field(30.0, gt=0,
+                                       description="POST /v1/sessions/{id}/bounds stops after this (422).")
 
     @field_validator("api_keys", mode="before")
     @classmethod
@@ -85,6 +100,11 @@ class Settings(BaseSettings):
     def max_frame_bytes(self) -> int:
         """WebSocket frame limit in bytes."""
         return int(self.max_frame_kb * 1024)
+
+    @property
+    def batch_max_result_bytes(self) -> int:
+        """Largest batch result in bytes."""
+        return int(self.batch_max_result_mb * 1024 * 1024)
 
     @property
     def cache_budget_bytes(self) -> int:

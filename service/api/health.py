@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
@@ -22,27 +20,18 @@ router = APIRouter(tags=["service"])
 @router.get("/health", summary="Liveness and cache figures (no key needed)", response_model=Health)
 def health(request: Request, reg: RegistryDep, settings: SettingsDep) -> dict[str, Any]:
     """Answers as long as the event loop runs."""
-    return {"status": "ok", "version": request.app.version, "sessions": len(reg.sessions),
+    return {"status": "ok", "version": request.app.version, "replica": settings.replica_id,
+            "sessions": len(reg.sessions),
             "cached_sessions": reg.cached_sessions, "cache_bytes": reg.cache_bytes,
             "cache_budget_bytes": settings.cache_budget_bytes, "evictions": reg.evictions}
-
-
-def _writable(folder: str) -> bool:
-    try:
-        fd, path = tempfile.mkstemp(dir=folder, prefix=".tmp-ready-")
-        os.close(fd)
-        os.unlink(path)
-        return True
-    except OSError:
-        return False
 
 
 @router.get("/ready", summary="Readiness: store writable, workers alive (no key needed)", response_model=Ready,
             responses={503: {"model": Ready, "description": "not ready; checks says what fails"}})
 def ready(request: Request, reg: RegistryDep) -> JSONResponse:
-    """200 when the data directory is writable and the worker pools and the sweeper run, else 503."""
+    """200 when the store takes records (data directory, database) and the workers and the sweeper run, else 503."""
     state = request.app.state
-    checks = {"store_writable": _writable(os.fspath(reg.store.sessions_dir)),
+    checks = {"store_writable": reg.store.writable(),
               "workers": not reg.builder.closed and state.jobs.alive,
               "sweeper": state.sweeper.alive}
     ok = all(checks.values())

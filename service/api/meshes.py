@@ -19,7 +19,7 @@ from solver.ops.elements import check_tets
 
 from ..binary import encode_bundle
 from ..errors import ServiceError
-from ..formats import export_mesh, resolve_format
+from ..formats import SURFACE_FORMATS, export_mesh, offered, resolve_format
 from ..models.error import error_responses
 from ..models.mesh import MeshDoc
 from ..models.spec import check_selection_ids
@@ -44,7 +44,8 @@ def public(meta: dict[str, Any]) -> dict[str, Any]:
                                        "unsupported_element, unknown_format, too_many_elements, ...)"))
 async def upload_mesh(
     file: Annotated[UploadFile, File(description="The mesh: .inp, .msh, .vtu, .vtk, .mesh, "
-                                                 ".node (with its .ele), .bdf, ...")],
+                                                 ".node (with its .ele), .bdf, ...; or a triangle surface "
+                                                 "(.stl, .obj, .ply, .off) for SPEC targets")],
     owner: OwnerDep, reg: RegistryDep,
     companions: Annotated[list[UploadFile] | None, File(
         description="Files read together with the main one (TetGen's .ele)")] = None,
@@ -54,7 +55,7 @@ async def upload_mesh(
 ) -> dict[str, Any]:
     """Store and validate a mesh file; answer its counts, element types, sets and quality."""
     main = safe_name(file.filename, "mesh")
-    fmt, ext = resolve_format(format, main)
+    fmt, ext = resolve_format(format, main, {**offered(), **SURFACE_FORMATS})  # triangle surfaces: targets
     if not main.lower().endswith(ext):
         main = f"{main}{ext}"
     files = {main: await file.read()}  # body size already bounded by the BodyLimit middleware

@@ -30,6 +30,8 @@ router = APIRouter(tags=["sessions"])
 Kind = Literal["positions", "displacements"]
 Dtype = Literal["float32", "float64"]
 _AUTH = (401, 429)
+#: The session's version after a MOVE (deform) or of the positions answered.
+VERSION_HEADER = "X-Tetmorph-Version"
 
 
 class DeformJSON(BaseModel):
@@ -107,7 +109,9 @@ _DEFORM_200 = {"model": DeformJSON, "content": {MEDIA_TYPE: {"schema": {"type": 
 
 @router.post("/sessions/{session_id}/deform", summary="Apply a MOVE",
              responses={200: _DEFORM_200, **error_responses(
-                 *_AUTH, 404, 410, 413, 422, 500,
+                 *_AUTH, 404, 409, 410, 413, 422, 500,
+                 s409="version_conflict: another replica committed a MOVE of this session while this one "
+                      "was solved; nothing was committed, retry",
                  s422="bad MOVE (the field), out_of_range, or an inverting move under 'reject' "
                       "(inverted_elements, details.report); the session is unchanged")})
 async def deform(
@@ -132,11 +136,15 @@ async def deform(
 ) -> Response:
     """Back-substitute for the MOVE and answer the REPORT and the result."""
     r = await reg.deform(s, move.dump(), inversion, quality, repair)
+    version = str(s.version)  # read before the next await: the version this MOVE committed
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
     if mode == "mesh":
-        return await _mesh_response(reg, s, r.V, format, r.report, quality == "full")
-    mesh = await reg.session_mesh(s)
-    return result_response(r.V, mesh.V, r.report, mode, kind, dtype)
+        resp = await _mesh_response(reg, s, r.V, format, r.report, quality == "full")
+    else:
+        mesh = await reg.session_mesh(s)
+        resp = result_response(r.V, mesh.V, r.report, mode, kind, dtype)
+    resp.headers[VERSION_HEADER] = version
+    return resp
 
 
 async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
@@ -213,8 +221,11 @@ async def current_positions(
 ) -> Response:
     """The current state, encoded like a deform result."""
     V = await reg.positions(s)
+    version = str(s.version)
     mesh = await reg.session_mesh(s)
-    return result_response(V, mesh.V, s.report or {}, result, kind, dtype)
+    resp = result_response(V, mesh.V, s.report or {}, result, kind, dtype)
+    resp.headers[VERSION_HEADER] = version
+    return resp
 
 
 @router.post("/sessions/{session_id}/reset", summary="Back to the rest shape", response_model=SessionDoc,
@@ -233,4 +244,4 @@ async def delete_session(s: SessionDep, reg: RegistryDep) -> Response:
     return Response(status_code=204)
 
 
-__all__ = ["router", "result_response", "DeformJSON"]
+__all__ = ["router", "result_response", "DeformJSON", "VERSION_HEADER"]

@@ -2,7 +2,8 @@
 
 Client → server, text frames: ``{"seq": 7, "move": MOVE, "inversion": "warn", "repair": false}``
 (``move`` required, nothing else allowed). Server → client: for each solved MOVE a binary frame
-(:mod:`service.binary`) whose header carries ``seq``, ``frame: "full"``, ``dropped`` (MOVEs
+(:mod:`service.binary`) whose header carries ``seq``, ``frame: "full"``, ``version`` (the
+session's, after this MOVE's commit), ``dropped`` (MOVEs
 superseded while the previous one was solving) and a small REPORT; for a
 frame or MOVE that fails, a text frame ``{"seq": 7, "error": {...}}`` (the
 session is unchanged). MOVEs that arrive while one is being solved replace
@@ -189,7 +190,7 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
             small = {k: r.report.get(k) for k in STREAM_REPORT}
             small["solve_ms"] = r.report["timings"]["update"]["total_ms"]
             await ws.send_bytes(encode_frame(X, {"seq": frame.seq, "frame": "full", "dropped": skipped,
-                                                 "report": small}, dtype, kind))
+                                                 "version": s.version, "report": small}, dtype, kind))
     finally:
         receiver.cancel()
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import copy
 import math
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, model_validator
@@ -64,6 +64,13 @@ class MotionMove(BaseModel):
     point: Vec3
 
 
+class TargetMove(BaseModel):
+    """How far the nodes of a SPEC ``targets`` entry go: 0 rest, 1 on the target surface."""
+
+    model_config = _STRICT
+    amount: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-10.0, le=10.0)] = 1.0
+
+
 class Move(BaseModel):
     """Where the handles go (README, 'Documents: MOVE').
 
@@ -79,6 +86,7 @@ class Move(BaseModel):
     relative: dict[str, RelativeMove] = Field(default_factory=dict, max_length=100_000)
     features: dict[str, FeatureMove] = Field(default_factory=dict, max_length=10_000)
     motion: dict[str, MotionMove] = Field(default_factory=dict, max_length=10_000)
+    targets: dict[str, TargetMove] = Field(default_factory=dict, max_length=1000)
 
     def dump(self) -> dict[str, Any]:
         """The document as given (fields not set are left out)."""

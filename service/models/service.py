@@ -14,6 +14,7 @@ class Health(BaseModel):
 
     status: Literal["ok"]
     version: str
+    replica: str = Field(description="this replica's id (TETMORPH_REPLICA_ID)")
     sessions: int
     cached_sessions: int
     cache_bytes: int
@@ -43,14 +44,20 @@ class FormatInfo(BaseModel):
 
 
 class JobDoc(BaseModel):
-    """A tetrahedralization job."""
+    """A job: a tetrahedralization, or a batch of plan rows on a session."""
 
     id: str
+    kind: Literal["tetrahedralize", "batch"] = "tetrahedralize"
     status: Literal["queued", "running", "done", "failed", "cancelled"]
-    stage: str = Field(description="reading, tetrahedralizing, storing, done")
-    progress: float = Field(description="0 to 1; fTetWild reports no finer progress")
+    stage: str = Field(description="reading, tetrahedralizing, storing, solving, done")
+    progress: float = Field(description="0 to 1: rows done / rows of a batch; fTetWild reports no finer progress")
     elapsed_s: float
     time_limit_s: float
     created: float
     error: dict[str, Any] | None = None
-    mesh: dict[str, Any] | None = Field(None, description="the stored mesh when done")
+    mesh: dict[str, Any] | None = Field(None, description="the stored mesh when done (tetrahedralize)")
+    session_id: str | None = Field(None, description="the session of a batch")
+    rows_done: int | None = Field(None, description="plan rows solved so far (batch)")
+    rows_total: int | None = Field(None, description="plan rows (batch)")
+    summary: dict[str, Any] | None = Field(None, description="variants ok / rejected / conflict, engine, timings")
+    result: str | None = Field(None, description="where to GET the zip of decks and summary.csv when done")

@@ -35,6 +35,7 @@ class SessionDoc(BaseModel):
     builds: int
     handles: list[str]
     last_move: dict[str, Any] | None = Field(description="the committed MOVE (as applied, when clamped)")
+    version: int = Field(0, description="committed MOVEs (and resets) of the session so far")
     spec: dict[str, Any]
     setup_timings: dict[str, Any] | None
     factor_bytes: int | None

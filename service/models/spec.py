@@ -15,7 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr
 from ..errors import ServiceError
 from .numbers import Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, Weight
 
-__all__ = ["Spec", "Selection", "check_spec_ids", "check_selection_ids"]
+__all__ = ["Spec", "Selection", "Target", "check_spec_ids", "check_selection_ids", "stored_surfaces"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
@@ -148,6 +148,34 @@ class Ties(BaseModel):
     tolerance: NonNegLength
 
 
+class StoredSurface(BaseModel):
+    """A triangle surface uploaded through ``POST /v1/meshes`` (STL, OBJ, PLY, OFF), by its id."""
+
+    model_config = _STRICT
+    mesh_id: StrictStr = Field(max_length=64, description="id of an uploaded triangle surface")
+
+
+class InlineSurface(BaseModel):
+    """A triangle surface given in the SPEC."""
+
+    model_config = _STRICT
+    vertices: list[Vec3] = Field(min_length=3, max_length=10_000_000)
+    triangles: list[Annotated[list[VertexId], Field(min_length=3, max_length=3)]] = Field(
+        min_length=1, max_length=20_000_000)
+
+
+class Target(BaseModel):
+    """A selection whose boundary nodes land on a target surface (MOVE ``targets.NAME.amount``)."""
+
+    model_config = _STRICT
+    name: StrictStr = Field(max_length=200)
+    selection: StrictStr = Field(max_length=200)
+    surface: StoredSurface | InlineSurface = Field(description="a stored surface {mesh_id} (resolved by the "
+                                                   "service) or {vertices, triangles}; never a file path")
+    method: Literal["closest", "normal"] = "closest"
+    tolerance: NonNegLength | None = None
+
+
 class Spec(BaseModel):
     """What is fixed, what moves, and how to solve (README, 'Documents: SPEC')."""
 
@@ -173,6 +201,7 @@ class Spec(BaseModel):
     thin_walls: StrictBool | ThinWalls = True
     ties: Literal["auto", False] | Ties | list[list[VertexId]] = "auto"
     voids: Literal["volume", "refuse"] = "volume"
+    targets: list[Target] = Field(default_factory=list, max_length=1000)
 
     def dump(self) -> dict[str, Any]:
         """The document as given (fields not set are left out)."""
@@ -217,3 +246,19 @@ def check_spec_ids(spec: dict[str, Any], n: int) -> None:
                 raise ServiceError("index_out_of_range", f"SPEC.ties[{k}] has vertex ids outside [0, {n}): "
                                    f"{bad}", field=f"SPEC.ties[{k}]", ids=bad, vertices=n)
 
+
+
+def stored_surfaces(spec: dict[str, Any]) -> list[tuple[int, str]]:
+    """``(k, mesh_id)`` of every SPEC target whose surface is a stored mesh.
+
+    Examples
+    --------
+    >>> stored_surfaces({"targets": [{"surface": {"mesh_id": "m_1"}}, {"surface": {"vertices": []}}]})
+    [(0, 'm_1')]
+    """
+    out = []
+    for k, t in enumerate(spec.get("targets") or []):
+        surf = t.get("surface") if isinstance(t, dict) else None
+        if isinstance(surf, dict) and isinstance(surf.get("mesh_id"), str):
+            out.append((k, surf["mesh_id"]))
+    return out

@@ -89,7 +89,8 @@ class Builder:
 
     def start_build(self, s: Session, mesh: Callable[[Session], Awaitable[Mesh]],
                     built: Callable[[Session, Deformer], None],
-                    failed: Callable[[Session], None]) -> asyncio.Task[Deformer]:
+                    failed: Callable[[Session], None],
+                    spec: Callable[[Session], Awaitable[dict[str, Any]]] | None = None) -> asyncio.Task[Deformer]:
         """Start (or join) the build of a session's deformer.
 
         Parameters
@@ -101,6 +102,8 @@ class Builder:
             Called with the session and its new deformer when the build succeeds.
         failed : callable
             Called with the session after a typed build failure (to persist it).
+        spec : coroutine function, optional
+            The SPEC to build (stored target surfaces resolved); default ``s.spec``.
 
         Returns
         -------
@@ -108,14 +111,15 @@ class Builder:
             Resolves to the deformer; the session's status follows it.
         """
         if s.build_task is None or s.build_task.done():
-            s.build_task = asyncio.ensure_future(self._build(s, mesh, built, failed))
+            s.build_task = asyncio.ensure_future(self._build(s, mesh, built, failed, spec))
             # a failed background build is recorded on the session; never "never retrieved"
             s.build_task.add_done_callback(lambda t: t.cancelled() or t.exception())
         return s.build_task
 
     async def _build(self, s: Session, mesh_of: Callable[[Session], Awaitable[Mesh]],
                      built: Callable[[Session, Deformer], None],
-                     failed: Callable[[Session], None]) -> Deformer:
+                     failed: Callable[[Session], None],
+                     spec_of: Callable[[Session], Awaitable[dict[str, Any]]] | None = None) -> Deformer:
         loop = asyncio.get_running_loop()
         s.status, s.stage, s.progress, s.error = SessionStatus.building, "mesh", 0.0, None
 
@@ -126,8 +130,9 @@ class Builder:
 
         try:
             mesh = await mesh_of(s)
+            spec = await spec_of(s) if spec_of is not None else s.spec
             t0 = time.perf_counter()
-            d = await self.run(Deformer, mesh, s.spec, progress)
+            d = await self.run(Deformer, mesh, spec, progress)
             self.observe_build(time.perf_counter() - t0)
             if s.last_move is not None and s.positions is None:
                 r = await self.solve(d.solve, s.last_move, "warn")

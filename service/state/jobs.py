@@ -1,14 +1,20 @@
-"""Long, GIL-holding work (fTetWild) in worker processes, with a time limit and cancellation.
+"""Jobs: long work answered 202, with progress, a time limit and cancellation.
 
-Each job runs in its own spawned process, at most ``workers`` at once; the
-event loop only waits on the process's pipe, so every other request is served
-meanwhile. A job past its time limit, or cancelled, has its process killed.
+Tetrahedralizations (fTetWild holds the GIL) run in a spawned process each, at
+most ``workers`` at once; the event loop only waits on the process's pipe, so
+every other request is served meanwhile. A job past its time limit, or
+cancelled, has its process killed.
+
+Batches (:mod:`service.state.batch`) run in this process as tasks
+(:meth:`JobRunner.submit_task`), at most ``task_workers`` at once; they count
+rows done of rows total, and a cancelled one stops before its next block.
 """
 
 from __future__ import annotations
 
 import asyncio
 import multiprocessing as mp
+import threading
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -38,14 +44,34 @@ class Job:
     result: dict[str, Any] | None = None
     task: asyncio.Task[None] | None = None
     process: Any = None
+    #: ``tetrahedralize`` or ``batch``.
+    kind: str = "tetrahedralize"
+    session_id: str | None = None
+    #: Rows done and rows in all (batches).
+    done: int = 0
+    total: int = 0
+    #: Set by :meth:`JobRunner.cancel`; a batch stops before its next block.
+    stop: threading.Event = field(default_factory=threading.Event)
+    #: The finished batch's zip, and its summary counts.
+    result_path: Any = None
+    summary: dict[str, Any] | None = None
 
     def doc(self) -> dict[str, Any]:
         """The public description (GET /v1/jobs/{id})."""
         end = self.finished or time.time()
-        frac = {"queued": 0.0, "reading": 0.05, "tetrahedralizing": 0.1, "storing": 0.9}.get(self.stage, 1.0)
-        return {"id": self.id, "status": self.status, "stage": self.stage, "progress": frac,
-                "elapsed_s": round(end - (self.started or end), 3), "time_limit_s": self.time_limit_s,
-                "created": self.created, "error": self.error, "mesh": self.result}
+        if self.kind == "tetrahedralize":
+            frac = {"queued": 0.0, "reading": 0.05, "tetrahedralizing": 0.1, "storing": 0.9}.get(self.stage, 1.0)
+        else:
+            frac = 1.0 if self.status == "done" else self.done / max(self.total, 1)
+        doc = {"id": self.id, "kind": self.kind, "status": self.status, "stage": self.stage,
+               "progress": round(frac, 4), "elapsed_s": round(end - (self.started or end), 3),
+               "time_limit_s": self.time_limit_s, "created": self.created, "error": self.error,
+               "mesh": self.result}
+        if self.kind != "tetrahedralize":
+            base = f"/v1/sessions/{self.session_id}/batch/{self.id}"
+            doc.update({"session_id": self.session_id, "rows_done": self.done, "rows_total": self.total,
+                        "summary": self.summary, "result": base + "/result" if self.status == "done" else None})
+        return doc
 
 
 class JobRunner:
@@ -61,12 +87,14 @@ class JobRunner:
         How long finished jobs stay listed.
     """
 
-    def __init__(self, workers: int, time_limit_s: float, keep_s: float = 3600.0) -> None:
+    def __init__(self, workers: int, time_limit_s: float, keep_s: float = 3600.0, task_workers: int = 1) -> None:
         self.workers = workers
         self.time_limit_s = time_limit_s
         self.keep_s = keep_s
+        self.task_workers = task_workers
         self.jobs: dict[str, Job] = {}
         self._slots: asyncio.Semaphore | None = None
+        self._task_slots: asyncio.Semaphore | None = None
         self.closed = False
 
     @property
@@ -94,6 +122,47 @@ class JobRunner:
         job.task.add_done_callback(lambda t: t.cancelled() or t.exception())
         return job
 
+    def submit_task(self, owner: str, kind: str, work: Callable[[Job], Awaitable[None]], total: int,
+                    session_id: str | None = None, time_limit_s: float | None = None) -> Job:
+        """Start a job that runs ``await work(job)`` in this process (a batch).
+
+        ``work`` updates ``job.done`` as it goes and sets ``job.result_path``
+        and ``job.summary``; an exception it raises becomes the job's error.
+        """
+        self._expire()
+        job = Job(id=new_id("j"), owner=owner, time_limit_s=time_limit_s or self.time_limit_s, kind=kind,
+                  session_id=session_id, total=total)
+        self.jobs[job.id] = job
+        job.task = asyncio.ensure_future(self._run_task(job, work))
+        job.task.add_done_callback(lambda t: t.cancelled() or t.exception())
+        return job
+
+    async def _run_task(self, job: Job, work: Callable[[Job], Awaitable[None]]) -> None:
+        if self._task_slots is None:
+            self._task_slots = asyncio.Semaphore(self.task_workers)
+        async with self._task_slots:
+            if job.status == "cancelled":
+                return
+            job.status, job.stage, job.started = "running", "solving", time.time()
+            try:
+                await asyncio.wait_for(work(job), job.time_limit_s)
+            except TimeoutError:
+                job.stop.set()
+                job.status, job.stage, job.finished = "failed", "failed", time.time()
+                job.error = {"type": "ServiceError", "code": "job_time_limit", "details":
+                             {"time_limit_s": job.time_limit_s},
+                             "message": f"stopped after the time limit of {job.time_limit_s:g} s"}
+                return
+            except asyncio.CancelledError:
+                job.stop.set()
+                raise
+            except Exception as e:  # noqa: BLE001 - stored on the job, answered by GET of the job
+                job.status, job.stage, job.finished = "failed", "failed", time.time()
+                job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
+                             "message": getattr(e, "message", str(e)), "details": getattr(e, "details", {})}
+                return
+            job.status, job.stage, job.finished = "done", "done", time.time()
+
     def get(self, owner: str, job_id: str) -> Job:
         """A job of ``owner``; 404 otherwise."""
         job = self.jobs.get(job_id)
@@ -113,6 +182,7 @@ class JobRunner:
             raise ServiceError("job_finished", f"job {job.id} has already finished ({job.status})",
                                job_id=job.id, status=job.status)
         self._kill(job)
+        job.stop.set()
         job.status, job.stage, job.finished = "cancelled", "cancelled", time.time()
         job.error = {"type": "ServiceError", "code": "job_cancelled", "message": "cancelled", "details": {}}
         if job.task is not None:
@@ -134,7 +204,9 @@ class JobRunner:
     def _expire(self) -> None:
         now = time.time()
         for jid in [j.id for j in self.jobs.values() if j.finished and now - j.finished > self.keep_s]:
-            self.jobs.pop(jid, None)
+            job = self.jobs.pop(jid)
+            if job.result_path is not None:
+                job.result_path.unlink(missing_ok=True)
 
     async def _run(self, job: Job, target: Callable[..., None], args: tuple[Any, ...],
                    finish: Callable[[Any], Awaitable[dict[str, Any]]]) -> None:

@@ -9,11 +9,20 @@ cache; an evicted session is rebuilt transparently on its next update.
 Updates to one session are serialized by its lock. A MOVE becomes the
 session's state (memory and disk) only after it solved and every number of its
 result is finite.
+
+With a shared store (PostgreSQL, several replicas) a session's record is the
+truth and this process holds a cache of it: every request on a session
+records its use and reads the stored version; a newer version (a MOVE
+committed by another replica) is loaded before the request is served. A MOVE
+commits only if the version it was solved from is still the stored one;
+otherwise the session is reloaded and the MOVE answers 409
+``version_conflict``, which the client retries.
 """
 
 from __future__ import annotations
 
 import asyncio
+import copy
 import ctypes
 import ctypes.util
 import gc
@@ -34,13 +43,13 @@ from solver.mesh import Mesh
 
 from ..errors import NotFound, ServiceError, error_from_dict
 from ..models.move import check_move_extent, reduced_move
-from ..models.spec import check_spec_ids
+from ..models.spec import check_spec_ids, stored_surfaces
 from ..settings import Settings
 from .builder import Builder, small_report
 from .factor_cache import FactorCache
 from .mesh_cache import MeshCache
 from .session import Session, SessionStatus
-from .store import Store, new_id, valid_id
+from .store import Store, new_id, open_store, valid_id
 
 __all__ = ["Registry", "all_finite"]
 
@@ -87,11 +96,13 @@ class Registry:
     Parameters
     ----------
     settings : Settings
+    store : Store, optional
+        Default: :func:`~service.state.store.open_store` of the settings.
     """
 
-    def __init__(self, settings: Settings) -> None:
+    def __init__(self, settings: Settings, store: Store | None = None) -> None:
         self.settings = settings
-        self.store = Store(settings.data_dir)
+        self.store: Store = store if store is not None else open_store(settings.data_dir, settings.database_url)
         self.meshes = MeshCache()
         self.factors = FactorCache(settings.cache_budget_bytes)
         self.builder = Builder(settings.build_workers, settings.solve_workers)
@@ -99,12 +110,13 @@ class Registry:
         self._boxes: dict[int, tuple[Mesh, list[float], list[float]]] = {}
         #: Called with the seconds of every solved MOVE (the metrics set it).
         self.observe_solve: Callable[[float], None] = lambda seconds: None
-        for rec in self.store.list_sessions():
-            s = Session.from_record(rec)
-            self.sessions[s.id] = s
-        #: Sessions removed for idleness: id -> (owner, when).
-        self.expired: dict[str, tuple[str, float]] = {
-            r["id"]: (r["owner"], r["expired_at"]) for r in self.store.list_expired()}
+        #: Sessions removed for idleness: id -> (owner, when) (with a shared store: asked from it).
+        self.expired: dict[str, tuple[str, float]] = {}
+        if not self.store.shared:  # a shared store's sessions are loaded when first asked for
+            for rec in self.store.list_sessions():
+                s = Session.from_record(rec)
+                self.sessions[s.id] = s
+            self.expired = {r["id"]: (r["owner"], r["expired_at"]) for r in self.store.list_expired()}
 
     def start(self) -> None:
         """Start the worker threads (again, after :meth:`close`)."""
@@ -114,6 +126,10 @@ class Registry:
     def close(self) -> None:
         """Stop the worker threads."""
         self.builder.close()
+
+    def close_store(self) -> None:
+        """Release the store's connections."""
+        self.store.close()
 
     async def run(self, fn: Callable[..., Any], *args: Any) -> Any:
         """Run a blocking call (file export, packing) in a worker thread."""
@@ -229,7 +245,9 @@ class Registry:
     def delete_mesh(self, owner: str, mesh_id: str) -> None:
         """Delete a mesh; 409 while sessions use it."""
         self.mesh_meta(owner, mesh_id)
-        users = sorted(s.id for s in self.sessions.values() if s.mesh_id == mesh_id)
+        users = (self.store.sessions_of_mesh(mesh_id) if self.store.shared else
+                 sorted(s.id for s in self.sessions.values()
+                        if s.mesh_id == mesh_id or any(m == mesh_id for _, m in stored_surfaces(s.spec))))
         if users:
             raise ServiceError("mesh_in_use", f"mesh {mesh_id} is used by sessions {users}; delete "
                                "them first", sessions=users)
@@ -242,10 +260,16 @@ class Registry:
 
     # --------------------------------------------------------------- sessions
     def session(self, owner: str, session_id: str) -> Session:
-        """A session of ``owner``; 404 otherwise (also for other keys' sessions)."""
+        """A session of ``owner``; 404 otherwise (also for other keys' sessions), 410 when expired.
+
+        With a shared store this records the use and loads the record when it
+        is newer than this process's copy (or not here at all).
+        """
         s = self.sessions.get(session_id) if valid_id(session_id) else None
+        if self.store.shared and valid_id(session_id):
+            s = self._sync(session_id, s)
         if s is None or s.owner != owner:
-            gone = self.expired.get(session_id)
+            gone = self.expired.get(session_id) if not self.store.shared else self.store.expired(session_id)
             if gone is not None and gone[0] == owner:
                 raise ServiceError("session_expired", f"session {session_id} was removed after "
                                    f"{self.settings.session_ttl_s:g} s without use", session_id=session_id,
@@ -253,10 +277,96 @@ class Registry:
             raise NotFound("session", session_id)
         return s
 
+    def _sync(self, session_id: str, s: Session | None) -> Session | None:
+        """The local copy of a shared session, current with its record (None when it is gone)."""
+        now = time.time()
+        version = self.store.touch_session(session_id, now)
+        if version is None:
+            if s is not None and not s.busy:
+                self._drop_local(s)
+            return None
+        if s is None:
+            rec = self.store.load_session(session_id)
+            if rec is None:
+                return None
+            s = Session.from_record(rec)
+            self.sessions[s.id] = s
+        elif version != s.version and not s.lock.locked():
+            self._reload(s)
+        s.last_used = max(s.last_used, now)
+        return s
+
+    def _reload(self, s: Session) -> bool:
+        """Load a session's record into this process's copy; False when the record is gone."""
+        rec = self.store.load_session(s.id)
+        if rec is None:
+            return False
+        if rec.get("version", 0) != s.version or rec.get("last_move") != s.last_move:
+            s.positions, s.report = None, None  # recomputed from the record's MOVE when asked for
+        s.version, s.last_move = int(rec.get("version", 0)), rec.get("last_move")
+        s.last_used = max(s.last_used, float(rec.get("last_used", s.last_used)))
+        return True
+
+    def _drop_local(self, s: Session) -> None:
+        """Forget this process's copy of a session (its record is gone or moved on)."""
+        self.sessions.pop(s.id, None)
+        self.factors.drop(s.id)
+        s.deformer, s.positions = None, None
+        if s.build_task is not None and not s.build_task.done():
+            s.build_task.cancel()
+        s.build_task = None
+
     def list_sessions(self, owner: str) -> list[Session]:
         """Sessions of ``owner``, oldest first."""
+        if self.store.shared:
+            out = []
+            for rec in self.store.list_sessions():
+                if rec.get("owner") != owner:
+                    continue
+                s = self.sessions.get(rec["id"])
+                if s is None:
+                    s = self.sessions[rec["id"]] = Session.from_record(rec)
+                elif rec.get("version", 0) != s.version and not s.lock.locked():
+                    self._reload(s)
+                out.append(s)
+            return sorted(out, key=lambda s: s.created)
         return sorted((s for s in self.sessions.values() if s.owner == owner),
                       key=lambda s: s.created)
+
+    async def resolve_spec(self, owner: str, spec: dict[str, Any]) -> dict[str, Any]:
+        """The SPEC with each stored target surface (``{"mesh_id": ID}``) as its vertices and triangles.
+
+        Raises
+        ------
+        ServiceError
+            422 ``surface_not_found`` (no such mesh of the owner) or
+            ``not_a_surface`` (a volume mesh), naming the SPEC field.
+        """
+        refs = stored_surfaces(spec)
+        if not refs:
+            return spec
+        out = copy.copy(spec)
+        out["targets"] = list(spec["targets"])
+        for k, mid in refs:
+            where = f"SPEC.targets[{k}].surface.mesh_id"
+            meta = self.store.mesh_meta(mid)
+            if meta is None or meta.get("owner") != owner:
+                raise ServiceError("surface_not_found", f"{where}: no stored mesh {mid!r} (upload the surface "
+                                   "with POST /v1/meshes)", field=where, mesh_id=mid)
+            m = await self.mesh(meta)
+            if not m.is_surface:
+                raise ServiceError("not_a_surface", f"{where}: mesh {mid} is a volume mesh ({m.elements} "
+                                   "elements); a target is a triangle surface (STL, OBJ, PLY, OFF)",
+                                   field=where, mesh_id=mid)
+            surface = await self.run(lambda m=m: {"vertices": m.V.tolist(), "triangles": m.surface.tolist()})
+            out["targets"][k] = {**spec["targets"][k], "surface": surface}
+        return out
+
+    async def session_spec(self, s: Session) -> dict[str, Any]:
+        """The SPEC a session builds from (stored target surfaces resolved, once per process)."""
+        if s.resolved is None:
+            s.resolved = await self.resolve_spec(s.owner, s.spec)
+        return s.resolved
 
     async def create_session(self, owner: str, mesh_id: str, spec: dict[str, Any],
                              session_id: str | None = None) -> Session:
@@ -271,29 +381,34 @@ class Registry:
         SpecError, ConstraintError, InvalidMeshError
             The SPEC does not fit the mesh; nothing is stored.
         ServiceError
-            404 unknown mesh, 429 too many sessions.
+            404 unknown mesh, 429 too many sessions, 422 an unknown target surface.
         """
         self.sweep()
         meta = self.mesh_meta(owner, mesh_id)
         check_spec_ids(spec, int(meta.get("info", {}).get("vertices", 0)))
-        parse_spec(spec)  # malformed SPEC: 422 before anything is stored
-        mine = sum(1 for s in self.sessions.values() if s.owner == owner)
-        if mine >= self.settings.max_sessions:
+        resolved = await self.resolve_spec(owner, spec)
+        parse_spec(resolved)  # malformed SPEC: 422 before anything is stored
+        limit = self.settings.max_sessions
+        mine = (self.store.count_sessions(owner) if self.store.shared else
+                sum(1 for s in self.sessions.values() if s.owner == owner))
+        if mine >= limit:
             raise ServiceError("session_limit", f"this key already has {mine} sessions (limit "
-                               f"{self.settings.max_sessions}); delete one first",
-                               sessions=mine, limit=self.settings.max_sessions)
+                               f"{limit}); delete one first", sessions=mine, limit=limit)
         sid = session_id or new_id("s")
         if sid in self.sessions:
             raise ServiceError("session_exists", f"session {sid} exists", session_id=sid)
         s = Session(id=sid, owner=owner, mesh_id=meta["id"], spec=spec, created=time.time())
+        s.resolved = resolved
         self.sessions[sid] = s
         task = self._start_build(s)
         checked = asyncio.ensure_future(s.checked.wait())
+        stored = False
         try:
             await asyncio.wait({task, checked}, return_when=asyncio.FIRST_COMPLETED)
             if task.done() and task.exception() is not None:
                 raise task.exception()  # type: ignore[misc]
-            self.store.save_session(s.record())
+            self.store.create_session(s.record(), limit)  # atomic count and insert when shared
+            stored = True
             try:
                 await asyncio.wait_for(asyncio.shield(task), self.settings.build_wait_s)
             except TimeoutError:
@@ -301,12 +416,15 @@ class Registry:
         except BaseException:
             checked.cancel()
             self.sessions.pop(sid, None)
-            self.store.delete_session(sid)
+            if stored:
+                self.store.delete_session(sid)
+            if not task.done():
+                task.cancel()
             raise
         return s
 
     def _start_build(self, s: Session) -> asyncio.Task[Deformer]:
-        return self.builder.start_build(s, self.session_mesh, self._built, self._failed)
+        return self.builder.start_build(s, self.session_mesh, self._built, self._failed, self.session_spec)
 
     def _built(self, s: Session, d: Deformer) -> None:
         self.factors.add(s.id, d.nbytes)
@@ -321,7 +439,8 @@ class Registry:
                 log.info("evicted session %s from the factorization cache", sid)
 
     def _failed(self, s: Session) -> None:
-        if s.id in self.sessions and self.store.mesh_meta(s.mesh_id) is not None:
+        if s.id in self.sessions and self.store.mesh_meta(s.mesh_id) is not None and (
+                not self.store.shared or self.store.load_session(s.id) is not None):
             self.store.save_session(s.record())
 
     async def session_mesh(self, s: Session) -> Mesh:
@@ -415,11 +534,24 @@ class Registry:
         # a clamped MOVE is stored as applied, so a rebuild reproduces these positions
         applied = r.move.to_dict() if r.report.get("clamped") and r.move is not None else move
         rec = {**s.record(), "last_move": applied, "last_used": time.time()}
-        self.store.save_session(rec)  # disk first: a failed write leaves memory unchanged
+        self._store_commit(s, rec)  # the store first: a failed write leaves memory unchanged
         s.positions, s.report, s.last_move = r.V, small_report(r.report), applied
         s.updates += 1
         s.last_used = rec["last_used"]
         return r
+
+    def _store_commit(self, s: Session, rec: dict[str, Any]) -> None:
+        """Write a session's new record if its version is still ``s.version``; else reload and answer 409."""
+        solved_from = s.version
+        version = self.store.commit_session(rec, solved_from)
+        if version is None:
+            if not self._reload(s):
+                self._drop_local(s)
+                raise NotFound("session", s.id)
+            raise ServiceError("version_conflict", f"session {s.id} changed while this request was solved "
+                               f"(version {solved_from}, now {s.version}); nothing was committed: retry",
+                               session_id=s.id, version=solved_from, current=s.version)
+        s.version = version
 
     def _bbox(self, mesh: Mesh) -> tuple[list[float], list[float]]:
         key = id(mesh)
@@ -433,17 +565,19 @@ class Registry:
     async def positions(self, s: Session) -> np.ndarray:
         """Current deformed positions (rest positions before the first MOVE)."""
         async with s.lock:
+            if s.positions is None and s.last_move is not None:
+                d = await self.deformer(s)  # a build restores positions from the last MOVE
+                if s.positions is None:  # built before the record moved on (another replica's MOVE)
+                    r = await self.builder.solve(d.solve, s.last_move, "warn")
+                    s.positions, s.report = r.V, small_report(r.report)
             if s.positions is None:
-                if s.last_move is not None:
-                    await self.deformer(s)  # restores positions from the last MOVE
-                if s.positions is None:
-                    return (await self.session_mesh(s)).V
+                return (await self.session_mesh(s)).V
             return s.positions
 
     async def reset(self, s: Session) -> None:
         """Back to the rest shape; the last MOVE is forgotten."""
         async with s.lock:
-            self.store.save_session({**s.record(), "last_move": None})
+            self._store_commit(s, {**s.record(), "last_move": None, "last_used": time.time()})
             s.positions, s.report, s.last_move = None, None, None
 
     async def delete_session(self, s: Session) -> None:
@@ -453,19 +587,32 @@ class Registry:
         _release_memory()
 
     def _forget(self, s: Session) -> None:
-        self.sessions.pop(s.id, None)
-        self.factors.drop(s.id)
-        s.deformer, s.positions = None, None
-        if s.build_task is not None and not s.build_task.done():
-            s.build_task.cancel()
-        s.build_task = None
+        self._drop_local(s)
         self.store.delete_session(s.id)
 
     def sweep(self, now: float | None = None) -> list[str]:
-        """Remove sessions idle longer than the TTL; return their ids."""
+        """Remove sessions idle longer than the TTL; return their ids.
+
+        With a shared store the records are swept in the database (one
+        statement, so replicas sweeping at once remove each session once), and
+        this process forgets its copies of sessions whose records are gone.
+        """
         now = time.time() if now is None else now
-        gone = [s for s in self.sessions.values()
-                if now - s.last_used > self.settings.session_ttl_s and not s.busy]
+        ttl = self.settings.session_ttl_s
+        if self.store.shared:
+            for s in self.sessions.values():
+                if s.busy:
+                    self.store.touch_session(s.id, now)
+            ids = [sid for sid, _ in self.store.expire_idle(now - ttl)]
+            alive = self.store.existing(list(self.sessions))
+            for s in [s for s in self.sessions.values() if s.id not in alive and not s.busy]:
+                self._drop_local(s)
+            self.store.forget_expired(now - self.settings.expired_memory_s)
+            if ids:
+                log.info("removed %d idle sessions", len(ids))
+                _release_memory()
+            return ids
+        gone = [s for s in self.sessions.values() if now - s.last_used > ttl and not s.busy]
         for s in gone:
             self._forget(s)
             self.expired[s.id] = (s.owner, now)

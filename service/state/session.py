@@ -54,6 +54,12 @@ class Session:
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
     build_task: asyncio.Task[Deformer] | None = None
     checked: asyncio.Event = field(default_factory=asyncio.Event)
+    #: Committed MOVEs of the record (optimistic concurrency between replicas).
+    version: int = 0
+    #: The SPEC with stored target surfaces resolved to vertices and triangles (not persisted).
+    resolved: dict[str, Any] | None = None
+    #: Batches running on this session (it is busy meanwhile).
+    batches: int = 0
 
     @classmethod
     def from_record(cls, rec: dict[str, Any]) -> Session:
@@ -61,7 +67,7 @@ class Session:
         now = time.time()
         s = cls(id=rec["id"], owner=rec["owner"], mesh_id=rec["mesh_id"], spec=rec["spec"],
                 created=rec.get("created", now), last_move=rec.get("last_move"),
-                last_used=rec.get("last_used", now))
+                last_used=rec.get("last_used", now), version=int(rec.get("version", 0)))
         if rec.get("failed"):
             s.status, s.error = SessionStatus.failed, rec["failed"]
         s.checked.set()
@@ -71,12 +77,13 @@ class Session:
         """What persists across restarts."""
         return {"id": self.id, "owner": self.owner, "mesh_id": self.mesh_id, "spec": self.spec,
                 "created": self.created, "last_move": self.last_move, "last_used": self.last_used,
-                "failed": self.error if self.status is SessionStatus.failed else None}
+                "failed": self.error if self.status is SessionStatus.failed else None, "version": self.version}
 
     @property
     def busy(self) -> bool:
         """True while an update or a build runs."""
-        return self.lock.locked() or (self.build_task is not None and not self.build_task.done())
+        return (self.lock.locked() or self.batches > 0
+                or (self.build_task is not None and not self.build_task.done()))
 
     def doc(self, ttl_s: float | None = None) -> dict[str, Any]:
         """The public description (GET /v1/sessions/{id}); ``ttl_s`` gives ``expires_at``."""
@@ -88,7 +95,7 @@ class Session:
             "expires_at": self.last_used + ttl_s if ttl_s is not None else None,
             "updates": self.updates, "builds": self.builds,
             "handles": list(d.handle_names) if d is not None else list(self.spec.get("handles", {})),
-            "last_move": self.last_move, "spec": self.spec,
+            "last_move": self.last_move, "version": self.version, "spec": self.spec,
             "setup_timings": d.setup_timings if d is not None else None,
             "factor_bytes": d.nbytes if d is not None else None,
             "constraints_at_rest": d.rest_constraints if d is not None else None,

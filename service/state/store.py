@@ -1,4 +1,9 @@
-"""Persistence of meshes and sessions in a local data directory.
+"""Persistence of meshes and sessions: the :class:`Store` protocol and its filesystem implementation.
+
+:class:`FileStore` keeps everything in a local data directory (the embedded
+default); :class:`~service.state.pg_store.PgStore` keeps the records in
+PostgreSQL for several replicas (``TETMORPH_DATABASE_URL``). Both keep mesh
+files in the data directory (on a volume every replica mounts, for replicas).
 
 Layout (``data_dir``)::
 
@@ -20,8 +25,9 @@ import re
 import secrets
 import shutil
 import tempfile
+import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -29,7 +35,7 @@ from solver.errors import InvalidMeshError
 from solver.io import read_mesh
 from solver.mesh import Mesh, mesh_from_arrays
 
-__all__ = ["Store", "new_id", "valid_id"]
+__all__ = ["Store", "FileStore", "open_store", "new_id", "valid_id", "read_mesh_files"]
 
 _ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
@@ -56,14 +62,149 @@ def _write_json(path: Path, doc: dict[str, Any]) -> None:
         raise
 
 
-class Store:
-    """Meshes and session records on disk.
+class Store(Protocol):
+    """What the registry keeps across restarts (and, with PostgreSQL, shares between replicas).
+
+    Session records carry a ``version``: :meth:`commit_session` writes a record
+    only if the stored version is the one it was solved from.
+    """
+
+    #: True when other processes write the same records (replicas): the registry re-reads them.
+    shared: bool
+    root: Path
+
+    def mesh_dir(self, mesh_id: str) -> Path:
+        """Directory of one mesh's files."""
+
+    def new_mesh_dir(self, mesh_id: str) -> Path:
+        """Create and return the directory for a new mesh."""
+
+    def save_mesh_meta(self, meta: dict[str, Any]) -> None:
+        """Write (or replace) a mesh's meta."""
+
+    def mesh_meta(self, mesh_id: str) -> dict[str, Any] | None:
+        """The stored meta of a mesh, or None."""
+
+    def list_meshes(self) -> list[dict[str, Any]]:
+        """Every stored mesh's meta, oldest first."""
+
+    def delete_mesh(self, mesh_id: str) -> None:
+        """Remove a mesh's meta and files."""
+
+    def save_arrays(self, mesh_id: str, mesh: Mesh) -> None:
+        """Store a mesh given as arrays."""
+
+    def load_mesh(self, meta: dict[str, Any]) -> Mesh:
+        """Read a stored mesh back (validated)."""
+
+    def create_session(self, record: dict[str, Any], limit: int) -> None:
+        """Insert a new session record; 429 ``session_limit`` when its owner has ``limit`` already."""
+
+    def save_session(self, record: dict[str, Any]) -> None:
+        """Write (or replace) a session record as it is."""
+
+    def commit_session(self, record: dict[str, Any], version: int) -> int | None:
+        """Write ``record`` if the stored version is ``version``; the new version, or None when it is not."""
+
+    def load_session(self, session_id: str) -> dict[str, Any] | None:
+        """One session record, or None."""
+
+    def touch_session(self, session_id: str, now: float) -> int | None:
+        """Record a use of the session; its stored version, or None when it no longer exists."""
+
+    def list_sessions(self) -> list[dict[str, Any]]:
+        """Every stored session record."""
+
+    def count_sessions(self, owner: str) -> int:
+        """Sessions of one owner."""
+
+    def delete_session(self, session_id: str) -> None:
+        """Remove a session record."""
+
+    def sessions_of_mesh(self, mesh_id: str) -> list[str]:
+        """Ids of the sessions on a mesh or with it as a target surface."""
+
+    def existing(self, ids: list[str]) -> set[str]:
+        """Which of ``ids`` still have records."""
+
+    def expire_idle(self, before: float) -> list[tuple[str, str]]:
+        """Remove the sessions last used before ``before`` and remember them as expired: their ``(id, owner)``."""
+
+    def save_expired(self, session_id: str, owner: str, at: float) -> None:
+        """Remember that a session was removed for idleness."""
+
+    def expired(self, session_id: str) -> tuple[str, float] | None:
+        """``(owner, expired_at)`` of an expired session, or None."""
+
+    def list_expired(self) -> list[dict[str, Any]]:
+        """Every remembered expired session."""
+
+    def delete_expired(self, session_id: str) -> None:
+        """Forget an expired session."""
+
+    def forget_expired(self, before: float) -> int:
+        """Forget the sessions that expired before ``before``."""
+
+    def remove_orphans(self) -> list[str]:
+        """Remove what interrupted uploads and writes left behind."""
+
+    def rename_owner(self, old: str, new: str) -> int:
+        """Give every record of owner ``old`` to ``new``."""
+
+    def writable(self) -> bool:
+        """True when records can be written now (readiness)."""
+
+    def close(self) -> None:
+        """Release connections."""
+
+
+def _surfaces(spec: dict[str, Any]) -> list[tuple[int, str]]:
+    from ..models.spec import stored_surfaces
+
+    return stored_surfaces(spec)
+
+
+def open_store(data_dir: str | os.PathLike[str], database_url: str | None = None) -> Store:
+    """The store of the settings: :class:`FileStore`, or PostgreSQL records when ``database_url`` is set."""
+    if database_url:
+        from .pg_store import PgStore
+
+        return PgStore(database_url, data_dir)
+    return FileStore(data_dir)
+
+
+def read_mesh_files(root: Path, meta: dict[str, Any]) -> Mesh:
+    """Read a stored mesh of ``root/meshes`` back (validated).
+
+    Raises
+    ------
+    InvalidMeshError
+        The stored file no longer reads (e.g. deleted by hand).
+    """
+    d = root / "meshes" / meta["id"]
+    if meta.get("format") == "arrays":
+        try:
+            with np.load(d / "arrays.npz") as z:
+                sets = {k[4:]: z[k] for k in z.files if k.startswith("set:")}
+                T = z["T"] if z["T"].size else None
+                surface = z["surface"] if T is None else None
+                return mesh_from_arrays(z["V"], T, surface, sets=sets)
+        except OSError as e:
+            raise InvalidMeshError(f"stored mesh {meta['id']} is unreadable: {e}",
+                                   code="unreadable_file") from e
+    return read_mesh(d / meta["file"], meta.get("format"))
+
+
+class FileStore:
+    """Meshes and session records on disk (one process writes them).
 
     Parameters
     ----------
     root : path
         The data directory; created if missing.
     """
+
+    shared = False
 
     def __init__(self, root: str | os.PathLike[str]) -> None:
         self.root = Path(root)
@@ -115,30 +256,90 @@ class Store:
                  **sets)
 
     def load_mesh(self, meta: dict[str, Any]) -> Mesh:
-        """Read a stored mesh back (validated).
-
-        Raises
-        ------
-        InvalidMeshError
-            The stored file no longer reads (e.g. deleted by hand).
-        """
-        d = self.mesh_dir(meta["id"])
-        if meta.get("format") == "arrays":
-            try:
-                with np.load(d / "arrays.npz") as z:
-                    sets = {k[4:]: z[k] for k in z.files if k.startswith("set:")}
-                    T = z["T"] if z["T"].size else None
-                    surface = z["surface"] if T is None else None
-                    return mesh_from_arrays(z["V"], T, surface, sets=sets)
-            except OSError as e:
-                raise InvalidMeshError(f"stored mesh {meta['id']} is unreadable: {e}",
-                                       code="unreadable_file") from e
-        return read_mesh(d / meta["file"], meta.get("format"))
+        """Read a stored mesh back (validated); see :func:`read_mesh_files`."""
+        return read_mesh_files(self.root, meta)
 
     # --------------------------------------------------------------- sessions
     def save_session(self, record: dict[str, Any]) -> None:
         """Write (or replace) a session record."""
         _write_json(self.sessions_dir / f"{record['id']}.json", record)
+
+    def create_session(self, record: dict[str, Any], limit: int) -> None:
+        """Write a new session record (the registry has checked the limit: one process)."""
+        self.save_session(record)
+
+    def commit_session(self, record: dict[str, Any], version: int) -> int | None:
+        """Write ``record`` with ``version + 1`` (this process is the only writer)."""
+        new = version + 1
+        self.save_session({**record, "version": new})
+        return new
+
+    def load_session(self, session_id: str) -> dict[str, Any] | None:
+        """One session record, or None."""
+        if not valid_id(session_id):
+            return None
+        try:
+            return json.loads((self.sessions_dir / f"{session_id}.json").read_text())
+        except (OSError, ValueError):
+            return None
+
+    def touch_session(self, session_id: str, now: float) -> int | None:
+        """Nothing to record (uses are kept in memory); the stored version."""
+        rec = self.load_session(session_id)
+        return None if rec is None else int(rec.get("version", 0))
+
+    def count_sessions(self, owner: str) -> int:
+        """Sessions of one owner."""
+        return sum(1 for r in self.list_sessions() if r.get("owner") == owner)
+
+    def expire_idle(self, before: float) -> list[tuple[str, str]]:
+        """Remove the records last used before ``before`` (the registry sweeps its memory itself)."""
+        out = []
+        for rec in self.list_sessions():
+            if rec.get("last_used", time.time()) < before:
+                self.delete_session(rec["id"])
+                self.save_expired(rec["id"], rec["owner"], time.time())
+                out.append((rec["id"], rec["owner"]))
+        return out
+
+    def expired(self, session_id: str) -> tuple[str, float] | None:
+        """``(owner, expired_at)`` of an expired session, or None."""
+        if not valid_id(session_id):
+            return None
+        try:
+            doc = json.loads((self.sessions_dir / "expired" / f"{session_id}.json").read_text())
+        except (OSError, ValueError):
+            return None
+        return doc["owner"], float(doc["expired_at"])
+
+    def writable(self) -> bool:
+        """True when a file can be created in the sessions folder."""
+        try:
+            fd, path = tempfile.mkstemp(dir=self.sessions_dir, prefix=".tmp-ready-")
+            os.close(fd)
+            os.unlink(path)
+            return True
+        except OSError:
+            return False
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+    def sessions_of_mesh(self, mesh_id: str) -> list[str]:
+        """Ids of the sessions on a mesh or with it as a target surface."""
+        return sorted(r["id"] for r in self.list_sessions() if r.get("mesh_id") == mesh_id
+                      or any(m == mesh_id for _, m in _surfaces(r.get("spec") or {})))
+
+    def existing(self, ids: list[str]) -> set[str]:
+        """Which of ``ids`` still have records."""
+        return {i for i in ids if valid_id(i) and (self.sessions_dir / f"{i}.json").is_file()}
+
+    def forget_expired(self, before: float) -> int:
+        """Forget the sessions that expired before ``before``."""
+        old = [r["id"] for r in self.list_expired() if r.get("expired_at", 0.0) < before]
+        for sid in old:
+            self.delete_expired(sid)
+        return len(old)
 
     def list_sessions(self) -> list[dict[str, Any]]:
         """Every stored session record."""

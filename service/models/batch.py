@@ -1,0 +1,74 @@
+"""Batches and bounds of shape variables: the request bodies.
+
+A batch morphs every row of a PLAN through a session's factorization (the
+``tetmorph doe`` of the service); bounds search each shape's largest values
+that invert nothing (``tetmorph bounds``). Shapes are MOVE documents at
+parameter value 1 (README, "Shape variables").
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StrictStr
+
+from .move import Move
+
+__all__ = ["PlanTable", "BatchCreate", "BoundsQuery", "shapes_document"]
+
+_STRICT = ConfigDict(extra="forbid", strict=True)
+
+ShapeName = Annotated[str, Field(min_length=1, max_length=200)]
+
+
+class PlanTable(BaseModel):
+    """A PLAN as JSON: column names (shape names) and one row of numbers per variant."""
+
+    model_config = _STRICT
+    columns: list[StrictStr] = Field(min_length=1, max_length=10_000)
+    rows: list[list[Any]] = Field(min_length=1, description="one list of numbers per variant; the "
+                                  "row count is bounded by TETMORPH_BATCH_MAX_ROWS")
+
+
+class BatchCreate(BaseModel):
+    """Morph every row of a PLAN: one deck per row and a summary, as a zip."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [{
+        "shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}},
+        "plan": {"columns": ["bend"], "rows": [[0.5], [1.0]]}, "format": "inp"}]})
+
+    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000,
+                                          description="SHAPES: name -> MOVE at parameter value 1")
+    plan: PlanTable | Annotated[str, Field(max_length=50_000_000)] = Field(
+        description="{columns, rows}, or the text of a PLAN CSV file (header of shape names)")
+    format: StrictStr | None = Field(None, max_length=40, description="deck format name or extension; "
+                                     "default the mesh's own (byte-faithful but the node coordinates)")
+    engine: Literal["local", "ray"] = Field("local", description="local: this replica's factorization, "
+                                            "blocks between the session's MOVEs; ray: actors of the Ray "
+                                            "cluster of TETMORPH_RAY_ADDRESS")
+    block: int = Field(16, ge=1, le=1024, description="rows per stacked back-substitution")
+    inversion: Literal["warn", "reject", "clamp"] | None = Field(
+        None, description="override the SPEC's policy; 'reject' writes no deck for an inverting row")
+
+    def shapes_doc(self) -> dict[str, Any]:
+        """The SHAPES document for :func:`solver.workflows.parse_shapes`."""
+        return shapes_document(self.shapes)
+
+
+class BoundsQuery(BaseModel):
+    """Per shape, the largest positive and negative value inverting nothing."""
+
+    model_config = _STRICT
+    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000)
+    range: list[Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]] | None = Field(
+        None, min_length=2, max_length=2, description="[lo, hi] with lo <= 0 <= hi; default 1, 2, 4, ... 1024")
+    tol: Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=1e3)] = 1e-3
+
+    def shapes_doc(self) -> dict[str, Any]:
+        """The SHAPES document."""
+        return shapes_document(self.shapes)
+
+
+def shapes_document(shapes: dict[str, Move]) -> dict[str, Any]:
+    """``{"shapes": {name: MOVE}}`` of validated MOVE models."""
+    return {"shapes": {k: m.dump() for k, m in shapes.items()}}

@@ -1,0 +1,199 @@
+"""Batches of plan rows on a session: the work of ``POST /v1/sessions/{id}/batch``.
+
+Engine ``local`` solves on this replica's factorization of the session, one
+block of rows at a time under the session's lock, so interactive MOVEs get in
+between blocks; each block is one :func:`~solver.workflows.doe.run_doe` call
+over the rows ``[k * block, (k + 1) * block)``, which is the block the
+single-process ``tetmorph doe`` solves, so every deck is the one it writes.
+Engine ``ray`` hands the plan to :func:`solver.workflows.ray_engine.run_doe_ray`
+(actors on the cluster of ``TETMORPH_RAY_ADDRESS`` write the decks into the
+job's folder of the data directory).
+
+Decks go into one zip, ``{stem}_{row}.{ext}`` and ``summary.csv``, whose size
+is capped (``TETMORPH_BATCH_MAX_RESULT_MB``). A failed or cancelled batch
+leaves no file behind.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import os
+import shutil
+import tempfile
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from solver.deform.deformer import Deformer, DeformResult
+from solver.errors import SpecError
+from solver.io import write_mesh
+from solver.mesh import Mesh
+from solver.workflows.doe import DoeResult, Variant, run_doe, write_summary
+from solver.workflows.plan import Plan, parse_plan, plan_values
+from solver.workflows.shapes import Shapes, parse_shapes, variant_move
+
+from ..errors import ServiceError
+from .jobs import Job
+
+__all__ = ["plan_of", "check_plan", "DeckZip", "sub_plan", "renumber", "summary_counts"]
+
+
+def plan_of(plan: Any, max_rows: int) -> Plan:
+    """The plan of a request: ``{columns, rows}`` or CSV text (delimiter as ``tetmorph doe`` reads it).
+
+    Raises
+    ------
+    ServiceError
+        422 ``too_many_rows`` above ``max_rows``.
+    SpecError
+        ``empty_plan``, ``invalid_plan`` naming the row, its line and the column.
+    """
+    if isinstance(plan, str):
+        text = plan.lstrip("\ufeff")
+        first = next((ln for ln in text.splitlines() if ln.strip()), "")
+        delim = "," if "," in first or not any(d in first for d in ";\t") else (";" if ";" in first else "\t")
+        table = [(k + 1, row) for k, row in enumerate(csv.reader(io.StringIO(text), delimiter=delim))]
+        table = [(k, row) for k, row in table if any(c.strip() for c in row)]
+        if len(table) < 2:
+            raise SpecError("the plan needs a header of shape names and one row per variant", code="empty_plan",
+                            field="plan")
+        body = table[1:]
+        _limit(len(body), max_rows)
+        return parse_plan([row for _, row in body], table[0][1], [k for k, _ in body], text=True)
+    _limit(len(plan.rows), max_rows)
+    return parse_plan(plan.rows, plan.columns)
+
+
+def _limit(rows: int, max_rows: int) -> None:
+    if rows > max_rows:
+        raise ServiceError("too_many_rows", f"the plan has {rows} rows; a batch takes at most {max_rows} "
+                           "(TETMORPH_BATCH_MAX_ROWS): split it", field="plan", rows=rows, limit=max_rows)
+
+
+def check_plan(deformer: Deformer, shapes_doc: dict[str, Any], plan: Plan) -> Shapes:
+    """Parse the shapes and every row's variant MOVE before anything is solved (errors name shape or row)."""
+    shapes = parse_shapes(shapes_doc, deformer)
+    theta = plan_values(plan, shapes)
+    for i in range(plan.rows):
+        variant_move(deformer, shapes, theta[i], plan.where(i))
+    return shapes
+
+
+def sub_plan(plan: Plan, start: int, stop: int) -> Plan:
+    """Rows ``[start, stop)`` of a plan (their file lines kept)."""
+    lines = plan.lines[start:stop] if plan.lines is not None else None
+    return Plan(plan.columns, plan.values[start:stop], lines)
+
+
+def renumber(v: Variant, start: int) -> Variant:
+    """A variant of a sub-plan numbered as a row of the whole plan."""
+    return dataclasses.replace(v, row=v.row + start)
+
+
+def summary_counts(result: DoeResult) -> dict[str, Any]:
+    """Variants by status, and the timings."""
+    counts = {k: sum(1 for v in result.variants if v.status == k) for k in ("ok", "rejected", "conflict")}
+    return {"rows": result.rows, **counts, "timings": {k: round(float(v), 3) for k, v in result.timings.items()}}
+
+
+class DeckZip:
+    """The zip a batch answers: decks as they are written, then ``summary.csv``; at most ``limit`` bytes.
+
+    Parameters
+    ----------
+    path : Path
+    mesh : Mesh
+        The session's mesh as read (a deck in its own format keeps every byte but the node coordinates).
+    stem, ext, file_format : str
+        Deck names ``{stem}_{row}{ext}``, and the meshio format.
+    limit : int
+        Bytes; :meth:`add` raises 422 ``result_too_large`` above.
+    """
+
+    def __init__(self, path: Path, mesh: Mesh, stem: str, ext: str, file_format: str, limit: int) -> None:
+        self.path, self.mesh, self.stem, self.ext, self.format, self.limit = path, mesh, stem, ext, file_format, limit
+        self._fh = open(path, "wb")  # noqa: SIM115 - closed by close()
+        self.zip = zipfile.ZipFile(self._fh, "w", zipfile.ZIP_DEFLATED, compresslevel=1)
+        self.tmp = Path(tempfile.mkdtemp(prefix="tetmorph-batch-", dir=path.parent))
+
+    def name(self, row: int) -> str:
+        """The deck's name in the zip."""
+        return f"{self.stem}_{row}{self.ext}"
+
+    def _check(self) -> None:
+        size = self._fh.tell()
+        if size > self.limit:
+            raise ServiceError("result_too_large", f"the batch's zip passed {self.limit} bytes "
+                               "(TETMORPH_BATCH_MAX_RESULT_MB); split the plan", bytes=size, limit=self.limit)
+
+    def writer(self) -> Callable[[int, DeformResult], str]:
+        """An ``output`` callback of :func:`~solver.workflows.doe.run_doe` adding each deck."""
+
+        def out(row: int, res: DeformResult) -> str:
+            name = self.name(row)
+            f = self.tmp / name
+            write_mesh(self.mesh, res.V, f, self.format)
+            self.add_file(f, name)
+            return name
+
+        return out
+
+    def add_file(self, f: Path, name: str) -> None:
+        """Add a written deck and remove it."""
+        self.zip.write(f, arcname=name)
+        f.unlink()
+        self._check()
+
+    def finish(self, result: DoeResult) -> None:
+        """Add ``summary.csv`` and close."""
+        f = self.tmp / "summary.csv"
+        write_summary(result, f)
+        self.add_file(f, "summary.csv")
+        self.close()
+
+    def close(self) -> None:
+        """Close the zip (idempotent) and remove the temporary folder."""
+        if not self._fh.closed:
+            self.zip.close()
+            self._fh.close()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def discard(self) -> None:
+        """Close and remove everything (a failed or cancelled batch)."""
+        self.close()
+        self.path.unlink(missing_ok=True)
+
+
+def solve_block(deformer: Deformer, shapes: Shapes, plan: Plan, start: int, block: int, inversion: str | None,
+                out: Callable[[int, DeformResult], str], job: Job) -> list[Variant]:
+    """One block of rows (a thread's work): run_doe over the sub-plan, numbered as rows of the whole plan."""
+    part = sub_plan(plan, start, min(start + block, plan.rows))
+
+    def output(row: int, res: DeformResult) -> str:
+        return out(row + start, res)
+
+    r = run_doe(deformer, shapes, part, block=block, output=output, inversion=inversion,
+                cancelled=job.stop.is_set)
+    return [renumber(v, start) for v in r.variants]
+
+
+def job_folder(data_dir: Path, replica: str, job_id: str) -> Path:
+    """Where one replica keeps a job's files (``jobs/<replica>/``, created)."""
+    d = Path(data_dir) / "jobs" / "".join(c if c.isalnum() or c in "._-" else "_" for c in replica)
+    d.mkdir(parents=True, exist_ok=True)
+    return d / job_id
+
+
+def clear_jobs(data_dir: Path, replica: str) -> None:
+    """Remove what a previous process of this replica left in its jobs folder (jobs live in memory)."""
+    d = Path(data_dir) / "jobs" / "".join(c if c.isalnum() or c in "._-" else "_" for c in replica)
+    if d.is_dir():
+        shutil.rmtree(d, ignore_errors=True)
+
+
+def remove_tree(path: str | os.PathLike[str]) -> None:
+    """Remove a folder if there."""
+    shutil.rmtree(path, ignore_errors=True)

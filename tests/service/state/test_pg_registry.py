@@ -1,0 +1,85 @@
+"""Two replicas on one PostgreSQL (real server) and one data directory: what one commits, the other serves."""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+import psycopg
+import pytest
+
+from tests.pg_fixture import fresh_database, pg_url  # noqa: F401 - the fixture
+
+from ..conftest import BRACKET, BRACKET_SPEC, MOVES, err, running
+
+
+@contextlib.contextmanager
+def replicas(tmp_path, url, **settings):
+    data = tmp_path / "data"
+    with running(data, database_url=url, replica_id="A", **settings) as a, \
+            running(data, database_url=url, replica_id="B", **settings) as b:
+        yield a, b
+
+
+@pytest.fixture
+def db(pg_url):  # noqa: F811
+    return fresh_database(pg_url)
+
+
+def test_what_one_replica_commits_the_other_serves(tmp_path, db, bracket_library):
+    _, want = bracket_library
+    with replicas(tmp_path, db) as (a, b):
+        mid = a.post("/v1/meshes", files=[("file", ("bracket.inp", BRACKET.read_bytes()))]).json()["id"]
+        assert b.get(f"/v1/meshes/{mid}").status_code == 200
+        r = a.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC})
+        assert r.status_code in (201, 202) and r.headers["x-tetmorph-replica"] == "A"
+        sid = r.json()["id"]
+        r = b.post(f"/v1/sessions/{sid}/deform", json=MOVES[0])
+        assert r.status_code == 200 and r.headers["x-tetmorph-version"] == "1"
+        assert r.headers["x-tetmorph-replica"] == "B"
+        got = a.get(f"/v1/sessions/{sid}/positions")  # A had the session at version 0: it reloads
+        assert got.headers["x-tetmorph-version"] == "1"
+        np.testing.assert_allclose(np.asarray(got.json()["positions"]), want[0], atol=1e-9)
+        r = a.post(f"/v1/sessions/{sid}/deform", json=MOVES[1])
+        assert r.headers["x-tetmorph-version"] == "2"
+        got = b.get(f"/v1/sessions/{sid}/positions")
+        np.testing.assert_allclose(np.asarray(got.json()["positions"]), want[1], atol=1e-9)
+        assert [s["id"] for s in b.get("/v1/sessions").json()] == [sid]
+        assert b.get(f"/v1/sessions/{sid}").json()["version"] == 2
+        # a MOVE solved from a version another replica has replaced is not committed: 409, reloaded
+        ra = a.app.state.registry
+        s = ra.session("public", sid)  # A's copy at version 2
+        assert b.post(f"/v1/sessions/{sid}/deform", json=MOVES[2]).headers["x-tetmorph-version"] == "3"
+        with pytest.raises(Exception) as e:
+            a.portal.call(ra.deform, s, MOVES[0])
+        assert e.value.code == "version_conflict" and e.value.status == 409
+        assert s.version == 3 and s.last_move == MOVES[2]
+        np.testing.assert_allclose(np.asarray(a.get(f"/v1/sessions/{sid}/positions").json()["positions"]), want[2],
+                                   atol=1e-9)
+        assert err(a.delete(f"/v1/meshes/{mid}"))["code"] == "mesh_in_use"
+        assert a.delete(f"/v1/sessions/{sid}").status_code == 204
+        assert err(b.get(f"/v1/sessions/{sid}"))["code"] == "session_not_found"
+        assert b.delete(f"/v1/meshes/{mid}").status_code == 204
+        assert err(a.get(f"/v1/meshes/{mid}"))["code"] == "mesh_not_found"
+
+
+def test_limits_and_sweeps_count_every_replica(tmp_path, db):
+    with replicas(tmp_path, db, max_sessions=2, rate_limit_per_s=0.5, rate_burst=6) as (a, b):
+        mid = a.post("/v1/meshes", files=[("file", ("bracket.inp", BRACKET.read_bytes()))]).json()["id"]
+        s1 = a.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC}).json()["id"]
+        b.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC})
+        e = err(a.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC}))
+        assert e["code"] == "session_limit" and e["details"]["sessions"] == 2
+        statuses = [c.get("/v1/sessions").status_code for _ in range(4) for c in (a, b)]
+        assert statuses.count(429) >= 3  # one bucket of 6 for both replicas: 4 + 8 requests (a few refilled)
+        assert err(a.get("/v1/sessions"))["code"] == "rate_limited"
+    with replicas(tmp_path, db, session_ttl_s=60.0) as (a, b):
+        with psycopg.connect(db, autocommit=True) as c:
+            c.execute("UPDATE tm_sessions SET last_used = last_used - 3600 WHERE id = %s", (s1,))
+        assert b.app.state.registry.sweep() == [s1]
+        assert a.app.state.registry.sweep() == []  # swept once, whichever replica sweeps
+        e = err(a.get(f"/v1/sessions/{s1}"))
+        assert e["status"] == 410 and e["code"] == "session_expired"
+        assert len(a.get("/v1/sessions").json()) == 1
+        r = a.get("/ready")
+        assert r.status_code == 200 and r.json()["checks"]["store_writable"] is True

@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr
 
 from ..errors import ServiceError
-from .numbers import Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, Weight
+from .numbers import Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, Weight
 
 __all__ = ["Spec", "Selection", "Target", "check_spec_ids", "check_selection_ids", "stored_surfaces"]
 
@@ -108,13 +108,63 @@ class Motion(PointBase):
     line: Direction | None = None
 
 
+class RelativePoint(BaseModel):
+    """One of the two POINTs of a relative constraint (no name)."""
+
+    model_config = _STRICT
+    vertices: list[VertexId] | None = Field(None, min_length=1, max_length=100_000)
+    weights: list[Weight] | None = Field(None, max_length=100_000)
+    edge: list[VertexId] | None = Field(None, min_length=2, max_length=2)
+    t: Fraction | None = None
+    face: list[VertexId] | None = Field(None, min_length=3, max_length=3)
+    barycentric: list[Fraction] | None = Field(None, min_length=3, max_length=3)
+    selection: StrictStr | None = Field(None, max_length=200)
+
+
 class Relative(BaseModel):
-    """The distance and direction of two vertices, turned with the rotation field or not."""
+    """The offset of two vertices or two POINTs (a hole's centre to another's), turned or not."""
 
     model_config = _STRICT
     name: StrictStr = Field(max_length=200)
-    vertices: list[VertexId] = Field(min_length=2, max_length=2)
+    vertices: list[VertexId] | None = Field(None, min_length=2, max_length=2)
+    points: list[RelativePoint] | None = Field(None, min_length=2, max_length=2)
     mode: Literal["rotate", "translate"] = "rotate"
+
+
+class MirrorPlane(BaseModel):
+    """A plane of symmetry."""
+
+    model_config = _STRICT
+    point: Vec3
+    normal: Vec3
+
+
+class Symmetry(BaseModel):
+    """Mirror symmetry: boundary nodes on one side are the mirror images of the other side's."""
+
+    model_config = _STRICT
+    name: StrictStr = Field(max_length=200)
+    plane: MirrorPlane
+    tolerance: NonNegLength | None = None
+
+
+class Axis(BaseModel):
+    """An axis of rotation."""
+
+    model_config = _STRICT
+    point: Vec3
+    direction: Vec3
+
+
+class Cyclic(BaseModel):
+    """Cyclic symmetry of a sector: face B is face A turned by ``angle_deg`` about the axis."""
+
+    model_config = _STRICT
+    name: StrictStr = Field(max_length=200)
+    axis: Axis
+    angle_deg: Angle
+    faces: list[StrictStr] = Field(min_length=2, max_length=2)
+    tolerance: NonNegLength | None = None
 
 
 class Feature(BaseModel):
@@ -142,10 +192,16 @@ class ThinWalls(BaseModel):
 
 
 class Ties(BaseModel):
-    """Tie coincident nodes of different bodies within ``tolerance``."""
+    """Tie coincident nodes of different bodies within ``tolerance``.
+
+    ``surface`` pairs of selections tie each boundary node of A to its closest
+    point on B's boundary faces (non-matching interfaces).
+    """
 
     model_config = _STRICT
-    tolerance: NonNegLength
+    tolerance: NonNegLength | None = None
+    surface: list[Annotated[list[StrictStr], Field(min_length=2, max_length=2)]] | None = Field(None, max_length=1000)
+    surface_tolerance: NonNegLength | None = None
 
 
 class StoredSurface(BaseModel):
@@ -202,6 +258,9 @@ class Spec(BaseModel):
     ties: Literal["auto", False] | Ties | list[list[VertexId]] = "auto"
     voids: Literal["volume", "refuse"] = "volume"
     targets: list[Target] = Field(default_factory=list, max_length=1000)
+    symmetry: list[Symmetry] = Field(default_factory=list, max_length=100)
+    cyclic: list[Cyclic] = Field(default_factory=list, max_length=100)
+    precision: Literal["mixed", "exact"] = "mixed"
 
     def dump(self) -> dict[str, Any]:
         """The document as given (fields not set are left out)."""
@@ -232,12 +291,14 @@ def check_spec_ids(spec: dict[str, Any], n: int) -> None:
         check_selection_ids(sel, n, f"SPEC.selections.{name}")
     for key in ("points", "motion", "relative"):
         for k, e in enumerate(spec.get(key) or []):
-            for f in ("vertices", "edge", "face"):
-                bad = _bad_ids(e.get(f) or [], n)
-                if bad:
-                    raise ServiceError("index_out_of_range", f"SPEC.{key}[{k}].{f} has vertex ids outside "
-                                       f"[0, {n}): {bad[:10]}", field=f"SPEC.{key}[{k}].{f}", ids=bad[:10],
-                                       vertices=n)
+            parts = [(f"SPEC.{key}[{k}]", e)] + [(f"SPEC.{key}[{k}].points[{q}]", p)
+                                                  for q, p in enumerate(e.get("points") or [])]
+            for where, part in parts:
+                for f in ("vertices", "edge", "face"):
+                    bad = _bad_ids(part.get(f) or [], n)
+                    if bad:
+                        raise ServiceError("index_out_of_range", f"{where}.{f} has vertex ids outside "
+                                           f"[0, {n}): {bad[:10]}", field=f"{where}.{f}", ids=bad[:10], vertices=n)
     ties = spec.get("ties")
     if isinstance(ties, list):
         for k, pair in enumerate(ties):

@@ -281,11 +281,11 @@ def add_ray_options(parser: argparse.ArgumentParser) -> None:
 def cmd_doe_ray(args: argparse.Namespace) -> int:
     """``tetmorph doe --engine ray``: the decks and the summary ``tetmorph doe`` writes, from Ray actors."""
     from ..io import read_mesh
-    from .commands import _load_json
+    from ..documents import load_json
 
     plan = read_plan(args.plan)
-    spec = _load_json(args.spec, "SPEC")
-    shapes_doc = _load_json(args.shapes, "SHAPES")
+    spec = load_json(args.spec, "SPEC")
+    shapes_doc = load_json(args.shapes, "SHAPES")
     mesh = read_mesh(args.mesh, args.format)
     ray, started = connect(args.address)
     try:

@@ -280,8 +280,8 @@ def add_ray_options(parser: argparse.ArgumentParser) -> None:
 
 def cmd_doe_ray(args: argparse.Namespace) -> int:
     """``tetmorph doe --engine ray``: the decks and the summary ``tetmorph doe`` writes, from Ray actors."""
-    from ..io import read_mesh
     from ..documents import load_json
+    from ..io import read_mesh
 
     plan = read_plan(args.plan)
     spec = load_json(args.spec, "SPEC")

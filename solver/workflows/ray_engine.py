@@ -95,6 +95,12 @@ class DoeWorker:
         """The actor's process id."""
         return os.getpid()
 
+    def node(self) -> str:
+        """The id of the Ray node the actor runs on."""
+        import ray
+
+        return str(ray.get_runtime_context().get_node_id())
+
     def info(self) -> dict[str, Any]:
         """Process id, set-up time and shape names."""
         return {"pid": os.getpid(), "setup_ms": self.setup_ms, "shapes": list(self.shapes.names)}

@@ -33,6 +33,7 @@ from ..constraints.move import HandleMove, Move
 from ..constraints.spec import Spec
 from ..linalg import factorization as fz
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
+from ..linalg.residual import block_residual, corrected
 from ..mesh import Mesh
 from .constraint_set import ConstraintSet
 from .operators import Operators, csr
@@ -238,33 +239,27 @@ class SplitPositions(Positions):
         if self.interior is None or self.Mfb is None or self.Mff is None or self.r0 is None or not Ps:
             return [PositionSolve(P.copy()) for P in Ps]
         fi, cols, k = self.free_interior, self.coupled, len(Ps)
-        R = np.empty((fi.size, 3 * k))
+        D = np.empty((cols.size, 3 * k))
         for j, P in enumerate(Ps):
-            R[:, 3 * j:3 * j + 3] = self.r0 + self.Mfb @ (P[cols] - self._rest_coupled)
-        dx = np.asarray(self.interior.solve(R), dtype=np.float64)
+            D[:, 3 * j:3 * j + 3] = P[cols] - self._rest_coupled
+        R = self.Mfb @ D  # one sparse product for every array: (f, 3 k)
+        R += np.tile(self.r0, (1, k))
+        dx = np.ascontiguousarray(self.interior.solve(R), dtype=np.float64)
         single = self.interior_precision == "single"
         rels: list[float | None] = [None] * k
         refined = [False] * k
-        if single:
-            res = R - self.Mff @ dx  # the mean-value rows at the new positions, in double precision
-
-            def rel(Rm: np.ndarray, j: int) -> float:
-                r = Rm[:, 3 * j:3 * j + 3]
-                d = dx[:, 3 * j:3 * j + 3]
-                scale = max(float(np.sqrt((d * d).sum(axis=1)).max()), 1e-300)
-                return float(np.sqrt((r * r).sum(axis=1)).max()) / scale
-
-            rels = [rel(res, j) for j in range(k)]
+        if single:  # the mean-value rows at the new positions, in double precision, per array
+            res, rn, dn = block_residual(self.Mff, R, dx, 3)
+            rels = [float(r) / max(float(d), 1e-300) for r, d in zip(rn, dn, strict=True)]
             refined = [bool(r is not None and r > MIXED_TOL) for r in rels]
             if any(refined):
                 c = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
                 dx[:, c] += np.asarray(self.interior.solve(res[:, c]), dtype=np.float64)
-                res = R - self.Mff @ dx
-                rels = [rel(res, j) if refined[j] else rels[j] for j in range(k)]
+                _, rn, dn = block_residual(self.Mff, R, dx, 3)
+                rels = [float(rn[j]) / max(float(dn[j]), 1e-300) if refined[j] else rels[j] for j in range(k)]
         out = []
         for j, P in enumerate(Ps):
-            Q = P.copy()
-            Q[fi] -= dx[:, 3 * j:3 * j + 3]
+            Q = corrected(P, fi, dx, 3 * j)
             out.append(PositionSolve(Q, rels[j], refined[j]) if single else PositionSolve(Q))
         return out
 

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FactorizationError
-from .threads import SOLVE_THREADS, mkl_local_threads
+from .threads import mkl_local_threads, solve_threads
 
 __all__ = ["PardisoFactor", "mkl_runtime"]
 
@@ -191,7 +191,7 @@ class PardisoFactor:
         B = np.asfortranarray(np.reshape(b, (shape[0], -1)), dtype=self.dtype)
         X = np.empty_like(B, order="F")
         with self._lock:
-            prev = mkl_local_threads(self._lib, SOLVE_THREADS)  # memory-bound: see solver.linalg.threads
+            prev = mkl_local_threads(self._lib, solve_threads(B.shape[1]))  # see solver.linalg.threads
             try:
                 err = self._call(33, B, X)
             finally:

@@ -12,6 +12,11 @@ gives the tables). So PARDISO back-substitutions run on ``SOLVE_THREADS``
 threads (default 1, ``TETMORPH_SOLVE_THREADS`` to change), set per calling
 thread; factorizations keep every thread. The element check is arithmetic,
 not bandwidth: it keeps numba's threads (1M tets: 16 ms on one, 8.5 ms on two).
+A back-substitution of many right-hand sides at once (a DOE block: more than
+``WIDE_COLUMNS`` columns) reads the factor once for all of them and is
+arithmetic-bound too, so it runs on every MKL thread: 16 stacked variants of
+the 1M-tet bracket, 48 columns, 34-36 ms per variant on one thread against
+21 ms on two (``benchmarks/bench_doe.py``).
 :func:`update_threads` limits numba for callers that want one thread.
 """
 
@@ -24,10 +29,22 @@ from contextlib import contextmanager
 
 import numba
 
-__all__ = ["SOLVE_THREADS", "update_threads", "mkl_local_threads"]
+__all__ = ["SOLVE_THREADS", "STACKED_THREADS", "WIDE_COLUMNS", "solve_threads", "update_threads", "mkl_local_threads"]
 
 #: Threads of a per-update solve (MKL and numba, this thread only).
 SOLVE_THREADS = max(1, int(os.environ.get("TETMORPH_SOLVE_THREADS", "1") or 1))
+
+#: Right-hand-side columns above which a back-substitution counts as stacked (every thread).
+WIDE_COLUMNS = 6
+
+
+#: Threads of a stacked back-substitution (``TETMORPH_STACKED_THREADS``, default every core).
+STACKED_THREADS = max(1, int(os.environ.get("TETMORPH_STACKED_THREADS", "0") or 0) or os.cpu_count() or 1)
+
+
+def solve_threads(columns: int) -> int:
+    """MKL threads for a back-substitution of ``columns`` right-hand sides."""
+    return SOLVE_THREADS if columns <= WIDE_COLUMNS else STACKED_THREADS
 
 
 def mkl_local_threads(lib: ctypes.CDLL, n: int) -> int:

@@ -20,6 +20,9 @@ __all__ = ["compile_all"]
 
 def compile_all() -> float:
     """Run every kernel on a tiny mesh; returns the seconds taken."""
+    import scipy.sparse as sp
+
+    from ..linalg.residual import block_residual, corrected
     from ..testing import cube_mesh
     from ..validity.quality import tet_quality
     from .elements import corner_jacobians, oriented
@@ -38,6 +41,8 @@ def compile_all() -> float:
     H = np.array([[0, 1, 2, 3, 4, 5, 6, 7]])
     X = np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
     corner_jacobians(X, oriented(X, H, "hexahedron"), "hexahedron")
+    block_residual(sp.identity(4, format="csr"), np.ones((4, 6)), np.ones((4, 6)), 3)
+    corrected(np.zeros((4, 3)), np.arange(4), np.ones((4, 6)), 3)
     return time.perf_counter() - t0
 
 

@@ -223,6 +223,15 @@ class Client:
         """Status, progress, timings and the last REPORT of a session."""
         return self._request("GET", f"/v1/sessions/{session_id}").json()
 
+    def set_presets(self, session_id: str, presets: list[dict[str, Any]]) -> dict[str, Any]:
+        """Replace the session's presets (``[{"name", "move": MOVE}]``); return the session document.
+
+        They do not change the session's morph state or version; apply one
+        with ``deform(session_id, preset["move"])``.
+        """
+        return self._request("PATCH", f"/v1/sessions/{session_id}", idempotent=True,
+                             json={"presets": presets}).json()
+
     def deform(self, session_id: str, move: dict[str, Any], kind: str = "positions",
                dtype: str = "float64", inversion: str | None = None
                ) -> tuple[np.ndarray, dict[str, Any]]:

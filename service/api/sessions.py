@@ -1,4 +1,4 @@
-"""``/v1/sessions``: create from a mesh and a SPEC, deform by MOVEs, download, reset, delete."""
+"""``/v1/sessions``: create from a mesh and a SPEC, deform by MOVEs, keep presets, download, reset, delete."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from ..formats import export_mesh
 from ..models.error import error_responses
 from ..models.move import Move
 from ..models.report import Report
-from ..models.session import SessionDoc
+from ..models.session import SessionDoc, SessionPatch
 from ..models.uploads import SessionCreate
 from ..state.registry import Registry
 from ..state.session import Session, SessionStatus
@@ -85,7 +85,28 @@ def list_sessions(owner: OwnerDep, reg: RegistryDep, request: Request, response:
 @router.get("/sessions/{session_id}", summary="Session status, progress and last report",
             response_model=SessionDoc, responses=error_responses(*_AUTH, 404, 410))
 def get_session(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
-    """Status (``building``, ``ready``, ``evicted``, ``stored``, ``failed``), progress, timings."""
+    """Status (``building``, ``ready``, ``evicted``, ``stored``, ``failed``), progress, timings, presets."""
+    reg.refresh_presets(s)
+    return doc_of(reg, s)
+
+
+@router.patch("/sessions/{session_id}", summary="Keep named MOVE presets with the session",
+              response_model=SessionDoc, responses=error_responses(
+                  *_AUTH, 404, 410, 413, 422,
+                  s422="bad presets, naming the field (presets[k].move..., a repeated name, more than 100); "
+                       "the stored presets are unchanged"))
+async def patch_session(
+    s: SessionDep, reg: RegistryDep,
+    body: Annotated[SessionPatch, Body(description="``presets`` replaces the session's list")],
+) -> dict[str, Any]:
+    """Replace the session's presets: named MOVEs, each validated like a deform's MOVE.
+
+    They are kept with the session (across restarts, on every replica) and
+    answered in its document; they are not its morph state: the version,
+    the last MOVE and the positions do not change, and a MOVE being solved
+    meanwhile commits as usual. Apply one with POST .../deform.
+    """
+    reg.set_presets(s, body.dump())
     return doc_of(reg, s)
 
 
@@ -231,8 +252,9 @@ async def current_positions(
 @router.post("/sessions/{session_id}/reset", summary="Back to the rest shape", response_model=SessionDoc,
              responses=error_responses(*_AUTH, 404, 410))
 async def reset(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
-    """Forget the last MOVE; the factorization stays."""
+    """Forget the last MOVE; the factorization and the presets stay."""
     await reg.reset(s)
+    reg.refresh_presets(s)
     return doc_of(reg, s)
 
 

@@ -2,14 +2,78 @@
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StrictStr, field_validator
 
 from ..state.session import SessionStatus
+from .move import Move
 from .report import Report
 
-__all__ = ["SessionDoc"]
+__all__ = ["SessionDoc", "SessionPatch", "Preset", "PresetDoc", "PRESETS_MAX", "PRESET_NAME_MAX",
+           "PRESETS_MAX_BYTES"]
+
+#: Most presets a session keeps.
+PRESETS_MAX = 100
+#: Longest preset name (characters).
+PRESET_NAME_MAX = 64
+#: Largest size of a session's presets as compact JSON (they are answered with every session document).
+PRESETS_MAX_BYTES = 1 << 20
+
+
+class Preset(BaseModel):
+    """A named MOVE kept with the session (the editor's presets)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+    name: StrictStr = Field(min_length=1, max_length=PRESET_NAME_MAX, description="unique within the session")
+    move: Move = Field(description="the MOVE document, validated as POST .../deform validates it")
+
+    @field_validator("name")
+    @classmethod
+    def _not_blank(cls, v: str) -> str:
+        if not v.strip():
+            raise ValueError("a preset name needs a character other than white space")
+        return v
+
+    def dump(self) -> dict[str, Any]:
+        """The preset as stored: its name and the MOVE as given."""
+        return {"name": self.name, "move": self.move.dump()}
+
+
+class SessionPatch(BaseModel):
+    """``PATCH /v1/sessions/{id}``: what a client keeps with a session (the morph state is not touched)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [{"presets": [
+        {"name": "lift 4", "move": {"handles": {"tip": {"translation": [0, 0, 4]}}}}]}]})
+    presets: list[Preset] = Field(max_length=PRESETS_MAX, description=f"replaces the session's presets; at "
+                                  f"most {PRESETS_MAX}, names unique, {PRESETS_MAX_BYTES // 1024} KiB of JSON "
+                                  "in all")
+
+    @field_validator("presets")
+    @classmethod
+    def _unique_and_small(cls, v: list[Preset]) -> list[Preset]:
+        first: dict[str, int] = {}
+        for k, p in enumerate(v):
+            j = first.setdefault(p.name, k)
+            if j != k:
+                raise ValueError(f"presets[{k}].name {p.name!r} is already the name of presets[{j}]; "
+                                 "names are unique")
+        size = len(json.dumps([p.dump() for p in v], separators=(",", ":")))
+        if size > PRESETS_MAX_BYTES:
+            raise ValueError(f"the presets take {size} bytes of JSON; at most {PRESETS_MAX_BYTES}")
+        return v
+
+    def dump(self) -> list[dict[str, Any]]:
+        """The presets as stored."""
+        return [p.dump() for p in self.presets]
+
+
+class PresetDoc(BaseModel):
+    """A preset as the session document answers it."""
+
+    name: str
+    move: dict[str, Any] = Field(description="the MOVE, as given")
 
 
 class SessionDoc(BaseModel):
@@ -20,7 +84,8 @@ class SessionDoc(BaseModel):
         "progress": 1.0, "error": None, "created": 1764579600.0, "last_used": 1764579660.0,
         "expires_at": 1764666060.0, "updates": 1, "builds": 1, "handles": ["tip"],
         "last_move": {"handles": {"tip": {"translation": [0, 0, 4]}}}, "spec": {}, "setup_timings": None,
-        "factor_bytes": 1048576, "constraints_at_rest": None, "last_report": None}]})
+        "factor_bytes": 1048576, "constraints_at_rest": None, "last_report": None,
+        "presets": [{"name": "lift 4", "move": {"handles": {"tip": {"translation": [0, 0, 4]}}}}]}]})
 
     id: str
     mesh_id: str
@@ -41,3 +106,5 @@ class SessionDoc(BaseModel):
     factor_bytes: int | None
     constraints_at_rest: dict[str, Any] | None
     last_report: Report | None
+    presets: list[PresetDoc] = Field(default_factory=list, description="named MOVEs kept with the session "
+                                     "(PATCH /v1/sessions/{id}); not part of its morph state or version")

@@ -4,7 +4,7 @@ Tables (created at start-up, under an advisory lock so that replicas starting
 together do not race)::
 
     tm_meshes    id, owner, created, meta           the mesh metas
-    tm_sessions  id, owner, mesh_id, created, last_used, version, record
+    tm_sessions  id, owner, mesh_id, created, last_used, version, record, presets
     tm_expired   id, owner, expired_at              sessions removed for idleness (410 for a while)
     tm_rate      owner, tokens, at, granted         one token bucket per owner
 
@@ -12,7 +12,10 @@ Mesh *files* stay in the data directory (``meshes/<id>/``), which every
 replica mounts (a shared volume): a mesh is written once, parsed once per
 replica and then held in memory, and a path is what the mesh readers take.
 The database holds what is small and changes: metas, session records with
-their versions, expiry, rate buckets.
+their versions, expiry, rate buckets. A session's presets are a column of
+their own: a MOVE's commit (the versioned ``record``) never writes them and a
+presets write never touches the record or its version, so neither undoes
+the other and presets never make a MOVE conflict.
 
 Every statement runs on the event loop's thread (one connection, autocommit);
 on a local network each is well under a millisecond. A lost connection is
@@ -31,7 +34,7 @@ from typing import Any, TypeVar
 from solver.mesh import Mesh
 
 from ..errors import ServiceError
-from .store import FileStore, read_mesh_files, valid_id
+from .store import FileStore, read_mesh_files, record_only, valid_id
 
 __all__ = ["PgStore", "SCHEMA", "ORPHAN_AGE_S"]
 
@@ -47,7 +50,14 @@ CREATE TABLE IF NOT EXISTS tm_meshes (
     id text PRIMARY KEY, owner text NOT NULL, created double precision NOT NULL, meta jsonb NOT NULL);
 CREATE TABLE IF NOT EXISTS tm_sessions (
     id text PRIMARY KEY, owner text NOT NULL, mesh_id text NOT NULL, created double precision NOT NULL,
-    last_used double precision NOT NULL, version bigint NOT NULL DEFAULT 0, record jsonb NOT NULL);
+    last_used double precision NOT NULL, version bigint NOT NULL DEFAULT 0, record jsonb NOT NULL,
+    presets jsonb NOT NULL DEFAULT '[]'::jsonb);
+DO $$ BEGIN  -- tables made before presets existed: their sessions have none
+    IF NOT EXISTS (SELECT 1 FROM information_schema.columns WHERE table_schema = current_schema()
+                   AND table_name = 'tm_sessions' AND column_name = 'presets') THEN
+        ALTER TABLE tm_sessions ADD COLUMN presets jsonb NOT NULL DEFAULT '[]'::jsonb;
+    END IF;
+END $$;
 CREATE INDEX IF NOT EXISTS tm_sessions_owner ON tm_sessions (owner);
 CREATE INDEX IF NOT EXISTS tm_sessions_mesh ON tm_sessions (mesh_id);
 CREATE INDEX IF NOT EXISTS tm_sessions_last_used ON tm_sessions (last_used);
@@ -187,7 +197,8 @@ class PgStore:
     # --------------------------------------------------------------- sessions
     def _row(self, record: dict[str, Any]) -> tuple[Any, ...]:
         return (record["id"], record["owner"], record["mesh_id"], float(record["created"]),
-                float(record.get("last_used", time.time())), int(record.get("version", 0)), self._json(record))
+                float(record.get("last_used", time.time())), int(record.get("version", 0)),
+                self._json(record_only(record)))
 
     def create_session(self, record: dict[str, Any], limit: int) -> None:
         """Insert a new record, counting the owner's sessions under a lock of that owner.
@@ -215,7 +226,7 @@ class PgStore:
         self._run(insert)
 
     def save_session(self, record: dict[str, Any]) -> None:
-        """Write a record as it is (its version included); insert it when missing."""
+        """Write a record as it is (its version included, its presets not); insert it when missing."""
         self._exec("INSERT INTO tm_sessions (id, owner, mesh_id, created, last_used, version, record) "
                    "VALUES (%s, %s, %s, %s, %s, %s, %s) ON CONFLICT (id) DO UPDATE SET owner = EXCLUDED.owner, "
                    "last_used = GREATEST(tm_sessions.last_used, EXCLUDED.last_used), record = EXCLUDED.record",
@@ -225,19 +236,33 @@ class PgStore:
         """Write ``record`` only if the stored version is still ``version``; the new version, else None."""
         rows = self._rows("UPDATE tm_sessions SET record = %s, version = version + 1, "
                           "last_used = GREATEST(last_used, %s) WHERE id = %s AND version = %s RETURNING version",
-                          (self._json(record), float(record.get("last_used", time.time())), record["id"],
+                          (self._json(record_only(record)), float(record.get("last_used", time.time())), record["id"],
                            int(version)))
         return int(rows[0][0]) if rows else None
 
     def load_session(self, session_id: str) -> dict[str, Any] | None:
-        """One record (with its current version and last use), or None."""
+        """One record (with its current version, last use and presets), or None."""
         if not valid_id(session_id):
             return None
-        rows = self._rows("SELECT record, version, last_used FROM tm_sessions WHERE id = %s", (session_id,))
+        rows = self._rows("SELECT record, version, last_used, presets FROM tm_sessions WHERE id = %s",
+                          (session_id,))
         if not rows:
             return None
-        rec, version, last_used = rows[0]
-        return {**rec, "version": int(version), "last_used": float(last_used)}
+        rec, version, last_used, presets = rows[0]
+        return {**rec, "version": int(version), "last_used": float(last_used), "presets": presets}
+
+    def save_presets(self, session_id: str, presets: list[dict[str, Any]]) -> bool:
+        """Replace a session's presets (record, version and last use untouched); False when it is gone."""
+        if not valid_id(session_id):
+            return False
+        return self._exec("UPDATE tm_sessions SET presets = %s WHERE id = %s", (self._json(presets), session_id)) > 0
+
+    def load_presets(self, session_id: str) -> list[dict[str, Any]] | None:
+        """A session's presets, or None when it is gone."""
+        if not valid_id(session_id):
+            return None
+        rows = self._rows("SELECT presets FROM tm_sessions WHERE id = %s", (session_id,))
+        return list(rows[0][0]) if rows else None
 
     def touch_session(self, session_id: str, now: float) -> int | None:
         """Record a use (``last_used``); the stored version, or None when the session is gone."""
@@ -248,9 +273,9 @@ class PgStore:
         return int(rows[0][0]) if rows else None
 
     def list_sessions(self) -> list[dict[str, Any]]:
-        """Every record, with its version."""
-        return [{**rec, "version": int(v), "last_used": float(lu)} for rec, v, lu in
-                self._rows("SELECT record, version, last_used FROM tm_sessions ORDER BY created, id")]
+        """Every record, with its version and presets."""
+        return [{**rec, "version": int(v), "last_used": float(lu), "presets": p} for rec, v, lu, p in
+                self._rows("SELECT record, version, last_used, presets FROM tm_sessions ORDER BY created, id")]
 
     def count_sessions(self, owner: str) -> int:
         """Sessions of one owner."""

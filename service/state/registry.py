@@ -17,6 +17,12 @@ committed by another replica) is loaded before the request is served. A MOVE
 commits only if the version it was solved from is still the stored one;
 otherwise the session is reloaded and the MOVE answers 409
 ``version_conflict``, which the client retries.
+
+A session's presets (named MOVEs a client keeps with it) are not part of its
+morph state: they are stored apart from the versioned record, so saving them
+neither bumps the version nor makes a concurrent MOVE conflict, and a MOVE's
+commit never writes them. With a shared store the answers that show them
+read them from the store first (another replica may have replaced them).
 """
 
 from __future__ import annotations
@@ -305,6 +311,7 @@ class Registry:
             s.positions, s.report = None, None  # recomputed from the record's MOVE when asked for
         s.version, s.last_move = int(rec.get("version", 0)), rec.get("last_move")
         s.last_used = max(s.last_used, float(rec.get("last_used", s.last_used)))
+        s.presets = list(rec.get("presets") or [])
         return True
 
     def _drop_local(self, s: Session) -> None:
@@ -328,10 +335,35 @@ class Registry:
                     s = self.sessions[rec["id"]] = Session.from_record(rec)
                 elif rec.get("version", 0) != s.version and not s.lock.locked():
                     self._reload(s)
+                s.presets = list(rec.get("presets") or [])
                 out.append(s)
             return sorted(out, key=lambda s: s.created)
         return sorted((s for s in self.sessions.values() if s.owner == owner),
                       key=lambda s: s.created)
+
+    def set_presets(self, s: Session, presets: list[dict[str, Any]]) -> None:
+        """Replace a session's presets (validated by the route): the store first, then memory.
+
+        The session's lock is not taken (a MOVE being solved goes on) and its
+        version does not change.
+
+        Raises
+        ------
+        NotFound
+            The session's record is gone (another replica deleted it); nothing is stored.
+        """
+        if not self.store.save_presets(s.id, presets):
+            if self.store.shared:
+                self._drop_local(s)
+            raise NotFound("session", s.id)
+        s.presets = presets
+
+    def refresh_presets(self, s: Session) -> None:
+        """With a shared store: read the session's presets (another replica may have replaced them)."""
+        if self.store.shared:
+            presets = self.store.load_presets(s.id)
+            if presets is not None:
+                s.presets = presets
 
     async def resolve_spec(self, owner: str, spec: dict[str, Any]) -> dict[str, Any]:
         """The SPEC with each stored target surface (``{"mesh_id": ID}``) as its vertices and triangles.

@@ -60,6 +60,8 @@ class Session:
     resolved: dict[str, Any] | None = None
     #: Batches running on this session (it is busy meanwhile).
     batches: int = 0
+    #: Named MOVEs kept with the session (``[{"name", "move"}]``): stored apart from the record, no version.
+    presets: list[dict[str, Any]] = field(default_factory=list)
 
     @classmethod
     def from_record(cls, rec: dict[str, Any]) -> Session:
@@ -67,14 +69,15 @@ class Session:
         now = time.time()
         s = cls(id=rec["id"], owner=rec["owner"], mesh_id=rec["mesh_id"], spec=rec["spec"],
                 created=rec.get("created", now), last_move=rec.get("last_move"),
-                last_used=rec.get("last_used", now), version=int(rec.get("version", 0)))
+                last_used=rec.get("last_used", now), version=int(rec.get("version", 0)),
+                presets=list(rec.get("presets") or []))
         if rec.get("failed"):
             s.status, s.error = SessionStatus.failed, rec["failed"]
         s.checked.set()
         return s
 
     def record(self) -> dict[str, Any]:
-        """What persists across restarts."""
+        """What persists across restarts (the presets apart: see ``Store.save_presets``)."""
         return {"id": self.id, "owner": self.owner, "mesh_id": self.mesh_id, "spec": self.spec,
                 "created": self.created, "last_move": self.last_move, "last_used": self.last_used,
                 "failed": self.error if self.status is SessionStatus.failed else None, "version": self.version}
@@ -99,5 +102,5 @@ class Session:
             "setup_timings": d.setup_timings if d is not None else None,
             "factor_bytes": d.nbytes if d is not None else None,
             "constraints_at_rest": d.rest_constraints if d is not None else None,
-            "last_report": self.report,
+            "last_report": self.report, "presets": self.presets,
         }

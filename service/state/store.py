@@ -11,10 +11,15 @@ Layout (``data_dir``)::
     meshes/<mesh_id>/meta.json       owner, name, format, main file, summary
     meshes/<mesh_id>/<files>         the uploaded file(s), byte for byte, or arrays.npz
     sessions/<session_id>.json       owner, mesh id, SPEC, last MOVE, timestamps
+    sessions/presets/<id>.json       the session's named MOVEs (none when missing)
     sessions/expired/<id>.json       sessions removed for idleness (they answer 410 for a while)
 
 JSON files are replaced atomically, so a crash never leaves a half-written
 record; a restart reloads every session and rebuilds it on first use.
+
+A session's presets are kept apart from its record: a MOVE's commit writes
+the record (its version checked) and never the presets, and writing the
+presets never touches the record or its version.
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ from solver.errors import InvalidMeshError
 from solver.io import read_mesh
 from solver.mesh import Mesh, mesh_from_arrays
 
-__all__ = ["Store", "FileStore", "open_store", "new_id", "valid_id", "read_mesh_files"]
+__all__ = ["Store", "FileStore", "open_store", "new_id", "valid_id", "read_mesh_files", "record_only"]
 
 _ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
@@ -50,7 +55,7 @@ def valid_id(ident: str) -> bool:
     return bool(_ID.match(ident))
 
 
-def _write_json(path: Path, doc: dict[str, Any]) -> None:
+def _write_json(path: Path, doc: dict[str, Any] | list[Any]) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
     try:
         with os.fdopen(fd, "w") as f:
@@ -62,11 +67,19 @@ def _write_json(path: Path, doc: dict[str, Any]) -> None:
         raise
 
 
+def record_only(record: dict[str, Any]) -> dict[str, Any]:
+    """A session record without the ``presets`` a loaded record carries (they are stored apart)."""
+    return {k: v for k, v in record.items() if k != "presets"} if "presets" in record else record
+
+
 class Store(Protocol):
     """What the registry keeps across restarts (and, with PostgreSQL, shares between replicas).
 
     Session records carry a ``version``: :meth:`commit_session` writes a record
-    only if the stored version is the one it was solved from.
+    only if the stored version is the one it was solved from. A session's
+    presets are stored apart (:meth:`save_presets`, no version): the records
+    :meth:`load_session` and :meth:`list_sessions` answer carry them under
+    ``presets`` (``[]`` when none were saved); the writes of records ignore that key.
     """
 
     #: True when other processes write the same records (replicas): the registry re-reads them.
@@ -101,19 +114,25 @@ class Store(Protocol):
         """Insert a new session record; 429 ``session_limit`` when its owner has ``limit`` already."""
 
     def save_session(self, record: dict[str, Any]) -> None:
-        """Write (or replace) a session record as it is."""
+        """Write (or replace) a session record as it is (not its presets)."""
 
     def commit_session(self, record: dict[str, Any], version: int) -> int | None:
         """Write ``record`` if the stored version is ``version``; the new version, or None when it is not."""
 
     def load_session(self, session_id: str) -> dict[str, Any] | None:
-        """One session record, or None."""
+        """One session record (with its presets), or None."""
 
     def touch_session(self, session_id: str, now: float) -> int | None:
         """Record a use of the session; its stored version, or None when it no longer exists."""
 
+    def save_presets(self, session_id: str, presets: list[dict[str, Any]]) -> bool:
+        """Replace a session's presets (its record and version untouched); False when the session is gone."""
+
+    def load_presets(self, session_id: str) -> list[dict[str, Any]] | None:
+        """A session's presets (``[]`` when none were saved), or None when the session is gone."""
+
     def list_sessions(self) -> list[dict[str, Any]]:
-        """Every stored session record."""
+        """Every stored session record (with its presets)."""
 
     def count_sessions(self, owner: str) -> int:
         """Sessions of one owner."""
@@ -210,6 +229,7 @@ class FileStore:
         self.root = Path(root)
         self.meshes_dir = self.root / "meshes"
         self.sessions_dir = self.root / "sessions"
+        self.presets_dir = self.sessions_dir / "presets"
         self.meshes_dir.mkdir(parents=True, exist_ok=True)
         self.sessions_dir.mkdir(parents=True, exist_ok=True)
 
@@ -261,8 +281,8 @@ class FileStore:
 
     # --------------------------------------------------------------- sessions
     def save_session(self, record: dict[str, Any]) -> None:
-        """Write (or replace) a session record."""
-        _write_json(self.sessions_dir / f"{record['id']}.json", record)
+        """Write (or replace) a session record (its presets are not written: see :meth:`save_presets`)."""
+        _write_json(self.sessions_dir / f"{record['id']}.json", record_only(record))
 
     def create_session(self, record: dict[str, Any], limit: int) -> None:
         """Write a new session record (the registry has checked the limit: one process)."""
@@ -275,13 +295,35 @@ class FileStore:
         return new
 
     def load_session(self, session_id: str) -> dict[str, Any] | None:
-        """One session record, or None."""
+        """One session record with its presets, or None."""
         if not valid_id(session_id):
             return None
         try:
-            return json.loads((self.sessions_dir / f"{session_id}.json").read_text())
+            rec = json.loads((self.sessions_dir / f"{session_id}.json").read_text())
         except (OSError, ValueError):
             return None
+        return {**rec, "presets": self._presets(session_id)}
+
+    def _presets(self, session_id: str) -> list[dict[str, Any]]:
+        try:
+            doc = json.loads((self.presets_dir / f"{session_id}.json").read_text())
+        except (OSError, ValueError):  # none saved (records written before presets existed included)
+            return []
+        return doc if isinstance(doc, list) else []
+
+    def save_presets(self, session_id: str, presets: list[dict[str, Any]]) -> bool:
+        """Replace a session's presets file (atomically); False when the session has no record."""
+        if not valid_id(session_id) or not (self.sessions_dir / f"{session_id}.json").is_file():
+            return False
+        self.presets_dir.mkdir(exist_ok=True)
+        _write_json(self.presets_dir / f"{session_id}.json", presets)
+        return True
+
+    def load_presets(self, session_id: str) -> list[dict[str, Any]] | None:
+        """A session's presets, or None when it has no record."""
+        if not valid_id(session_id) or not (self.sessions_dir / f"{session_id}.json").is_file():
+            return None
+        return self._presets(session_id)
 
     def touch_session(self, session_id: str, now: float) -> int | None:
         """Nothing to record (uses are kept in memory); the stored version."""
@@ -342,19 +384,21 @@ class FileStore:
         return len(old)
 
     def list_sessions(self) -> list[dict[str, Any]]:
-        """Every stored session record."""
+        """Every stored session record, with its presets."""
         out = []
         for p in self.sessions_dir.glob("*.json"):
             try:
-                out.append(json.loads(p.read_text()))
+                rec = json.loads(p.read_text())
             except (OSError, ValueError):
                 continue
+            out.append({**rec, "presets": self._presets(p.stem)})
         return out
 
     def delete_session(self, session_id: str) -> None:
-        """Remove a session record."""
+        """Remove a session record, then its presets."""
         if valid_id(session_id):
             (self.sessions_dir / f"{session_id}.json").unlink(missing_ok=True)
+            (self.presets_dir / f"{session_id}.json").unlink(missing_ok=True)
 
     # ------------------------------------------------------------- tombstones
     def save_expired(self, session_id: str, owner: str, at: float) -> None:
@@ -384,13 +428,18 @@ class FileStore:
         """Remove what an interrupted upload or write left behind; return the names removed.
 
         A mesh directory without ``meta.json`` (the process died between the
-        upload and its summary) and temporary files of atomic writes.
+        upload and its summary), presets of sessions without a record (the
+        process died while deleting one) and temporary files of atomic writes.
         """
         gone = []
         for d in self.meshes_dir.iterdir():
             if d.is_dir() and not (d / "meta.json").is_file():
                 shutil.rmtree(d, ignore_errors=True)
                 gone.append(d.name)
+        for p in self.presets_dir.glob("*.json") if self.presets_dir.is_dir() else []:
+            if not (self.sessions_dir / p.name).is_file():
+                p.unlink(missing_ok=True)
+                gone.append(f"presets/{p.name}")
         for folder in (self.meshes_dir, self.sessions_dir):
             for p in folder.rglob(".tmp-*"):
                 p.unlink(missing_ok=True)

@@ -364,6 +364,7 @@ def test_named_presets_are_kept_with_the_session(page):
     moved = positions(page)
     page.fill("#preset-name", "lift 5")
     page.click("#preset-save")
+    page.wait_for_selector("#presets li:has-text('lift 5')")  # stored on the service
     page.click("#reset")
     page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
     sid = page.evaluate("window.tetmorph.state.sessionId")
@@ -377,6 +378,58 @@ def test_named_presets_are_kept_with_the_session(page):
     settle(page)
     np.testing.assert_allclose(positions(page), moved, atol=1e-6)
     assert page.input_value("#tz") == "5" and page.input_value("#angle") == "20"
+
+
+def test_presets_live_on_the_service_another_browser_sees_and_applies_them(pages, server):
+    a = pages(server)
+    bracket_session(a)
+    numeric_move(a, t=(0, 0, 5), axis=(1, 0, 0), angle=20)
+    settle(a)
+    moved = positions(a)
+    a.fill("#preset-name", "lift 5")
+    a.click("#preset-save")
+    a.wait_for_selector("#presets li:has-text('lift 5')")
+    sid = a.evaluate("window.tetmorph.state.sessionId")
+    stored = httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]
+    assert [p["name"] for p in stored] == ["lift 5"]
+    assert stored[0]["move"] == a.evaluate("window.tetmorph.state.lastMove")  # the MOVE shown when saved
+    assert a.evaluate("Object.keys(localStorage).filter((k) => k.startsWith('tetmorph-presets'))") == []
+    a.click("#reset")
+    a.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    a.close()  # the tab goes; the moved session stays on the service
+    # another browser (a fresh context: nothing of the first one's storage), where an editor of before
+    # left presets of this session in localStorage: they join the service's on open (its own names win)
+    b = pages(server)
+    legacy = [{"name": "kept here", "move": {"handles": {"tip": {"translation": [0, 0, -3]}}}},
+              {"name": "lift 5", "move": {"handles": {"tip": {"translation": [9, 9, 9]}}}}]
+    b.evaluate("([k, v]) => localStorage.setItem(k, v)", [f"tetmorph-presets:{sid}", json.dumps(legacy)])
+    b.click("#sessions-btn")
+    b.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
+    b.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}' && window.tetmorph.state.ws.open")
+    b.wait_for_function("window.tetmorph.state.presets.length === 2")
+    b.evaluate("document.getElementById('sessions-dialog').close()")
+    assert b.evaluate(f"localStorage.getItem('tetmorph-presets:{sid}')") is None
+    stored = httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]
+    assert [p["name"] for p in stored] == ["lift 5", "kept here"] and stored[1]["move"] == legacy[0]["move"]
+    assert [t.strip() for t in b.locator("#presets li .name").all_inner_texts()] == ["lift 5", "kept here"]
+    np.testing.assert_array_equal(positions(b), rest(b))  # the session is at rest (reset), the preset not applied
+    b.click("#presets li:has-text('lift 5') button[data-act=apply]")
+    settle(b)
+    np.testing.assert_allclose(positions(b), moved, atol=1e-6)
+    np.testing.assert_allclose(positions(b), server_positions(server, sid), atol=1e-4)
+    assert b.input_value("#tz") == "5" and b.input_value("#angle") == "20"
+    b.click("#presets li:has-text('kept here') button[data-act=delete]")
+    b.wait_for_function("window.tetmorph.state.presets.length === 1")
+    assert [p["name"] for p in httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]] == ["lift 5"]
+    # a save the service refuses (the session was deleted behind the editor's back) is shown, and the
+    # list stays the service's last one
+    assert httpx.delete(f"{server}/v1/sessions/{sid}").status_code == 204
+    b.fill("#preset-name", "too late")
+    b.click("#preset-save")
+    b.wait_for_function("window.tetmorph.state.error && window.tetmorph.state.error.code === 'session_not_found'")
+    assert b.is_visible("#errors") and "no longer exists" in b.inner_text("#error-text")
+    assert [p["name"] for p in b.evaluate("window.tetmorph.state.presets")] == ["lift 5"]
+    assert [t.strip() for t in b.locator("#presets li .name").all_inner_texts()] == ["lift 5"]
 
 
 # ---------------------------------------------------------------------------- sessions
@@ -418,6 +471,7 @@ def test_a_session_is_saved_to_a_file_and_reloaded(pages, server, tmp_path):
         snaps.append(positions(a))
     a.fill("#preset-name", "p4")
     a.click("#preset-save")
+    a.wait_for_selector("#presets li:has-text('p4')")
     a.click("#undo")
     settle(a)
     with a.expect_download() as dl:
@@ -435,6 +489,8 @@ def test_a_session_is_saved_to_a_file_and_reloaded(pages, server, tmp_path):
     np.testing.assert_allclose(positions(b), snaps[0], atol=1e-6)
     assert b.get_attribute("#history li.active", "data-k") == "1"
     assert "p4" in b.inner_text("#presets")
+    sid = b.evaluate("window.tetmorph.state.sessionId")
+    assert [p["name"] for p in httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]] == ["p4"]
     b.click("#redo")
     settle(b)
     np.testing.assert_allclose(positions(b), snaps[1], atol=1e-6)

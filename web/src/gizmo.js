@@ -44,9 +44,10 @@ export class Moves {
   /**
    * @param {Viewer} viewer
    * @param {Regions} regions
-   * @param {{send: Function, reset: Function, refuse: Function, savePresets: Function}} io
+   * @param {{send: Function, reset: Function, refuse: Function, updatePresets: Function}} io
    *   send(move) streams a MOVE and answers its seq (null when not sent), reset() returns the
-   *   session to rest, refuse(text) says why an action is not possible, savePresets() stores them.
+   *   session to rest, refuse(text) says why an action is not possible, updatePresets(change)
+   *   stores change(presets) with the session on the service (and shows what it answered).
    */
   constructor(viewer, regions, io) {
     this.viewer = viewer;
@@ -344,13 +345,15 @@ export class Moves {
   }
 
   // ---------------------------------------------------------------- presets
+  /** Save the current MOVE under `name` (replacing a preset of that name) with the session. */
   savePreset(name) {
-    name = (name || "").trim() || `preset ${state.presets.length + 1}`;
     const move = this.move();
-    const i = state.presets.findIndex((p) => p.name === name);
-    if (i >= 0) state.presets[i] = { name, move }; else state.presets.push({ name, move });
-    this.io.savePresets();
-    emit("presets");
+    return this.io.updatePresets((list) => {
+      let n = (name || "").trim();
+      for (let k = list.length + 1; !n; k++) if (!list.some((p) => p.name === `preset ${k}`)) n = `preset ${k}`;
+      const i = list.findIndex((p) => p.name === n);
+      return i >= 0 ? list.map((p, k) => (k === i ? { name: n, move } : p)) : [...list, { name: n, move }];
+    });
   }
 
   applyPreset(name) {
@@ -361,8 +364,7 @@ export class Moves {
   }
 
   deletePreset(name) {
-    state.presets = state.presets.filter((p) => p.name !== name);
-    this.io.savePresets();
-    emit("presets");
+    return this.io.updatePresets((list) => (list.some((p) => p.name === name)
+      ? list.filter((p) => p.name !== name) : null));
   }
 }

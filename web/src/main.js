@@ -26,7 +26,7 @@ const regions = new Regions(viewer, meshView);
 const session = new SessionControl(meshView, regions);
 const moves = new Moves(viewer, regions, {
   send: (m) => session.send(m), reset: (record) => session.reset(record), refuse: showError,
-  savePresets: () => session.savePresets(),
+  updatePresets: (change) => session.updatePresets(change),
 });
 session.moves = moves;
 session.openMesh = (id) => openMesh(id);

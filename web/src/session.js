@@ -1,5 +1,6 @@
 // The session's life: create it from the regions (polling a long build), open an existing one,
-// stream MOVEs and show each frame, reset, download, save and reload, close and delete.
+// stream MOVEs and show each frame, reset, download, save and reload, close and delete, and the
+// session's named presets, which the service keeps with it (PATCH /v1/sessions/{id}).
 // A session this tab created is deleted when the tab replaces it with a new one, and when the
 // tab closes while it is still building or was never moved; a moved one stays on the service
 // (listed under Sessions) until deleted or removed by the service's idle sweep.
@@ -10,7 +11,8 @@ import { clearError, setBusy, setProgress, setStatus, showError, showReport } fr
 import { emit, state } from "./state.js";
 import { Stream } from "./stream.js";
 
-const presetKey = (id) => `tetmorph-presets:${id}`;
+// where editors before the service kept presets kept them in this browser (moved to the service on open)
+const legacyPresetKey = (id) => `tetmorph-presets:${id}`;
 
 export class SessionControl {
   constructor(meshView, regions) {
@@ -20,7 +22,7 @@ export class SessionControl {
     this.openMesh = null;    // set by the wiring: (id) => Promise, loads a mesh into the view
     this.own = new Set();    // sessions this tab created
     this.building = null;    // id of a session being built for this tab
-    this.serverNotes = false; // the service stores client notes with a session (PATCH {notes})
+    this.presetQueue = Promise.resolve(); // preset changes, one after another
     window.addEventListener("pagehide", () => this.leaving());
   }
 
@@ -59,9 +61,8 @@ export class SessionControl {
       this.building = null;
       if (s.status !== "ready") throw Object.assign(new Error(`session ${s.status}`), { body: { error: s.error } });
       setProgress(1);
-      this.serverNotes = Object.prototype.hasOwnProperty.call(s, "notes");
       this.start(s.id, handles);
-      state.presets = [];
+      state.presets = s.presets || [];
       if (after) after();
       emit("presets");
       const setup = s.setup_timings ? ` · set-up ${Math.round(s.setup_timings.total_ms)} ms` : "";
@@ -128,7 +129,6 @@ export class SessionControl {
       setBusy(doc.status === "ready" ? "loading" : "building");
       const r = await api(`/v1/sessions/${id}/positions?result=binary&dtype=float32`);
       const { data } = decodeFrame(await r.arrayBuffer());
-      this.serverNotes = Object.prototype.hasOwnProperty.call(doc, "notes");
       this.start(id, this.regions.handles());
       state.specSent = doc.spec;
       this.meshView.applyPositions(data);
@@ -139,11 +139,12 @@ export class SessionControl {
         state.lastMove = doc.last_move;
         this.moves.setFromMove(doc.last_move);
       }
-      state.presets = this.loadPresets(id, doc);
+      state.presets = doc.presets || [];
       emit("history"); emit("presets");
       showReport({ ...(doc.last_report || {}), mesh: state.meshName });
       setStatus(`session ${id} (${doc.updates} update${doc.updates === 1 ? "" : "s"} on the service)`);
       this.note();
+      await this.migratePresets(id);
       return true;
     } catch (e) {
       showError(e);
@@ -180,7 +181,7 @@ export class SessionControl {
       if (!(e.status === 404)) { if (!quiet) showError(e); return false; }
     }
     this.own.delete(id);
-    localStorage.removeItem(presetKey(id));
+    localStorage.removeItem(legacyPresetKey(id));
     emit("sessions-changed");
     return true;
   }
@@ -275,19 +276,50 @@ export class SessionControl {
   }
 
   // ---------------------------------------------------------------- presets and saved sessions
-  loadPresets(id, doc) {
-    if (doc && doc.notes && Array.isArray(doc.notes.presets)) return doc.notes.presets;
-    try { return JSON.parse(localStorage.getItem(presetKey(id)) || "[]"); } catch { return []; }
+  /**
+   * Change the open session's presets on the service: change(list) answers the new list (null: nothing
+   * to change). Changes run one after another, each on the list the service answered last, and the list
+   * shown is the service's: a change the service refuses shows its error and changes nothing.
+   * Answers true when stored (or nothing to store), else the error.
+   */
+  updatePresets(change) {
+    const id = state.sessionId;
+    const run = async () => {
+      if (!id || state.sessionId !== id) return new Error("the session was closed");
+      const next = change(state.presets);
+      if (!next) return true;
+      clearError();
+      try {
+        const r = await api(`/v1/sessions/${id}`, { method: "PATCH", headers: { "Content-Type": "application/json" },
+          body: JSON.stringify({ presets: next }) });
+        const doc = await r.json();
+        if (state.sessionId === id) { state.presets = doc.presets || []; emit("presets"); }
+        return true;
+      } catch (e) {
+        if (state.sessionId === id) showError(e);
+        return e;
+      }
+    };
+    this.presetQueue = this.presetQueue.then(run);
+    return this.presetQueue;
   }
 
-  /** Store the presets with the session: on the service when it keeps notes, and in this browser. */
-  savePresets() {
-    if (!state.sessionId) return;
-    localStorage.setItem(presetKey(state.sessionId), JSON.stringify(state.presets));
-    if (this.serverNotes) {
-      api(`/v1/sessions/${state.sessionId}`, { method: "PATCH", headers: { "Content-Type": "application/json" },
-        body: JSON.stringify({ notes: { presets: state.presets } }) }).catch(showError);
-    }
+  /** Presets an editor of before kept in this browser for the session: added to the service's once. */
+  async migratePresets(id) {
+    const key = legacyPresetKey(id);
+    const raw = localStorage.getItem(key);
+    if (raw === null) return;
+    let local = [];
+    try { local = JSON.parse(raw); } catch { /* unreadable: nothing to move */ }
+    const done = await this.updatePresets((list) => {
+      const names = new Set(list.map((p) => p.name));  // the service's names win; local repeats go
+      const fits = (p) => p && typeof p.name === "string" && p.name.trim() && p.name.length <= 64 &&
+        p.move && typeof p.move === "object" && !names.has(p.name);
+      const add = (Array.isArray(local) ? local : []).filter((p) => fits(p) && names.add(p.name));
+      return add.length ? [...list, ...add].slice(0, Math.max(list.length, 100)) : null;
+    });
+    // stored, or refused for what they are (422): never again; else (offline, busy) on the next open
+    if (done === true || done.status === 422) localStorage.removeItem(key);
   }
 
   /** The session as a file: mesh, SPEC, history, presets, view settings. */
@@ -323,11 +355,10 @@ export class SessionControl {
       state.history = doc.history.length ? doc.history : [{ label: "rest", move: null }];
       state.historyIndex = Math.min(doc.history_index ?? 0, state.history.length - 1);
       state.moves = state.history.slice(1).map((e) => e.move);
-      state.presets = doc.presets || [];
     });
     if (!ok) return false;
-    this.savePresets();
-    emit("history"); emit("presets");
+    emit("history");
+    if (Array.isArray(doc.presets) && doc.presets.length) await this.updatePresets(() => doc.presets);
     const cur = state.history[state.historyIndex];
     if (cur && cur.move) {
       await this.streamReady();

@@ -83,3 +83,76 @@ def test_limits_and_sweeps_count_every_replica(tmp_path, db):
         assert len(a.get("/v1/sessions").json()) == 1
         r = a.get("/ready")
         assert r.status_code == 200 and r.json()["checks"]["store_writable"] is True
+
+
+PRESETS = [{"name": "lift 4", "move": MOVES[0]}, {"name": "twist", "move": MOVES[1]}]
+
+
+def test_presets_are_shared_by_the_replicas_and_never_make_a_move_conflict(tmp_path, db, bracket_library):
+    _, want = bracket_library
+    with replicas(tmp_path, db) as (a, b):
+        mid = a.post("/v1/meshes", files=[("file", ("bracket.inp", BRACKET.read_bytes()))]).json()["id"]
+        sid = a.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC}).json()["id"]
+        assert b.get(f"/v1/sessions/{sid}").json()["presets"] == []
+        assert b.post(f"/v1/sessions/{sid}/deform", json=MOVES[2]).headers["x-tetmorph-version"] == "1"
+        ra = a.app.state.registry
+        s = ra.session("public", sid)  # A's copy, at version 1
+        r = b.patch(f"/v1/sessions/{sid}", json={"presets": PRESETS})
+        assert r.status_code == 200 and r.json()["presets"] == PRESETS and r.json()["version"] == 1
+        # A holds the session at the same version: its answers read the presets B saved
+        assert a.get(f"/v1/sessions/{sid}").json()["presets"] == PRESETS
+        assert [x["presets"] for x in a.get("/v1/sessions").json()] == [PRESETS]
+        # B replaces them while A solves a MOVE from version 1: A's MOVE commits (no 409) and keeps B's presets
+        assert b.patch(f"/v1/sessions/{sid}", json={"presets": PRESETS[1:]}).status_code == 200
+        a.portal.call(ra.deform, s, MOVES[0])
+        assert s.version == 2
+        doc = b.get(f"/v1/sessions/{sid}").json()
+        assert doc["version"] == 2 and doc["last_move"] == MOVES[0] and doc["presets"] == PRESETS[1:]
+        assert a.post(f"/v1/sessions/{sid}/reset").json()["presets"] == PRESETS[1:]
+        # a refused PATCH leaves the stored presets as they were
+        bad = {"presets": [{"name": "x", "move": {"handles": {"tip": {"translation": [1, 2]}}}}]}
+        assert err(a.patch(f"/v1/sessions/{sid}", json=bad))["code"] == "invalid_request"
+        with psycopg.connect(db, autocommit=True) as c:
+            record, presets, version = c.execute("SELECT record, presets, version FROM tm_sessions WHERE id = %s",
+                                                 (sid,)).fetchone()
+        assert presets == PRESETS[1:] and "presets" not in record and version == 3
+    with replicas(tmp_path, db) as (a, b):  # replicas started afterwards (empty caches) have them
+        doc = a.get(f"/v1/sessions/{sid}").json()
+        assert doc["presets"] == PRESETS[1:] and doc["status"] == "stored"
+        X = np.asarray(a.post(f"/v1/sessions/{sid}/deform", json=doc["presets"][0]["move"]).json()["positions"])
+        np.testing.assert_allclose(X, want[1], atol=1e-9)
+        assert b.delete(f"/v1/sessions/{sid}").status_code == 204
+        assert err(a.patch(f"/v1/sessions/{sid}", json={"presets": PRESETS}))["code"] == "session_not_found"
+
+
+def test_a_database_made_before_presets_gains_them_and_its_sessions_have_none(tmp_path, db):
+    from service.state.pg_store import PgStore
+
+    rec = {"id": "s_old0000000000000", "owner": "public", "mesh_id": "m_x", "spec": BRACKET_SPEC,
+           "created": 1.0, "last_used": 2.0, "last_move": MOVES[0], "failed": None, "version": 4}
+    with psycopg.connect(db, autocommit=True) as c:  # the table as the service made it before presets
+        c.execute("CREATE TABLE tm_sessions (id text PRIMARY KEY, owner text NOT NULL, mesh_id text NOT NULL, "
+                  "created double precision NOT NULL, last_used double precision NOT NULL, "
+                  "version bigint NOT NULL DEFAULT 0, record jsonb NOT NULL)")
+        c.execute("INSERT INTO tm_sessions VALUES (%s, 'public', 'm_x', 1.0, 2.0, 4, %s)",
+                  (rec["id"], psycopg.types.json.Jsonb(rec)))
+    store = PgStore(db, tmp_path / "data")
+    try:
+        loaded = store.load_session(rec["id"])
+        assert loaded == {**rec, "presets": []} and store.load_presets(rec["id"]) == []
+        assert store.save_presets(rec["id"], PRESETS) and store.load_presets(rec["id"]) == PRESETS
+        assert store.load_session(rec["id"])["version"] == 4  # no version for presets
+        # a commit (from a copy with stale presets) and a save write the record, never the presets
+        assert store.commit_session({**loaded, "last_move": MOVES[1]}, 4) == 5
+        store.save_session({**loaded, "last_move": MOVES[2], "version": 5})
+        assert store.load_presets(rec["id"]) == PRESETS and store.load_session(rec["id"])["last_move"] == MOVES[2]
+        assert [r["presets"] for r in store.list_sessions()] == [PRESETS]
+        assert not store.save_presets("s_none", []) and store.load_presets("s_none") is None
+        assert not store.save_presets("../x", []) and store.load_presets("../x") is None
+    finally:
+        store.close()
+    again = PgStore(db, tmp_path / "data")  # the column exists now: starting again changes nothing
+    try:
+        assert again.load_presets(rec["id"]) == PRESETS
+    finally:
+        again.close()

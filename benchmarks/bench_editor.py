@@ -7,6 +7,9 @@ numeric MOVEs are sent one after another, each waiting until its frame is on scr
 "MOVE → frame on screen" is measured from Python and includes Playwright's own
 round trips for filling the input and clicking; "send → frame applied" is measured in
 the page (WebSocket send to the new positions, normals, quality and colours in place).
+The stream sends boundary-first frames; a line under the table says how many of them were
+painted before their full frame came (the rest were overtaken and never applied) and the
+page's send → boundary painted time.
 Prints a table::
 
     python benchmarks/bench_editor.py [--size 0.95] [--moves 30] [--views]
@@ -67,7 +70,7 @@ def main() -> None:
         pg.click("#create")
         pg.wait_for_function("window.tetmorph.state.sessionId !== null", timeout=300000)
         session_s = time.perf_counter() - t0
-        lat, frame_ms, apply_ms, rtt = [], [], [], []
+        lat, frame_ms, apply_ms, rtt, brtt = [], [], [], [], []
         for k in range(1, a.moves + 1):
             pg.fill("#tz", str(0.5 * k))
             t0 = time.perf_counter()
@@ -78,6 +81,12 @@ def main() -> None:
             frame_ms.append(pg.evaluate("window.tetmorph.state.report.solve_ms"))
             apply_ms.append(pg.evaluate("window.tetmorph.state.applyMs"))
             rtt.append(pg.evaluate("window.tetmorph.state.roundTripMs"))
+            b_ms = pg.evaluate("window.tetmorph.state.boundaryRoundTripMs")
+            pg.evaluate("window.tetmorph.state.boundaryRoundTripMs = undefined")
+            if b_ms is not None:
+                brtt.append(b_ms)
+        counts = pg.evaluate("(() => { const s = window.tetmorph.state; "
+                             "return [s.boundaryReceived || 0, s.boundaryFrames || 0]; })()")
         views = time_views(pg, a.moves) if a.views else None
         b.close()
     print("| tets | page load + geometry s | session build s | MOVE → frame on screen ms (median) | p95 ms "
@@ -86,6 +95,9 @@ def main() -> None:
     print(f"| {int(tets):,} | {load_s:.2f} | {session_s:.2f} | {1e3 * np.median(lat):.0f} | "
           f"{1e3 * np.percentile(lat, 95):.0f} | {np.median(frame_ms):.1f} | {np.median(rtt):.1f} | "
           f"{np.median(apply_ms):.1f} |")
+    drawn = f"{np.median(brtt):.1f} ms (median of {len(brtt)})" if brtt else "none drawn"
+    print(f"\nboundary-first frames: {counts[0]} received, {counts[1]} painted before their full frame; "
+          f"send → boundary painted: {drawn}")
     if views:
         print()
         print("| view | frame ms (median of 30) | page: send → frame applied ms (median) "

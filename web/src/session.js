@@ -23,6 +23,8 @@ export class SessionControl {
     this.own = new Set();    // sessions this tab created
     this.building = null;    // id of a session being built for this tab
     this.presetQueue = Promise.resolve(); // preset changes, one after another
+    this.pendingBoundary = null; // a boundary frame waiting for the next paint
+    meshView.viewer.beforeRender.push(() => this.drawPendingBoundary());
     window.addEventListener("pagehide", () => this.leaving());
   }
 
@@ -131,6 +133,7 @@ export class SessionControl {
       const { data } = decodeFrame(await r.arrayBuffer());
       this.start(id, this.regions.handles());
       state.specSent = doc.spec;
+      this.pendingBoundary = null;
       this.meshView.applyPositions(data);
       if (doc.last_move) {
         state.history.push({ label: "last MOVE on the service", move: doc.last_move });
@@ -189,6 +192,15 @@ export class SessionControl {
   async list() { return getJson("/v1/sessions"); }
 
   // ---------------------------------------------------------------- stream
+  /** Before each paint: the boundary frame that came since the last one, if its full frame did not. */
+  drawPendingBoundary() {
+    const p = this.pendingBoundary;
+    if (!p) return;
+    this.pendingBoundary = null;
+    this.meshView.applyBoundary(p.data);
+    if (p.seq === state.seq) state.boundaryRoundTripMs = performance.now() - state.sentAt;
+  }
+
   openStream() {
     state.ws = new Stream(state.sessionId, apiKey(), {
       onFrame: (f) => this.frame(f),
@@ -198,9 +210,18 @@ export class SessionControl {
   }
 
   frame({ header, data }) {
-    if (header.frame === "boundary") {  // the surface at once; quality and the REPORT come with the full frame
-      this.meshView.applyBoundary(data);
+    if (header.frame === "boundary") {
+      // The surface at the next paint (nothing can show it sooner); quality and the REPORT come
+      // with the full frame. When the full frame of the same MOVE is in before that paint, the
+      // boundary is never applied: applying it would only delay the full frame.
+      state.boundaryReceived = (state.boundaryReceived || 0) + 1;
+      if (this.pendingBoundary) state.boundarySkipped = (state.boundarySkipped || 0) + 1;
+      this.pendingBoundary = { seq: header.seq, data };
       return;
+    }
+    if (this.pendingBoundary && this.pendingBoundary.seq <= header.seq) {
+      this.pendingBoundary = null;
+      state.boundarySkipped = (state.boundarySkipped || 0) + 1;
     }
     const rtt = header.seq === state.seq ? performance.now() - state.sentAt : undefined;
     this.meshView.applyPositions(data);
@@ -258,6 +279,7 @@ export class SessionControl {
       await this.settled();
       await api(`/v1/sessions/${state.sessionId}/reset`, { method: "POST" });
       this.moves.rested(record);
+      this.pendingBoundary = null;
       this.meshView.applyPositions(state.V0);
       showReport({ reset: true });
     } catch (e) { showError(e); }

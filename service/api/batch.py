@@ -104,7 +104,8 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
                                {"total_ms": ms, "per_variant_ms": ms / max(len(variants), 1)})
             await reg.run(z.finish, result)
         except BaseException:
-            z.discard()
+            # a cancel arrives while a block may still be writing in its thread: discard after it
+            await asyncio.shield(reg.run(z.discard))
             raise
         job.result_path, job.summary = z.path, {"engine": "local", **summary_counts(result)}
 

@@ -22,6 +22,7 @@ import io
 import os
 import shutil
 import tempfile
+import threading
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -118,6 +119,10 @@ class DeckZip:
         self._fh = open(path, "wb")  # noqa: SIM115 - closed by close()
         self.zip = zipfile.ZipFile(self._fh, "w", zipfile.ZIP_DEFLATED, compresslevel=1)
         self.tmp = Path(tempfile.mkdtemp(prefix="tetmorph-batch-", dir=path.parent))
+        # A cancelled batch is discarded from the event loop while its block in flight may still be
+        # writing a deck in a solve thread: the lock orders the two, and a discarded zip takes no more.
+        self._lock = threading.RLock()
+        self._discarded = False
 
     def name(self, row: int) -> str:
         """The deck's name in the zip."""
@@ -134,18 +139,22 @@ class DeckZip:
 
         def out(row: int, res: DeformResult) -> str:
             name = self.name(row)
-            f = self.tmp / name
-            write_mesh(self.mesh, res.V, f, self.format)
-            self.add_file(f, name)
+            with self._lock:
+                if self._discarded:  # cancelled meanwhile: nothing more is written
+                    return name
+                f = self.tmp / name
+                write_mesh(self.mesh, res.V, f, self.format)
+                self.add_file(f, name)
             return name
 
         return out
 
     def add_file(self, f: Path, name: str) -> None:
         """Add a written deck and remove it."""
-        self.zip.write(f, arcname=name)
-        f.unlink()
-        self._check()
+        with self._lock:
+            self.zip.write(f, arcname=name)
+            f.unlink()
+            self._check()
 
     def finish(self, result: DoeResult) -> None:
         """Add ``summary.csv`` and close."""
@@ -156,15 +165,18 @@ class DeckZip:
 
     def close(self) -> None:
         """Close the zip (idempotent) and remove the temporary folder."""
-        if not self._fh.closed:
-            self.zip.close()
-            self._fh.close()
-        shutil.rmtree(self.tmp, ignore_errors=True)
+        with self._lock:
+            if not self._fh.closed:
+                self.zip.close()
+                self._fh.close()
+            shutil.rmtree(self.tmp, ignore_errors=True)
 
     def discard(self) -> None:
-        """Close and remove everything (a failed or cancelled batch)."""
-        self.close()
-        self.path.unlink(missing_ok=True)
+        """Close and remove everything (a failed or cancelled batch), after a deck being written."""
+        with self._lock:
+            self._discarded = True
+            self.close()
+            self.path.unlink(missing_ok=True)
 
 
 def solve_block(deformer: Deformer, shapes: Shapes, plan: Plan, start: int, block: int, inversion: str | None,

@@ -138,8 +138,12 @@ def test_result_cap_and_cancel_leave_nothing(tmp_path):
         c = tc.delete(f"/v1/sessions/{sid}/batch/{jid}")
         assert c.status_code == 200 and c.json()["status"] == "cancelled"
         assert err(tc.delete(f"/v1/sessions/{sid}/batch/{jid}"))["code"] == "job_finished"
-        time.sleep(1.0)  # the block in flight ends; nothing of the batch stays
-        assert not [p for p in (tmp_path / "data2" / "jobs").rglob("*") if p.is_file()]
+        left = [1]
+        deadline = time.monotonic() + 20  # the block in flight ends, then nothing of the batch stays
+        while left and time.monotonic() < deadline:
+            time.sleep(0.1)
+            left = [p for p in (tmp_path / "data2" / "jobs").rglob("*") if p.is_file()]
+        assert not left
         assert err(tc.get(f"/v1/sessions/{sid}/batch/j_0000/result"))["code"] == "job_not_found"
 
 

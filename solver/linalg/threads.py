@@ -16,7 +16,16 @@ A back-substitution of many right-hand sides at once (a DOE block: more than
 ``WIDE_COLUMNS`` columns) reads the factor once for all of them and is
 arithmetic-bound too, so it runs on every MKL thread: 16 stacked variants of
 the 1M-tet bracket, 48 columns, 34-36 ms per variant on one thread against
-21 ms on two (``benchmarks/bench_doe.py``).
+21 ms on two (``benchmarks/bench_doe.py``). PARDISO keeps the thread count of
+a factor's earlier back-substitutions, though: on the 1M bracket's interior
+factor, 48 columns took 379 ms on two threads, then 3 columns 93 ms on one,
+then 48 columns 636 ms on two, and stayed there (a script timing
+``Factor.solve`` in that order; ``iparm[24]`` and resetting OpenMP's thread
+count changed nothing). So the stacked solves of a ``tetmorph doe`` process
+or a Ray actor (nothing but stacked solves) use both threads, while a
+service session that has served MOVEs runs its batch on one. With
+``TETMORPH_SOLVE_THREADS=2`` every solve uses two threads (1M, 3 columns:
+80-84 ms against 92-94 on one), which suits a machine that runs one job.
 :func:`update_threads` limits numba for callers that want one thread.
 """
 

@@ -24,7 +24,7 @@ from .api import batch, health, meshes, sessions, stream, tetrahedralize
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
 from .demo import load_demo
-from .middleware import BodyLimit, ErrorShield
+from .middleware import BodyLimit, ErrorShield, UnicodeGuard
 from .models.error import ErrorEnvelope
 from .observability import Metrics, RequestContext
 from .security import Authenticator, ConnectionSlots, RateLimiter, SharedRateLimiter, load_secret
@@ -120,6 +120,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     app.state.metrics = metrics
     app.state.sweeper = sweeper
     install_handlers(app)
+    app.add_middleware(UnicodeGuard)
     app.add_middleware(BodyLimit, limit=settings.max_upload_bytes)
     app.add_middleware(ErrorShield)
     app.add_middleware(RequestContext, metrics=metrics, replica=settings.replica_id)

@@ -1,9 +1,13 @@
-"""ASGI middleware of the service.
+r"""ASGI middleware of the service.
 
 * :class:`ErrorShield` -- an exception that escapes a route becomes the 500
   envelope *without* being re-raised, so the server keeps the keep-alive
   connection open for the client's next request;
-* :class:`BodyLimit` -- request bodies over the upload limit answer 413.
+* :class:`BodyLimit` -- request bodies over the upload limit answer 413;
+* :class:`UnicodeGuard` -- a JSON body whose text holds a lone UTF-16 surrogate
+  (``"\ud800"``: valid JSON, not valid Unicode) answers 422 before a route can
+  store it; stored, it could never be answered again (a UTF-8 response cannot
+  hold it).
 """
 
 from __future__ import annotations
@@ -16,7 +20,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from .errors import envelope, error_body
 
-__all__ = ["ErrorShield", "BodyLimit"]
+__all__ = ["ErrorShield", "BodyLimit", "UnicodeGuard", "lone_surrogate"]
 
 log = logging.getLogger("tetmorph.service")
 
@@ -91,3 +95,91 @@ class BodyLimit:
             return msg
 
         await self.app(scope, counting_receive, send)
+
+
+def lone_surrogate(doc: object, path: str = "body") -> str | None:
+    r"""Where ``doc`` (parsed JSON) holds a string or key that is not valid Unicode or holds NUL, else None.
+
+    NUL (``"\u0000"``) is valid JSON and Unicode, but PostgreSQL's jsonb cannot
+    store it, so the two session stores would disagree on it.
+
+    Examples
+    --------
+    >>> lone_surrogate({"a": ["ok", "x\ud800"]}), lone_surrogate({"\U0001f600": 1})
+    ('body.a[1]', None)
+    """
+    stack: list[tuple[object, str]] = [(doc, path)]
+    while stack:
+        x, at = stack.pop()
+        if isinstance(x, str):
+            try:
+                x.encode("utf-8")
+            except UnicodeEncodeError:
+                return at
+            if "\x00" in x:
+                return at
+        elif isinstance(x, dict):
+            for k, v in x.items():
+                try:
+                    str(k).encode("utf-8")
+                except UnicodeEncodeError:
+                    return f"{at} (a key)"
+                if "\x00" in str(k):
+                    return f"{at} (a key)"
+                stack.append((v, f"{at}.{k}"))
+        elif isinstance(x, list):
+            stack.extend((v, f"{at}[{i}]") for i, v in enumerate(x))
+    return None
+
+
+class UnicodeGuard:
+    r"""Answer 422 for a JSON request body holding a lone surrogate escape (see the module docstring).
+
+    Only bodies whose bytes contain ``\ud`` or ``\u0000`` (any case) are parsed here: the
+    others cannot hold one, and pass through untouched.
+    """
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """Handle one ASGI connection."""
+        ctype = dict(scope.get("headers") or []).get(b"content-type", b"")
+        if scope["type"] != "http" or b"json" not in ctype:
+            await self.app(scope, receive, send)
+            return
+        messages: list[Message] = []
+        body = b""
+        while True:
+            try:
+                msg = await receive()
+            except HTTPException as e:  # BodyLimit: over the upload limit
+                await send_json(send, e.status_code, envelope(e.status_code, "payload_too_large", str(e.detail), {}))
+                return
+            messages.append(msg)
+            if msg["type"] != "http.request":
+                break
+            body += msg.get("body", b"")
+            if not msg.get("more_body", False):
+                break
+        low = body.lower()
+        if b"\\ud" in low or b"\\u0000" in low:
+            try:
+                where = lone_surrogate(json.loads(body))
+            except (ValueError, RecursionError):
+                where = None  # not JSON: the route's own parser answers
+            if where is not None:
+                await send_json(send, 422, envelope(422, "invalid_request", f"invalid request: {where} holds "
+                                                    "a lone UTF-16 surrogate escape (\\ud800-\\udfff "
+                                                    "without its pair) or NUL; text must be valid Unicode "
+                                                    "without NUL",
+                                                    {"field": where}))
+                return
+        pending = list(messages)
+
+        async def replay() -> Message:
+            if pending:
+                return pending.pop(0)
+            return await receive()
+
+        await self.app(scope, replay, send)

@@ -105,7 +105,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
             await reg.run(z.finish, result)
         except BaseException:
             # a cancel arrives while a block may still be writing in its thread: discard after it
-            await asyncio.shield(reg.run(z.discard))
+            await asyncio.shield(asyncio.to_thread(z.discard))  # not behind queued builds; works at shutdown
             raise
         job.result_path, job.summary = z.path, {"engine": "local", **summary_counts(result)}
 
@@ -140,7 +140,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
 
             result = await reg.run(pack)
         except BaseException:
-            z.discard()
+            await asyncio.shield(asyncio.to_thread(z.discard))  # after a pack in flight, off the event loop
             raise
         finally:
             remove_tree(decks)

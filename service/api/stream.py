@@ -38,6 +38,7 @@ from starlette.websockets import WebSocketState
 
 from ..binary import encode_frame
 from ..errors import ServiceError, error_body, status_of
+from ..middleware import lone_surrogate
 from ..models.move import StreamFrame
 from ..state.registry import Registry
 from .handlers import validation_envelope
@@ -73,6 +74,10 @@ def parse_frame(text: str | None, data: bytes | None, limit: int) -> StreamFrame
         raise ServiceError("invalid_message", f"the frame is not JSON: {str(e)[:100]}") from None
     if not isinstance(doc, dict):
         raise ServiceError("invalid_message", "send text frames holding a JSON object {seq, move}")
+    where = lone_surrogate(doc, "frame")
+    if where is not None:
+        raise ServiceError("invalid_message", f"{where} holds a lone UTF-16 surrogate escape or NUL; text must be "
+                           "valid Unicode without NUL", field=where)
     try:
         return StreamFrame.model_validate(doc)
     except ValidationError as e:

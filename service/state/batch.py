@@ -150,33 +150,45 @@ class DeckZip:
         return out
 
     def add_file(self, f: Path, name: str) -> None:
-        """Add a written deck and remove it."""
+        """Add a written deck and remove it (dropped when the zip was discarded)."""
         with self._lock:
+            if self._discarded:
+                f.unlink(missing_ok=True)
+                return
             self.zip.write(f, arcname=name)
             f.unlink()
             self._check()
 
     def finish(self, result: DoeResult) -> None:
-        """Add ``summary.csv`` and close."""
-        f = self.tmp / "summary.csv"
-        write_summary(result, f)
-        self.add_file(f, "summary.csv")
-        self.close()
+        """Add ``summary.csv`` and close (nothing when the zip was discarded)."""
+        with self._lock:
+            if self._discarded:
+                return
+            f = self.tmp / "summary.csv"
+            write_summary(result, f)
+            self.add_file(f, "summary.csv")
+            self.close()
 
     def close(self) -> None:
         """Close the zip (idempotent) and remove the temporary folder."""
         with self._lock:
-            if not self._fh.closed:
-                self.zip.close()
-                self._fh.close()
-            shutil.rmtree(self.tmp, ignore_errors=True)
+            try:
+                if not self._fh.closed:
+                    try:
+                        self.zip.close()
+                    finally:
+                        self._fh.close()
+            finally:
+                shutil.rmtree(self.tmp, ignore_errors=True)
 
     def discard(self) -> None:
         """Close and remove everything (a failed or cancelled batch), after a deck being written."""
         with self._lock:
             self._discarded = True
-            self.close()
-            self.path.unlink(missing_ok=True)
+            try:
+                self.close()
+            finally:
+                self.path.unlink(missing_ok=True)
 
 
 def solve_block(deformer: Deformer, shapes: Shapes, plan: Plan, start: int, block: int, inversion: str | None,

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FactorizationError
-from .threads import mkl_local_threads, solve_threads
+from .threads import WIDE_COLUMNS, mkl_local_threads, solve_threads
 
 __all__ = ["PardisoFactor", "mkl_runtime"]
 
@@ -148,6 +148,7 @@ class PardisoFactor:
             self._iparm[27] = 1
         self._perm = np.zeros(n, np.int32)
         self._lock = threading.Lock()
+        self._stacked = False  # has made a stacked solve: keep its thread count (solver.linalg.threads)
         self._alive = False
         err = self._call(12, np.zeros((n, 1), self.dtype, order="F"), np.zeros((n, 1), self.dtype, order="F"))
         self._alive = True
@@ -191,7 +192,9 @@ class PardisoFactor:
         B = np.asfortranarray(np.reshape(b, (shape[0], -1)), dtype=self.dtype)
         X = np.empty_like(B, order="F")
         with self._lock:
-            prev = mkl_local_threads(self._lib, solve_threads(B.shape[1]))  # see solver.linalg.threads
+            n_threads = solve_threads(B.shape[1], self._stacked)  # see solver.linalg.threads
+            self._stacked = self._stacked or B.shape[1] > WIDE_COLUMNS  # a scheduling hint, not a result
+            prev = mkl_local_threads(self._lib, n_threads)
             try:
                 err = self._call(33, B, X)
             finally:

@@ -42,9 +42,9 @@ def _residual_kernel(indptr, indices, data, B, X, width, R, rmax, xmax):  # prag
                     R[i, q] = acc[q]
                     r2 += acc[q] * acc[q]
                     x2 += X[i, q] * X[i, q]
-                if r2 > rmax[c, b]:
+                if not r2 <= rmax[c, b]:  # NaN propagates: a NaN row is the largest
                     rmax[c, b] = r2
-                if x2 > xmax[c, b]:
+                if not x2 <= xmax[c, b]:
                     xmax[c, b] = x2
 
 

@@ -16,16 +16,20 @@ A back-substitution of many right-hand sides at once (a DOE block: more than
 ``WIDE_COLUMNS`` columns) reads the factor once for all of them and is
 arithmetic-bound too, so it runs on every MKL thread: 16 stacked variants of
 the 1M-tet bracket, 48 columns, 34-36 ms per variant on one thread against
-21 ms on two (``benchmarks/bench_doe.py``). PARDISO keeps the thread count of
-a factor's earlier back-substitutions, though: on the 1M bracket's interior
-factor, 48 columns took 379 ms on two threads, then 3 columns 93 ms on one,
-then 48 columns 636 ms on two, and stayed there (a script timing
-``Factor.solve`` in that order; ``iparm[24]`` and resetting OpenMP's thread
-count changed nothing). So the stacked solves of a ``tetmorph doe`` process
-or a Ray actor (nothing but stacked solves) use both threads, while a
-service session that has served MOVEs runs its batch on one. With
-``TETMORPH_SOLVE_THREADS=2`` every solve uses two threads (1M, 3 columns:
-80-84 ms against 92-94 on one), which suits a machine that runs one job.
+21 ms on two (``benchmarks/bench_doe.py``). But once a factor has made one
+single-threaded back-substitution, PARDISO's stacked solves on it stay slow
+whatever the thread count: on the 1M bracket's interior factor, 48 columns
+took 430 ms on two threads, then 3 columns 99 ms on one, then 48 columns
+690-732 ms on two, also after further 3-column solves on two threads (a
+script calling PARDISO in that order; ``iparm[24]`` and OpenMP's thread count
+changed nothing). So a factor that has made a stacked solve makes all its
+later solves on the stacked thread count (:func:`solve_threads`), and the
+stacked solves of a ``tetmorph doe`` process or a Ray actor, whose first
+solve is stacked, keep both threads through refinement steps and short last
+blocks; a service session that has served MOVEs runs its batch as on one
+thread. With ``TETMORPH_SOLVE_THREADS=2`` every solve uses two threads (1M,
+3 columns: 80-84 ms against 92-94 on one), which suits a machine that runs
+one job.
 :func:`update_threads` limits numba for callers that want one thread.
 """
 
@@ -48,12 +52,19 @@ WIDE_COLUMNS = 6
 
 
 #: Threads of a stacked back-substitution (``TETMORPH_STACKED_THREADS``, default every core).
-STACKED_THREADS = max(1, int(os.environ.get("TETMORPH_STACKED_THREADS", "0") or 0) or os.cpu_count() or 1)
+STACKED_THREADS = max(1, int(os.environ.get("TETMORPH_STACKED_THREADS", "0") or 0)
+                      or min(len(os.sched_getaffinity(0)), int(os.environ.get("MKL_NUM_THREADS", "") or 1 << 16)))
 
 
-def solve_threads(columns: int) -> int:
-    """MKL threads for a back-substitution of ``columns`` right-hand sides."""
-    return SOLVE_THREADS if columns <= WIDE_COLUMNS else STACKED_THREADS
+def solve_threads(columns: int, stacked_before: bool = False) -> int:
+    """MKL threads for a back-substitution of ``columns`` right-hand sides.
+
+    ``stacked_before``: the factor has made a stacked solve; its later solves,
+    narrow ones too, keep the stacked thread count, so that a refinement step
+    or a short last block does not slow every stacked solve after it (PARDISO
+    keeps a factor's earlier thread count, above).
+    """
+    return STACKED_THREADS if stacked_before or columns > WIDE_COLUMNS else SOLVE_THREADS
 
 
 def mkl_local_threads(lib: ctypes.CDLL, n: int) -> int:

@@ -54,14 +54,18 @@ def test_a_killed_actor_loses_no_row_and_writes_none_twice(tmp_path, two_nodes):
     reference(tmp_path / "ref", p, block=block)
     killed: list[int] = []
     nodes: set[str] = set()
+    pids: list[int] = []
 
     def progress(done: int, total: int) -> None:
-        if not killed:  # the first block is in; the other actor still holds its first, or its next one
+        # An actor answers one call at a time, so asking it waits for its block in flight: ask at the
+        # first block, kill at the next one, when actor 0 holds a block it has not returned.
+        if not pids:
             for k in range(2):
                 nodes.add(ray.get(ray.get_actor(f"killtest-{k}", namespace=NAMESPACE).node.remote()))
-            pid = ray.get(ray.get_actor("killtest-0", namespace=NAMESPACE).pid.remote())
-            os.kill(pid, signal.SIGKILL)
-            killed.append(pid)
+            pids.append(ray.get(ray.get_actor("killtest-0", namespace=NAMESPACE).pid.remote()))
+        elif not killed:
+            os.kill(pids[0], signal.SIGKILL)
+            killed.append(pids[0])
 
     out = tmp_path / "ray"
     r = run_doe_ray(read_mesh(PLATE), plate_spec(), plate_shapes(), p, output=str(out / "plate_{i}.inp"),

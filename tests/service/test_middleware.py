@@ -79,3 +79,34 @@ def test_errors_keep_the_connection_alive(tmp_path):
         answers = _raw_exchange(port, [create, get])  # 500 unknown_backend, then the same connection goes on
         assert [int(a.split(b" ")[1]) for a in answers] == [500, 200]
         assert b"connection: close" not in answers[0].lower()
+
+
+def test_text_that_is_not_valid_unicode_is_refused_before_anything_is_stored(tmp_path):
+    """A lone surrogate escape is valid JSON but no UTF-8 answer can hold it; NUL cannot go into jsonb."""
+    from service.client import Client
+
+    with running(tmp_path) as tc:
+        c = Client(http=tc)
+        mid = upload_bracket(c)["id"]
+        spec = json.dumps(BRACKET_SPEC)
+        for bad, field in [(spec.replace('"tip"', '"tip\\ud800"', 1), "body.spec"),
+                           (spec.replace('"tip"', '"tip\\u0000"', 1), "body.spec")]:
+            r = tc.post("/v1/sessions", content=f'{{"mesh_id": "{mid}", "spec": {bad}}}',
+                        headers={"content-type": "application/json"})
+            assert r.status_code == 422 and err(r)["code"] == "invalid_request", r.text
+            assert err(r)["details"]["field"].startswith(field)
+        assert tc.get("/v1/sessions").json() == []  # nothing was stored
+        sid = c.create_session(mid, BRACKET_SPEC)["id"]
+        good = tc.patch(f"/v1/sessions/{sid}", json={"presets": [{"name": "up", "move": {}}]})
+        assert good.status_code == 200
+        for body in ['{"presets": [{"name": "x\\udc00", "move": {}}]}',
+                     '{"presets": [{"name": "n", "move": {"handles": {"tip\\ud800": {"scale": 2}}}}]}',
+                     '{"presets": [{"name": "nul\\u0000", "move": {}}]}']:
+            r = tc.patch(f"/v1/sessions/{sid}", content=body, headers={"content-type": "application/json"})
+            assert r.status_code == 422 and "presets[0]" in err(r)["details"]["field"], r.text
+        doc = tc.get(f"/v1/sessions/{sid}")
+        assert doc.status_code == 200 and doc.json()["presets"] == [{"name": "up", "move": {}}]
+        # a paired surrogate (an emoji) is valid text and is kept
+        r = tc.patch(f"/v1/sessions/{sid}", content='{"presets": [{"name": "\\ud83d\\ude00", "move": {}}]}',
+                     headers={"content-type": "application/json"})
+        assert r.status_code == 200 and tc.get(f"/v1/sessions/{sid}").json()["presets"][0]["name"] == "\U0001f600"

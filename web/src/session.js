@@ -85,6 +85,7 @@ export class SessionControl {
 
   /** Attach the gizmo and the stream to a ready session. */
   start(id, handleRegions) {
+    this.pendingBoundary = null;
     state.sessionId = id;
     state.specSent = this.spec();
     this.moves.attach(handleRegions);
@@ -166,6 +167,7 @@ export class SessionControl {
 
   /** Leave the session in this tab (it stays on the service). */
   close() {
+    this.pendingBoundary = null;  // a boundary frame of the stream being closed is never drawn
     if (state.ws) state.ws.close();
     state.ws = null; state.sessionId = null; state.specSent = null;
     this.moves.detach();
@@ -197,6 +199,10 @@ export class SessionControl {
     const p = this.pendingBoundary;
     if (!p) return;
     this.pendingBoundary = null;
+    if (p.session !== state.sessionId || p.seq <= state.lastSeq) {  // another session's, or overtaken
+      state.boundarySkipped = (state.boundarySkipped || 0) + 1;
+      return;
+    }
     this.meshView.applyBoundary(p.data);
     if (p.seq === state.seq) state.boundaryRoundTripMs = performance.now() - state.sentAt;
   }
@@ -216,7 +222,7 @@ export class SessionControl {
       // boundary is never applied: applying it would only delay the full frame.
       state.boundaryReceived = (state.boundaryReceived || 0) + 1;
       if (this.pendingBoundary) state.boundarySkipped = (state.boundarySkipped || 0) + 1;
-      this.pendingBoundary = { seq: header.seq, data };
+      this.pendingBoundary = { seq: header.seq, data, session: state.sessionId };
       return;
     }
     if (this.pendingBoundary && this.pendingBoundary.seq <= header.seq) {
@@ -244,7 +250,13 @@ export class SessionControl {
   /** A text frame: a MOVE the service refused (the session stays where it was). */
   message(msg) {
     if (!msg.error) return;
-    if (msg.seq !== null && msg.seq !== undefined) state.lastSeq = msg.seq;
+    if (msg.seq !== null && msg.seq !== undefined) {
+      state.lastSeq = msg.seq;
+      if (this.pendingBoundary && this.pendingBoundary.seq <= msg.seq) {  // its MOVE was refused
+        this.pendingBoundary = null;
+        state.boundarySkipped = (state.boundarySkipped || 0) + 1;
+      }
+    }
     if (msg.seq === state.seq) setBusy(null);
     showError({ body: msg });
     this.moves.rejected(msg.seq);

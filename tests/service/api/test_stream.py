@@ -58,6 +58,7 @@ def test_websocket_frames_are_strict_and_leave_the_session_unchanged(client, tc)
         json.dumps({"seq": 1, "move": {"handles": {"tip": {"rotation": {"axis": [1, 0, 0], "angle_deg": 1e300},
                                                             "scale": 1e300}}}}),
         "[" * 100_000 + "]" * 100_000,  # deep nesting
+        '{"seq": 1, "move": {"handles": {"tip\\ud800": {"translation": [1, 0, 0]}}}}',  # not valid Unicode
     ]
     with tc.websocket_connect(f"/v1/sessions/{s['id']}/stream?dtype=float64") as ws:
         for text in bad_frames:

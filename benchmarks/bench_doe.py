@@ -22,6 +22,12 @@ of the ratios), and the same ratio of this process's CPU time (user + system,
 all threads), which counts work rather than waiting for a busy machine. The
 machine is a shared VM: compare columns of one run.
 
+With ``--fresh`` each block size of more than 2 rows also runs on a second
+precompute of the same mesh that makes nothing but stacked solves, as a
+``tetmorph doe`` process or a Ray actor does (PARDISO keeps a factor's
+earlier thread count, ``solver/linalg/threads.py``: the main precompute's
+single updates run on one thread, and so do its stacked solves after them).
+
 With ``--components B`` it also prints where one variant's time goes in a
 stacked solve of ``B`` rows against a single update (median of 3, per
 variant): the right-hand sides, the interior back-substitution (3 columns
@@ -31,7 +37,7 @@ stacked positions and the stacked updates; then a profile of one stacked
 ``solve_many`` by each function's own time.
 
     python benchmarks/bench_doe.py [--sizes 0.95,0.44] [--blocks 1,4,16,64] [--rows 64] [--repeats 3]
-                                   [--components 16]
+                                   [--components 16] [--fresh]
 """
 
 from __future__ import annotations
@@ -52,6 +58,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_solver import bracket_deck  # noqa: E402
 
+from solver.linalg.threads import WIDE_COLUMNS  # noqa: E402
+
 SHAPES = {"shapes": {
     "lift": {"handles": {"top": {"translation": [0, 0, 2.0]}}},
     "pull": {"handles": {"top": {"translation": [1.0, 0, 0]}}},
@@ -64,7 +72,7 @@ def spread(v: list[float], fmt: str = ".1f") -> str:
     return f"{np.median(v):{fmt}} [{min(v):{fmt}}-{max(v):{fmt}}]"
 
 
-def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int) -> None:
+def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int, fresh: bool = False) -> None:
     from solver import precompute, read_mesh
     from solver.workflows import parse_plan, parse_shapes, run_doe, variant_move
 
@@ -79,6 +87,11 @@ def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int) -
     values = rng.uniform(-1, 1, (rows, shapes.count))
     plan = parse_plan([dict(zip(shapes.names, r, strict=True)) for r in values.tolist()])
     moves = [variant_move(d, shapes, values[i]) for i in range(singles)]
+    # a second precompute that only ever makes stacked solves, as in a `tetmorph doe` process (its
+    # first back-substitution is stacked, so it keeps both threads: solver/linalg/threads.py)
+    fd = precompute(mesh, spec) if fresh else None
+    f_shapes = parse_shapes(SHAPES, fd) if fd is not None else None
+    f_blocks = [b for b in blocks if 3 * b > WIDE_COLUMNS]
     d.solve(moves[0])  # warm: kernels, factor work space
     run_doe(d, shapes, parse_plan([plan_row(plan, 0)]), block=1)
     single: list[float] = []
@@ -86,6 +99,8 @@ def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int) -
     ratio: dict[int, list[float]] = {b: [] for b in blocks}
     cpu_ratio: dict[int, list[float]] = {b: [] for b in blocks}
     check: dict[int, list[float]] = {b: [] for b in blocks}
+    f_per: dict[int, list[float]] = {b: [] for b in f_blocks}
+    f_ratio: dict[int, list[float]] = {b: [] for b in f_blocks}
     first = 0.0
     order = np.random.default_rng(1)
     for _ in range(repeats):
@@ -117,6 +132,12 @@ def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int) -
             cpu_ratio[b].append(cpu / rows / s_cpu)
             check[b].append(float(np.median([r["timings"]["update"]["check_ms"] for r in reps])))
             first = max(first, max(float(np.abs(a - v).max()) for a, v in zip(got, V1, strict=True)))
+            if fd is not None and b in f_blocks:
+                t = time.perf_counter()
+                res = run_doe(fd, f_shapes, plan, block=b)
+                wall = 1e3 * (time.perf_counter() - t)
+                f_per[b].append(wall / rows)
+                f_ratio[b].append(wall / rows / s)
     n_tets = mesh.T.shape[0]
     print(f"\n### bracket {size:g}: {n_tets:,} tets, {mesh.n:,} vertices; setup {setup:.2f} s; "
           f"{rows} plan rows, {shapes.count} shapes, {repeats} repeats; "
@@ -130,6 +151,9 @@ def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int) -
     for b in blocks:
         print(f"| doe, block {b} | {spread(per[b])} | {spread(ratio[b], '.2f')} | {spread(cpu_ratio[b], '.2f')} "
               f"| {np.median(check[b]):.1f} |")
+    for b in f_blocks if fd is not None else []:
+        print(f"| doe, block {b}, own factor (as `tetmorph doe`) | {spread(f_per[b])} | {spread(f_ratio[b], '.2f')} "
+              "| | |")
 
 
 def timed(f, n: int = 3) -> tuple[float, float]:
@@ -201,9 +225,11 @@ def main() -> None:
     ap.add_argument("--singles", type=int, default=8, help="rows also solved one at a time per repeat")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--components", type=int, default=0, help="also print the cost breakdown for this block size")
+    ap.add_argument("--fresh", action="store_true", help="also run each block size (> 2 rows) on a second "
+                    "precompute that makes only stacked solves, as a `tetmorph doe` process does")
     a = ap.parse_args()
     for size in (float(s) for s in a.sizes.split(",")):
-        run(size, [int(b) for b in a.blocks.split(",")], a.rows, a.singles, a.repeats)
+        run(size, [int(b) for b in a.blocks.split(",")], a.rows, a.singles, a.repeats, a.fresh)
         if a.components:
             components(size, a.components)
 

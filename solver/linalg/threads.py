@@ -14,22 +14,21 @@ thread; factorizations keep every thread. The element check is arithmetic,
 not bandwidth: it keeps numba's threads (1M tets: 16 ms on one, 8.5 ms on two).
 A back-substitution of many right-hand sides at once (a DOE block: more than
 ``WIDE_COLUMNS`` columns) reads the factor once for all of them and is
-arithmetic-bound too, so it runs on every MKL thread: 16 stacked variants of
-the 1M-tet bracket, 48 columns, 34-36 ms per variant on one thread against
-21 ms on two (``benchmarks/bench_doe.py``). But once a factor has made one
+arithmetic-bound too, so it runs on every MKL thread. But once a factor has made one
 single-threaded back-substitution, PARDISO's stacked solves on it stay slow
-whatever the thread count: on the 1M bracket's interior factor, 48 columns
-took 430 ms on two threads, then 3 columns 99 ms on one, then 48 columns
-690-732 ms on two, also after further 3-column solves on two threads (a
-script calling PARDISO in that order; ``iparm[24]`` and OpenMP's thread count
-changed nothing). So a factor that has made a stacked solve makes all its
-later solves on the stacked thread count (:func:`solve_threads`), and the
+whatever the thread count, also after further narrow solves on two threads
+(``iparm[24]`` and OpenMP's thread count change nothing). ``python
+benchmarks/bench_doe.py --fresh`` shows it: on the 1M bracket, block 16,
+65.0 ms per variant on a precompute that has made only stacked solves
+against 84.6 on one that made single updates first. So a factor that has
+made a stacked solve makes all its later solves on the stacked thread count (:func:`solve_threads`), and the
 stacked solves of a ``tetmorph doe`` process or a Ray actor, whose first
 solve is stacked, keep both threads through refinement steps and short last
 blocks; a service session that has served MOVEs runs its batch as on one
-thread. With ``TETMORPH_SOLVE_THREADS=2`` every solve uses two threads (1M,
-3 columns: 80-84 ms against 92-94 on one), which suits a machine that runs
-one job.
+thread. With ``TETMORPH_SOLVE_THREADS=2`` every solve uses two threads, which
+suits a machine that runs one job (``TETMORPH_SOLVE_THREADS=2 python
+benchmarks/bench_doe.py --sizes 0.44``: DOE block 16 at 0.49 of a single
+update, single updates 148.8 ms).
 :func:`update_threads` limits numba for callers that want one thread.
 """
 

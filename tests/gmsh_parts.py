@@ -1,7 +1,8 @@
-"""Parts meshed by gmsh for the constraint tests: a mirror-symmetric bar, a periodic sector, two blocks.
+"""Parts meshed by gmsh for the tests: a mirror-symmetric bar, a periodic sector, two blocks, a sheet panel.
 
-Each returns ``(V, T)`` arrays (positively oriented tets) and is deterministic
-for a given gmsh version and size.
+The volume parts return ``(V, T)`` arrays (positively oriented tets);
+:func:`sheet_panel` writes a triangle mesh. Each is deterministic for a given
+gmsh version and size.
 """
 
 from __future__ import annotations
@@ -112,3 +113,28 @@ def two_blocks(size_low: float = 3.0, size_high: float = 2.3) -> tuple[np.ndarra
     T = np.vstack([T1, T2 + len(V1)])
     body = np.r_[np.zeros(len(V1), np.int64), np.ones(len(V2), np.int64)]
     return V, T, body
+
+
+def sheet_panel(path, size: float) -> int:
+    """A 100 x 50 plate face with two holes of radius 8, meshed in triangles, written to ``path`` (.msh).
+
+    Returns the number of gmsh's line elements on its curves (the outer rim and
+    the holes' edges), which are the sheet's open boundary edges.
+    """
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        plate = occ.addRectangle(0, 0, 0, 100, 50)
+        holes = [occ.addDisk(30, 25, 0, 8, 8), occ.addDisk(70, 25, 0, 8, 8)]
+        occ.cut([(2, plate)], [(2, h) for h in holes])
+        occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.model.mesh.generate(2)
+        rim_lines = sum(len(gmsh.model.mesh.getElements(1, t)[1][0]) for _, t in gmsh.model.getEntities(1))
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return rim_lines

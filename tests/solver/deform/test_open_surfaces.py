@@ -11,6 +11,7 @@ import numpy as np
 
 from solver import precompute, read_mesh
 from tests.conftest import bend_move, bend_spec, longest_axis, shared_file
+from tests.gmsh_parts import sheet_panel
 
 
 def _flipped(V0, V, F):
@@ -20,22 +21,8 @@ def _flipped(V0, V, F):
 
 
 def _panel(tmp_path):
-    import gmsh
-
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        occ = gmsh.model.occ
-        plate = occ.addRectangle(0, 0, 0, 100, 50)
-        holes = [occ.addDisk(30, 25, 0, 8, 8), occ.addDisk(70, 25, 0, 8, 8)]
-        occ.cut([(2, plate)], [(2, h) for h in holes])
-        occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 3.0)
-        gmsh.model.mesh.generate(2)
-        path = tmp_path / "panel.msh"
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+    path = tmp_path / "panel.msh"
+    sheet_panel(path, 3.0)
     return read_mesh(path)
 
 

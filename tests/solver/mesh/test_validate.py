@@ -11,6 +11,7 @@ from solver.errors import InvalidMeshError, TopologyError
 from solver.testing import cube_mesh
 from solver.validity.quality import signed_volumes
 from tests.conftest import DATA, shared_file
+from tests.gmsh_parts import sheet_panel
 
 
 def _oriented(V, T):
@@ -132,23 +133,8 @@ def test_open_scan_is_a_surface_with_its_rim():
 def test_sheet_panel_with_holes(tmp_path):
     """A gmsh triangle mesh of a plate face with two holes: open, accepted; its rim is the outer
     boundary and the holes (gmsh's own line elements on those curves give the count)."""
-    import gmsh
-
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        occ = gmsh.model.occ
-        plate = occ.addRectangle(0, 0, 0, 100, 50)
-        holes = [occ.addDisk(30, 25, 0, 8, 8), occ.addDisk(70, 25, 0, 8, 8)]
-        occ.cut([(2, plate)], [(2, h) for h in holes])
-        occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 4.0)
-        gmsh.model.mesh.generate(2)
-        rim_lines = sum(len(gmsh.model.mesh.getElements(1, t)[1][0]) for _, t in gmsh.model.getEntities(1))
-        path = tmp_path / "panel.msh"
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+    path = tmp_path / "panel.msh"
+    rim_lines = sheet_panel(path, 4.0)
     m = read_mesh(path)
     assert m.is_surface and len(m.rim_edges) == rim_lines
     assert m.shell_labels.max() == 0  # one sheet

@@ -261,6 +261,20 @@ def drag(pg, x0: float, y0: float, x1: float, y1: float, steps: int = 12, modifi
         pg.keyboard.up(m)
 
 
+def drag_pivot(pg, dx: float, dy: float, steps: int = 12, pause: float = 0.03) -> None:
+    """Drag the gizmo with the real mouse from its centre by (dx, dy) pixels, pausing at each step.
+
+    The pauses let the stream answer MOVEs while the drag is still going, as a person's drag does.
+    """
+    c = pg.evaluate("window.tetmorph.pivotScreen()")
+    pg.mouse.move(c["x"], c["y"])
+    pg.mouse.down()
+    for k in range(1, steps + 1):
+        pg.mouse.move(c["x"] + dx * k / steps, c["y"] + dy * k / steps)
+        time.sleep(pause)
+    pg.mouse.up()
+
+
 def canvas_box(pg) -> dict:
     return pg.eval_on_selector("#canvas", "c => { const r = c.getBoundingClientRect(); "
                                "return {x: r.left, y: r.top, w: r.width, h: r.height}; }")

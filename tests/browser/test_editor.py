@@ -8,14 +8,13 @@ without them these tests fail and say why.
 from __future__ import annotations
 
 import json
-import time
 
 import httpx
 import meshio
 import numpy as np
 
 from solver import precompute, read_mesh
-from tests.browser.conftest import BRACKET, differs, load_bracket, settle, shot
+from tests.browser.conftest import BRACKET, differs, drag_pivot, load_bracket, settle, shot
 
 
 def select_and_create(pg, handle_by_box: bool = True, policy: str = "warn") -> None:
@@ -51,13 +50,7 @@ def test_upload_select_drag_download_matches_the_library(page, server, tmp_path)
     before = shot(page, "editor-before-drag")
     p0 = np.array(page.evaluate("window.tetmorph.positions()"))
     # drag the gizmo with the real mouse: press on its centre, move up
-    c = page.evaluate("window.tetmorph.pivotScreen()")
-    page.mouse.move(c["x"], c["y"])
-    page.mouse.down()
-    for k in range(1, 13):
-        page.mouse.move(c["x"] - 2 * k, c["y"] - 7 * k)
-        time.sleep(0.03)
-    page.mouse.up()
+    drag_pivot(page, -24, -84)
     settle(page)
     after = shot(page, "editor-after-drag")
     p1 = np.array(page.evaluate("window.tetmorph.positions()"))

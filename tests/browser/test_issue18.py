@@ -24,6 +24,7 @@ from tests.browser.conftest import (
     create,
     differs,
     drag,
+    drag_pivot,
     load_bracket,
     numeric_move,
     positions,
@@ -202,13 +203,7 @@ def test_clamp_puts_the_gizmo_at_the_applied_fraction(page):
 # 9 ----------------------------------------------------------------------------------------
 def test_numeric_fields_follow_drags_and_undo_and_apply_keeps_the_drag(page):
     bracket_session(page)
-    c = page.evaluate("window.tetmorph.pivotScreen()")
-    page.mouse.move(c["x"], c["y"])
-    page.mouse.down()
-    for k in range(1, 13):
-        page.mouse.move(c["x"] - 2 * k, c["y"] - 7 * k)
-        time.sleep(0.03)
-    page.mouse.up()
+    drag_pivot(page, -24, -84)
     settle(page)
     dragged = positions(page)
     t = pivot_translation(page)

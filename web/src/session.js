@@ -85,7 +85,7 @@ export class SessionControl {
 
   /** Attach the gizmo and the stream to a ready session. */
   start(id, handleRegions) {
-    this.pendingBoundary = null;
+    this.dropBoundary();
     state.sessionId = id;
     state.specSent = this.spec();
     this.moves.attach(handleRegions);
@@ -134,7 +134,7 @@ export class SessionControl {
       const { data } = decodeFrame(await r.arrayBuffer());
       this.start(id, this.regions.handles());
       state.specSent = doc.spec;
-      this.pendingBoundary = null;
+      this.dropBoundary();
       this.meshView.applyPositions(data);
       if (doc.last_move) {
         state.history.push({ label: "last MOVE on the service", move: doc.last_move });
@@ -167,7 +167,7 @@ export class SessionControl {
 
   /** Leave the session in this tab (it stays on the service). */
   close() {
-    this.pendingBoundary = null;  // a boundary frame of the stream being closed is never drawn
+    this.dropBoundary();  // a boundary frame of the stream being closed is never drawn
     if (state.ws) state.ws.close();
     state.ws = null; state.sessionId = null; state.specSent = null;
     this.moves.detach();
@@ -198,13 +198,20 @@ export class SessionControl {
   drawPendingBoundary() {
     const p = this.pendingBoundary;
     if (!p) return;
-    this.pendingBoundary = null;
     if (p.session !== state.sessionId || p.seq <= state.lastSeq) {  // another session's, or overtaken
-      state.boundarySkipped = (state.boundarySkipped || 0) + 1;
+      this.dropBoundary();
       return;
     }
+    this.pendingBoundary = null;
     this.meshView.applyBoundary(p.data);
     if (p.seq === state.seq) state.boundaryRoundTripMs = performance.now() - state.sentAt;
+  }
+
+  /** Forget the pending boundary frame (counted as skipped) when its MOVE is at most ``upTo``. */
+  dropBoundary(upTo = Infinity) {
+    if (!this.pendingBoundary || this.pendingBoundary.seq > upTo) return;
+    this.pendingBoundary = null;
+    state.boundarySkipped = (state.boundarySkipped || 0) + 1;
   }
 
   openStream() {
@@ -221,14 +228,11 @@ export class SessionControl {
       // with the full frame. When the full frame of the same MOVE is in before that paint, the
       // boundary is never applied: applying it would only delay the full frame.
       state.boundaryReceived = (state.boundaryReceived || 0) + 1;
-      if (this.pendingBoundary) state.boundarySkipped = (state.boundarySkipped || 0) + 1;
+      this.dropBoundary();  // an older one not painted yet
       this.pendingBoundary = { seq: header.seq, data, session: state.sessionId };
       return;
     }
-    if (this.pendingBoundary && this.pendingBoundary.seq <= header.seq) {
-      this.pendingBoundary = null;
-      state.boundarySkipped = (state.boundarySkipped || 0) + 1;
-    }
+    this.dropBoundary(header.seq);
     const rtt = header.seq === state.seq ? performance.now() - state.sentAt : undefined;
     this.meshView.applyPositions(data);
     state.lastSeq = header.seq;
@@ -252,10 +256,7 @@ export class SessionControl {
     if (!msg.error) return;
     if (msg.seq !== null && msg.seq !== undefined) {
       state.lastSeq = msg.seq;
-      if (this.pendingBoundary && this.pendingBoundary.seq <= msg.seq) {  // its MOVE was refused
-        this.pendingBoundary = null;
-        state.boundarySkipped = (state.boundarySkipped || 0) + 1;
-      }
+      this.dropBoundary(msg.seq);  // its MOVE was refused
     }
     if (msg.seq === state.seq) setBusy(null);
     showError({ body: msg });
@@ -291,7 +292,7 @@ export class SessionControl {
       await this.settled();
       await api(`/v1/sessions/${state.sessionId}/reset`, { method: "POST" });
       this.moves.rested(record);
-      this.pendingBoundary = null;
+      this.dropBoundary();
       this.meshView.applyPositions(state.V0);
       showReport({ reset: true });
     } catch (e) { showError(e); }

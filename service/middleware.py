@@ -20,7 +20,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from .errors import envelope, error_body
 
-__all__ = ["ErrorShield", "BodyLimit", "UnicodeGuard", "lone_surrogate"]
+__all__ = ["ErrorShield", "BodyLimit", "UnicodeGuard", "lone_surrogate", "may_hold_bad_text"]
 
 log = logging.getLogger("tetmorph.service")
 
@@ -97,6 +97,17 @@ class BodyLimit:
         await self.app(scope, counting_receive, send)
 
 
+def may_hold_bad_text(raw: bytes | str) -> bool:
+    r"""Whether JSON text ``raw`` can parse to a string :func:`lone_surrogate` refuses.
+
+    UTF-8 cannot encode a surrogate and a JSON string cannot hold a raw NUL, so
+    both come only as ``\u`` escapes: text without ``\ud`` or ``\u0000`` (any
+    case) needs no walk.
+    """
+    low = raw.lower().encode() if isinstance(raw, str) else raw.lower()
+    return b"\\ud" in low or b"\\u0000" in low
+
+
 def lone_surrogate(doc: object, path: str = "body") -> str | None:
     r"""Where ``doc`` (parsed JSON) holds a string or key that is not valid Unicode or holds NUL, else None.
 
@@ -135,8 +146,8 @@ def lone_surrogate(doc: object, path: str = "body") -> str | None:
 class UnicodeGuard:
     r"""Answer 422 for a JSON request body holding a lone surrogate escape (see the module docstring).
 
-    Only bodies whose bytes contain ``\ud`` or ``\u0000`` (any case) are parsed here: the
-    others cannot hold one, and pass through untouched.
+    Only bodies :func:`may_hold_bad_text` marks are parsed here: the others
+    cannot hold one, and pass through untouched.
     """
 
     def __init__(self, app: ASGIApp) -> None:
@@ -162,8 +173,7 @@ class UnicodeGuard:
             body += msg.get("body", b"")
             if not msg.get("more_body", False):
                 break
-        low = body.lower()
-        if b"\\ud" in low or b"\\u0000" in low:
+        if may_hold_bad_text(body):
             try:
                 where = lone_surrogate(json.loads(body))
             except (ValueError, RecursionError):

@@ -38,7 +38,7 @@ from starlette.websockets import WebSocketState
 
 from ..binary import encode_frame
 from ..errors import ServiceError, error_body, status_of
-from ..middleware import lone_surrogate
+from ..middleware import lone_surrogate, may_hold_bad_text
 from ..models.move import StreamFrame
 from ..state.registry import Registry
 from .handlers import validation_envelope
@@ -74,7 +74,7 @@ def parse_frame(text: str | None, data: bytes | None, limit: int) -> StreamFrame
         raise ServiceError("invalid_message", f"the frame is not JSON: {str(e)[:100]}") from None
     if not isinstance(doc, dict):
         raise ServiceError("invalid_message", "send text frames holding a JSON object {seq, move}")
-    where = lone_surrogate(doc, "frame")
+    where = lone_surrogate(doc, "frame") if may_hold_bad_text(text) else None
     if where is not None:
         raise ServiceError("invalid_message", f"{where} holds a lone UTF-16 surrogate escape or NUL; text must be "
                            "valid Unicode without NUL", field=where)

@@ -62,6 +62,25 @@ def bend_move(mesh, angle: float, frac: float) -> dict:
                               "rotation": {"axis": axis, "angle_deg": angle}}}}
 
 
+def distance_to_triangles(p: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> float:
+    """Distance from ``p`` to the nearest of the triangles (A, B, C) (k, 3): sampled exactly by
+    projecting on each plane and clamping to the triangle's edges when the projection falls outside."""
+    best = np.inf
+    for a, b, c in zip(A, B, C, strict=True):
+        n = np.cross(b - a, c - a)
+        nn = n @ n
+        q = p - ((p - a) @ n) / nn * n
+        w1 = np.cross(c - b, q - b) @ n / nn
+        w2 = np.cross(a - c, q - c) @ n / nn
+        if w1 >= 0 and w2 >= 0 and 1 - w1 - w2 >= 0:
+            best = min(best, float(np.linalg.norm(p - q)))
+            continue
+        for u, v in ((a, b), (b, c), (c, a)):
+            t = np.clip((p - u) @ (v - u) / ((v - u) @ (v - u)), 0.0, 1.0)
+            best = min(best, float(np.linalg.norm(p - (u + t * (v - u)))))
+    return best
+
+
 def longest_axis(mesh):
     V = mesh.V[mesh.referenced]
     ext = V.max(0) - V.min(0)

@@ -13,7 +13,7 @@ import pytest
 from solver import read_mesh
 from solver.deform.deformer import Deformer
 from solver.workflows import deck_writer, parse_shapes, read_plan, run_doe, shape_bounds, write_summary
-from tests.conftest import DATA
+from tests.conftest import DATA, distance_to_triangles
 from tests.solver.workflows.conftest import PLAN, plate_shapes, plate_spec
 
 from ..conftest import err, running
@@ -184,33 +184,6 @@ def top_surface_stl(mesh, path, bump: float) -> np.ndarray:
     return V[F]
 
 
-def point_triangle_distance(p, a, b, c) -> float:
-    """Distance from p to triangle abc (Ericson's closest point)."""
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = ab @ ap, ac @ ap
-    if d1 <= 0 and d2 <= 0:
-        return float(np.linalg.norm(p - a))
-    bp = p - b
-    d3, d4 = ab @ bp, ac @ bp
-    if d3 >= 0 and d4 <= d3:
-        return float(np.linalg.norm(p - b))
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0 and d1 >= 0 and d3 <= 0:
-        return float(np.linalg.norm(p - (a + d1 / (d1 - d3) * ab)))
-    cp = p - c
-    d5, d6 = ab @ cp, ac @ cp
-    if d6 >= 0 and d5 <= d6:
-        return float(np.linalg.norm(p - c))
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0 and d2 >= 0 and d6 <= 0:
-        return float(np.linalg.norm(p - (a + d2 / (d2 - d6) * ac)))
-    va = d3 * d6 - d5 * d4
-    if va <= 0 and d4 - d3 >= 0 and d5 - d6 >= 0:
-        return float(np.linalg.norm(p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))))
-    den = 1.0 / (va + vb + vc)
-    return float(np.linalg.norm(p - (a + ab * vb * den + ac * vc * den)))
-
-
 def test_a_stored_target_surface_is_resolved_and_the_nodes_land_on_it(tmp_path):
     mesh = read_mesh(PLATE)
     stl = tmp_path / "top_bumped.stl"
@@ -231,7 +204,7 @@ def test_a_stored_target_surface_is_resolved_and_the_nodes_land_on_it(tmp_path):
         assert r.status_code == 200, r.text
         V = np.asarray(r.json()["positions"])
         diag = float(np.linalg.norm(mesh.V.max(0) - mesh.V.min(0)))
-        far = max(min(point_triangle_distance(V[i], *t) for t in tris) for i in nodes[::5])
+        far = max(distance_to_triangles(V[i], tris[:, 0], tris[:, 1], tris[:, 2]) for i in nodes[::5])
         assert far <= 1e-6 * diag
         assert V[nodes, 2].max() > 4.0 + 2.5  # the bump's top is reached
         assert r.json()["report"]["inverted_elements"] == 0

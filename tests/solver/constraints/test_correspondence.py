@@ -14,27 +14,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from solver import ConstraintError, mesh_from_arrays, precompute, read_mesh
-from tests.conftest import DATA, shared_file
+from tests.conftest import DATA, distance_to_triangles, shared_file
 from tests.gmsh_parts import periodic_sector, symmetric_bar, two_blocks
-
-
-def _closest_on_triangles(p: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> float:
-    """Distance from ``p`` to the nearest of the triangles (A, B, C) (k, 3): sampled exactly by
-    projecting on each plane and clamping to the triangle's edges when the projection falls outside."""
-    best = np.inf
-    for a, b, c in zip(A, B, C, strict=True):
-        n = np.cross(b - a, c - a)
-        nn = n @ n
-        q = p - ((p - a) @ n) / nn * n
-        w1 = np.cross(c - b, q - b) @ n / nn
-        w2 = np.cross(a - c, q - c) @ n / nn
-        if w1 >= 0 and w2 >= 0 and 1 - w1 - w2 >= 0:
-            best = min(best, float(np.linalg.norm(p - q)))
-            continue
-        for u, v in ((a, b), (b, c), (c, a)):
-            t = np.clip((p - u) @ (v - u) / ((v - u) @ (v - u)), 0.0, 1.0)
-            best = min(best, float(np.linalg.norm(p - (u + t * (v - u)))))
-    return best
 
 
 # ------------------------------------------------------------------ mirror symmetry
@@ -211,7 +192,7 @@ def test_an_independently_meshed_interface_stays_closed_after_a_bend():
 
     def gap(P):
         F = m.F[in_low[m.F].all(axis=1)]
-        return max(_closest_on_triangles(P[i], P[F[:, 0]], P[F[:, 1]], P[F[:, 2]]) for i in high)
+        return max(distance_to_triangles(P[i], P[F[:, 0]], P[F[:, 1]], P[F[:, 2]]) for i in high)
 
     tied = precompute(m, {**base, "ties": {"surface": [["high", "low"]]}}).solve(mv)
     assert gap(tied.V) <= 1e-9 * diag
@@ -255,7 +236,7 @@ def test_the_selection_lands_on_its_target_surface(plate, kind, rng):
     diag = float(np.linalg.norm(plate.V.max(0) - plate.V.min(0)))
     r = d.solve({"targets": {"skin": {"amount": 1.0}}})
     assert r.report["conflicting_constraints"] == []
-    far = max(_closest_on_triangles(r.V[i], TV[TF[:, 0]], TV[TF[:, 1]], TV[TF[:, 2]]) for i in nodes[::7])
+    far = max(distance_to_triangles(r.V[i], TV[TF[:, 0]], TV[TF[:, 1]], TV[TF[:, 2]]) for i in nodes[::7])
     assert far <= 1e-6 * diag
     rep = r.report["targets"]["skin"]
     assert rep["max_distance"] <= 1e-6 * diag and rep["iterations"] >= 1 and rep["nodes"] == nodes.size

@@ -40,6 +40,7 @@ class Outcome:
     report: Report
     move: Move
     check_ms: float
+    report_ms: float
     safe_fraction_ms: float
 
 
@@ -79,7 +80,9 @@ def apply_policy(data: DeformData, solved: Solved, mv: Move, policy: str, repair
     Outcome
     """
     t0 = time.perf_counter()
-    report = evaluate(data, solved, mv)
+    check = check_positions(data, solved)
+    tc = time.perf_counter()
+    report = evaluate(data, solved, mv, check)
     repair_rep = None
     if repair and report.inverted_elements > 0 and not data.mesh.is_surface:
         mesh = data.mesh
@@ -103,4 +106,4 @@ def apply_policy(data: DeformData, solved: Solved, mv: Move, policy: str, repair
         safe_ms = 1e3 * (time.perf_counter() - t1)
     if repair_rep is not None:
         report = report.with_(repair=repair_rep)
-    return Outcome(solved, report, mv, 1e3 * (t1 - t0), safe_ms)
+    return Outcome(solved, report, mv, 1e3 * (tc - t0), 1e3 * (t1 - tc), safe_ms)

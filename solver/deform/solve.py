@@ -13,6 +13,7 @@ import numpy as np
 from ..constraints.move import Move
 from ..constraints.rows import REPORT_IDS
 from ..linalg import factorization as fz
+from ..ops.displacement import max_displacement
 from ..validity.check import CheckResult, SurfaceCheck
 from ..validity.midside import Placement
 from .positions import PositionSolve
@@ -165,7 +166,7 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         "inverted_elements": 0, "inverted_ids": [], "degenerate_elements": 0,
         "min_scaled_jacobian": None, "p01_scaled_jacobian": None}
     before = data.check.sj_before if data.check is not None else (None, None)
-    disp = np.linalg.norm(solved.P - data.mesh.V, axis=1)
+    max_disp, finite = max_displacement(solved.P, data.mesh.V)
     flat = data.check.degenerate_at_rest if data.check is not None else np.zeros(0, np.int64)
     targets = None
     if cs.corr.targets:
@@ -186,10 +187,10 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         constraint_residual_relative=cons.residual_max / cs.diag if cs.diag else 0.0,
         constraint_rows=cons.rows, redundant_constraints=cons.redundant,
         conflicting_constraints=cons.conflicting,
-        max_displacement=float(disp.max()) if disp.size else 0.0,
+        max_displacement=max_disp,
         solve_method=data.spec.method, solve_mode=data.positions.mode, refine_steps=data.positions.refine_steps,
         backend=fz.backend(), lu_backend=data.positions.lu_backend,
-        finite=bool(np.isfinite(solved.P).all()), midside_relaxed=relaxed,
+        finite=finite, midside_relaxed=relaxed,
         interior_precision=data.positions.interior_precision, mean_value_residual=solved.interior_residual,
         interior_refined=solved.interior_refined if solved.interior_residual is not None else None,
         degenerate_at_rest={"count": int(flat.size), "ids": flat[:REPORT_IDS].tolist()}, enclosed_volume_ratio=ratio,

@@ -24,7 +24,9 @@ def compile_all() -> float:
 
     from ..linalg.residual import block_residual, corrected
     from ..testing import cube_mesh
+    from ..validity.check import tet_check
     from ..validity.quality import tet_quality
+    from .displacement import max_displacement
     from .elements import corner_jacobians, oriented
     from .mean_value_coordinates import mvc_triangle_weights
     from .mvc_matrix import mvc_matrix
@@ -36,7 +38,10 @@ def compile_all() -> float:
     interior[np.flatnonzero((V > 0).all(axis=1) & (V < 1).all(axis=1))] = True
     mvc_matrix(V, T, interior)
     tet_quality(V, T)
+    for ints in (np.int32, np.int64):
+        tet_check(V, T.astype(ints), rest_flat=np.zeros(len(T), bool))
     rotate_by_log(V, 0.1 * V)
+    max_displacement(V, V)
     mvc_triangle_weights(V[:3], V[T[:3, :3]])
     H = np.array([[0, 1, 2, 3, 4, 5, 6, 7]])
     X = np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])

@@ -60,16 +60,13 @@ def _edges2(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @numba.njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def tet_det_sj(V, a, b, c, d):  # pragma: no cover - compiled
-    """Six times the signed volume and the scaled Jacobian of the tet ``(a, b, c, d)`` of ``V``.
+def edge_det_sj(ux, uy, uz, vx, vy, vz, wx, wy, wz):  # pragma: no cover - compiled
+    """Six times the signed volume and the scaled Jacobian of the tet with edges ``u, v, w`` from one corner.
 
     ``sj = sqrt(2) det / sqrt(max over corners of the product of its three squared edge lengths)``,
-    clipped to [-1, 1]; 0 for a flat tet. Compiled inline into the kernels that call it.
+    clipped to [-1, 1]; 0 for a flat tet. Compiled inline into the kernels that call it; written
+    without branches on the data, so that a loop of it vectorizes.
     """
-    x0, y0, z0 = V[a, 0], V[a, 1], V[a, 2]
-    ux, uy, uz = V[b, 0] - x0, V[b, 1] - y0, V[b, 2] - z0
-    vx, vy, vz = V[c, 0] - x0, V[c, 1] - y0, V[c, 2] - z0
-    wx, wy, wz = V[d, 0] - x0, V[d, 1] - y0, V[d, 2] - z0
     det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)
     l01 = ux * ux + uy * uy + uz * uz
     l02 = vx * vx + vy * vy + vz * vz
@@ -78,9 +75,16 @@ def tet_det_sj(V, a, b, c, d):  # pragma: no cover - compiled
     l13 = (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
     l23 = (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
     corner = max(max(l01 * l02 * l03, l01 * l12 * l13), max(l02 * l12 * l23, l03 * l13 * l23))
-    if det == 0.0:
-        return det, 0.0
-    return det, min(1.0, max(-1.0, 1.4142135623730951 * det / np.sqrt(corner)))
+    s = min(1.0, max(-1.0, 1.4142135623730951 * det / np.sqrt(corner)))
+    return det, s if det != 0.0 else 0.0
+
+
+@numba.njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def tet_det_sj(V, a, b, c, d):  # pragma: no cover - compiled
+    """:func:`edge_det_sj` of the tet ``(a, b, c, d)`` of ``V``, (n, 3)."""
+    x0, y0, z0 = V[a, 0], V[a, 1], V[a, 2]
+    return edge_det_sj(V[b, 0] - x0, V[b, 1] - y0, V[b, 2] - z0, V[c, 0] - x0, V[c, 1] - y0, V[c, 2] - z0,
+                       V[d, 0] - x0, V[d, 1] - y0, V[d, 2] - z0)
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)

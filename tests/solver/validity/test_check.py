@@ -7,7 +7,7 @@ import pytest
 
 from solver import mesh_from_arrays, precompute, read_mesh
 from solver.testing import cube_mesh, sphere_surface
-from solver.validity.check import tet_check
+from solver.validity.check import ElementCheck, _select, tet_check
 from tests.conftest import DATA, bend_spec, longest_axis
 
 
@@ -26,6 +26,32 @@ def test_fused_check_counts_like_numpy(rng):
     assert bad.size > 0 and r.count == bad.size and np.array_equal(r.ids, bad[:100])
     sj = r.sj
     assert float(np.sort(sj)[sj.size // 100]) == r.p01_sj and float(sj.min()) == r.min_sj
+
+
+@pytest.mark.parametrize("jitter", [0.0, 0.01, 0.03])
+def test_the_sampled_percentile_is_the_exact_order_statistic_on_a_large_mesh(rng, jitter):
+    V, T = cube_mesh(24)  # 82,944 tets: above the size where the 1st percentile is bracketed from a sample
+    V = V + rng.normal(0.0, jitter, V.shape)
+    ec = ElementCheck(cube_mesh(24)[0], T, {})
+    r = ec.check(V)
+    det = _numpy_check(V, T)
+    sj = r.sj
+    assert float(np.sort(sj)[sj.size // 100]) == r.p01_sj and float(sj.min()) == r.min_sj
+    assert r.count == int((det <= 0).sum() + ((det > 0) & (np.abs(sj) <= 1e-12)).sum())
+    assert np.array_equal(r.ids, np.flatnonzero(sj <= 1e-12)[:100])
+    assert np.array_equal(sj > 0, det > 0)
+
+
+def test_a_bracket_that_misses_still_selects_exactly(rng):
+    sj = rng.uniform(-1, 1, 100_000)
+    k = sj.size // 100
+    nch = 8
+    for lo, hi in ((0.5, 0.9), (-1.0, -0.999), (np.inf, -np.inf)):  # above, below, empty
+        counts = np.zeros((nch, 4), np.int64)
+        for c in range(nch):
+            part = sj[c * sj.size // nch:(c + 1) * sj.size // nch]
+            counts[c, 2], counts[c, 3] = (part < lo).sum(), ((part >= lo) & (part <= hi)).sum()
+        assert _select(sj, k, lo, hi, counts) == float(np.sort(sj)[k])
 
 
 def _normals(V, F):

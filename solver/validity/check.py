@@ -5,8 +5,8 @@
 linear tetrahedra the check is three compiled, multi-threaded passes:
 
 1. :func:`_sj_kernel`, the scaled Jacobian of every tet (its sign is the
-   sign of the volume), a loop without branches over coordinate and corner
-   columns, which LLVM vectorizes with gathers;
+   sign of the volume), a loop without branches over the corners stored as
+   four rows, which LLVM vectorizes with gathers from the positions;
 2. :func:`_tally_kernel`, per chunk of tets, the counts of bad and
    degenerate tets, the first bad ids, and how many
    values fall below and inside a bracket of the 1st percentile taken from a
@@ -81,14 +81,18 @@ class CheckResult:
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-def _sj_kernel(X, Y, Z, TC, sj):  # pragma: no cover - compiled
-    """Scaled Jacobian of every tet; coordinates and corners as separate columns, so the loop vectorizes."""
+def _sj_kernel(F, TC, sj):  # pragma: no cover - compiled
+    """Scaled Jacobian of every tet: ``F`` the (3 n,) flat coordinates, ``TC`` the (4, m) corner rows.
+
+    No branch depends on the data and the corners are contiguous rows, so LLVM vectorizes the loop
+    with gathers from ``F``.
+    """
     A, B, C, D = TC[0], TC[1], TC[2], TC[3]
     for t in numba.prange(A.shape[0]):
-        a, b, c, d = A[t], B[t], C[t], D[t]
-        x0, y0, z0 = X[a], Y[a], Z[a]
-        sj[t] = edge_det_sj(X[b] - x0, Y[b] - y0, Z[b] - z0, X[c] - x0, Y[c] - y0, Z[c] - z0,
-                            X[d] - x0, Y[d] - y0, Z[d] - z0)[1]
+        a, b, c, d = 3 * A[t], 3 * B[t], 3 * C[t], 3 * D[t]
+        x0, y0, z0 = F[a], F[a + 1], F[a + 2]
+        sj[t] = edge_det_sj(F[b] - x0, F[b + 1] - y0, F[b + 2] - z0, F[c] - x0, F[c + 1] - y0, F[c + 2] - z0,
+                            F[d] - x0, F[d + 1] - y0, F[d + 2] - z0)[1]
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
@@ -210,9 +214,7 @@ def _check_columns(V: np.ndarray, TC: np.ndarray, tol: float, rest_flat: np.ndar
     sj = np.empty(m)
     if not m:
         return CheckResult(0, np.zeros(0, np.int64), 0, None, None, sj)
-    P = np.asarray(V, dtype=np.float64)
-    X, Y, Z = (np.ascontiguousarray(P[:, i]) for i in range(3))
-    _sj_kernel(X, Y, Z, TC, sj)
+    _sj_kernel(np.ascontiguousarray(V, dtype=np.float64).reshape(-1), TC, sj)
     k = m // 100
     lo, hi = _bracket(sj, k)
     nch = max(1, min(numba.get_num_threads() * 4, m // 1024 or 1))

@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FactorizationError
+from .layout import c_copy, fortran_copy
 from .threads import WIDE_COLUMNS, mkl_local_threads, solve_threads
 
 __all__ = ["PardisoFactor", "mkl_runtime"]
@@ -189,7 +190,7 @@ class PardisoFactor:
         x : array of ``b``'s shape, float32 for a single-precision factor, else float64
         """
         shape = np.shape(b)
-        B = np.asfortranarray(np.reshape(b, (shape[0], -1)), dtype=self.dtype)
+        B = fortran_copy(np.reshape(b, (shape[0], -1)), self.dtype)
         X = np.empty_like(B, order="F")
         with self._lock:
             n_threads = solve_threads(B.shape[1], self._stacked)  # see solver.linalg.threads
@@ -202,7 +203,7 @@ class PardisoFactor:
         if err:
             raise FactorizationError(f"PARDISO back-substitution failed ({_ERRORS.get(err, err)})",
                                      code="factorization_failed")
-        return np.ascontiguousarray(X).reshape(shape)
+        return c_copy(X, self.dtype).reshape(shape)
 
     def release(self) -> None:
         """Free PARDISO's memory for this factor (also done when the object is collected)."""

@@ -22,6 +22,7 @@ def compile_all() -> float:
     """Run every kernel on a tiny mesh; returns the seconds taken."""
     import scipy.sparse as sp
 
+    from ..linalg.layout import c_copy, fortran_copy
     from ..linalg.residual import block_residual, corrected
     from ..testing import cube_mesh
     from ..validity.check import tet_check
@@ -42,6 +43,8 @@ def compile_all() -> float:
         tet_check(V, T.astype(ints), rest_flat=np.zeros(len(T), bool))
     rotate_by_log(V, 0.1 * V)
     max_displacement(V, V)
+    for dt in (np.float32, np.float64):
+        c_copy(fortran_copy(V, dt), dt)
     mvc_triangle_weights(V[:3], V[T[:3, :3]])
     H = np.array([[0, 1, 2, 3, 4, 5, 6, 7]])
     X = np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])

@@ -52,7 +52,7 @@ def fortran_copy(b: np.ndarray, dtype: type) -> np.ndarray:
     >>> f.flags.f_contiguous, f.dtype.name, bool((f == b).all())
     (True, 'float32', True)
     """
-    out = np.empty(b.shape, dtype=dtype, order="F")
+    out: np.ndarray = np.empty(b.shape, dtype=dtype, order="F")
     if b.shape[1] < 2 or not b.flags.c_contiguous:
         out[...] = b
     else:
@@ -70,7 +70,7 @@ def c_copy(x: np.ndarray, dtype: type) -> np.ndarray:
     >>> c.flags.c_contiguous, c.dtype.name, c.tolist()
     (True, 'float64', [[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]])
     """
-    out = np.empty(x.shape, dtype=dtype)
+    out: np.ndarray = np.empty(x.shape, dtype=dtype)
     if x.shape[1] < 2 or not x.flags.f_contiguous:
         out[...] = x
     else:

@@ -127,11 +127,11 @@ class Positions:
 
     def solve(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> PositionSolve:
         """Corner positions (n, 3) for one MOVE's right-hand sides (mid-side nodes at rest)."""
-        return self.interior_solve(self.boundary(V0, constrained, rhs))
+        return self.interior_solve_many([self.boundary(V0, constrained, rhs)], overwrite=True)[0]
 
     def solve_many(self, V0: np.ndarray, constrained: np.ndarray, rhss: list[RightHandSides]) -> list[PositionSolve]:
         """:meth:`solve` for several MOVEs, their right-hand sides stacked into one back-substitution per factor."""
-        return self.interior_solve_many(self.boundary_many(V0, constrained, rhss))
+        return self.interior_solve_many(self.boundary_many(V0, constrained, rhss), overwrite=True)
 
     def boundary(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
         """Positions with the fixed and handle nodes and the system's unknowns solved (interior at rest)."""
@@ -159,8 +159,8 @@ class Positions:
         """Interior positions for boundary positions ``P`` (joint: nothing left to solve)."""
         return self.interior_solve_many([P])[0]
 
-    def interior_solve_many(self, Ps: list[np.ndarray]) -> list[PositionSolve]:
-        """:meth:`interior_solve` for several position arrays."""
+    def interior_solve_many(self, Ps: list[np.ndarray], overwrite: bool = False) -> list[PositionSolve]:
+        """:meth:`interior_solve` for several position arrays (``overwrite``: the caller gives them up)."""
         return [PositionSolve(P) for P in Ps]
 
 
@@ -226,8 +226,8 @@ class SplitPositions(Positions):
             return None
         return "single" if getattr(self.interior, "single", False) else "double"
 
-    def interior_solve_many(self, Ps: list[np.ndarray]) -> list[PositionSolve]:
-        """Interior positions for boundary positions ``Ps`` (new arrays), in one solve.
+    def interior_solve_many(self, Ps: list[np.ndarray], overwrite: bool = False) -> list[PositionSolve]:
+        """Interior positions for boundary positions ``Ps`` (new arrays unless ``overwrite``), in one solve.
 
         Residual form ``P_f -= M_ff^{-1} (M_f P)``, every position array a block of
         columns; the right-hand side comes from the change of the coupled vertices only
@@ -259,7 +259,7 @@ class SplitPositions(Positions):
                 rels = [float(rn[j]) / max(float(dn[j]), 1e-300) if refined[j] else rels[j] for j in range(k)]
         out = []
         for j, P in enumerate(Ps):
-            Q = corrected(P, fi, dx, 3 * j)
+            Q = corrected(P, fi, dx, 3 * j, overwrite)
             out.append(PositionSolve(Q, rels[j], refined[j]) if single else PositionSolve(Q))
         return out
 

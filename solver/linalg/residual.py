@@ -57,7 +57,7 @@ def _subtract_rows(Q, rows, X, col):  # pragma: no cover - compiled
             Q[i, a] -= X[r, col + a]
 
 
-def corrected(P: np.ndarray, rows: np.ndarray, X: np.ndarray, col: int) -> np.ndarray:
+def corrected(P: np.ndarray, rows: np.ndarray, X: np.ndarray, col: int, overwrite: bool = False) -> np.ndarray:
     """A copy of ``P`` with ``P[rows] - X[:, col:col + w]`` in ``rows`` (``w = P.shape[1]``).
 
     numpy's fancy-indexed ``Q[rows] -= X[:, a:b]`` gathers, subtracts and
@@ -72,6 +72,8 @@ def corrected(P: np.ndarray, rows: np.ndarray, X: np.ndarray, col: int) -> np.nd
     X : (f, m) float array
     col : int
         First column of ``X`` to subtract.
+    overwrite : bool
+        Subtract in ``P`` itself when it is a C-ordered float64 array (the caller owns it).
 
     Returns
     -------
@@ -84,7 +86,8 @@ def corrected(P: np.ndarray, rows: np.ndarray, X: np.ndarray, col: int) -> np.nd
     """
     if X.shape[0] != rows.size or col < 0 or col + P.shape[1] > X.shape[1]:
         raise ValueError(f"corrected: P {P.shape}, {rows.size} rows, X {X.shape}, column {col} do not agree")
-    Q = np.array(P, dtype=np.float64, order="C")
+    own = overwrite and P.dtype == np.float64 and P.flags.c_contiguous and P.flags.writeable
+    Q = P if own else np.array(P, dtype=np.float64, order="C")
     _subtract_rows(Q, np.ascontiguousarray(rows, dtype=np.int64), np.ascontiguousarray(X, dtype=np.float64), col)
     return Q
 

@@ -7,6 +7,7 @@ process; :func:`run` is the entry point of the child.
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 from multiprocessing.connection import Connection
 from typing import Any
@@ -21,7 +22,8 @@ def run(conn: Connection, V: np.ndarray, F: np.ndarray, options: dict[str, Any])
     from solver.errors import SolverError
     from solver.io.tetrahedralize import tetrahedralize
 
-    os.chdir(tempfile.mkdtemp(prefix="tetmorph-tetwild-"))  # fTetWild writes into the working directory
+    work = tempfile.mkdtemp(prefix="tetmorph-tetwild-")
+    os.chdir(work)  # fTetWild writes into the working directory
     try:
         mesh, info = tetrahedralize(V, F, **options)
         conn.send(("ok", mesh.V, mesh.T, info))
@@ -32,3 +34,5 @@ def run(conn: Connection, V: np.ndarray, F: np.ndarray, options: dict[str, Any])
                              "details": {}}))
     finally:
         conn.close()
+        os.chdir(tempfile.gettempdir())
+        shutil.rmtree(work, ignore_errors=True)  # a worker killed at its time limit leaves it behind

@@ -133,3 +133,19 @@ def test_tetrahedralize_refuses_surfaces_over_the_size_cap(tmp_path):
         r = tc.post("/v1/tetrahedralize", files=[("file", ("ball.stl", path.read_bytes()))])
         e = err(r)
         assert r.status_code == 422 and e["code"] == "too_many_triangles" and e["details"]["triangles"] == len(F)
+
+
+def test_the_worker_removes_its_working_folder(tmp_path, monkeypatch):
+    import tempfile
+    from multiprocessing import Pipe
+
+    from service.state import tetra_worker
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.chdir(tmp_path)  # run() changes the working directory; restored after the test
+    V, F = sphere_surface(1, 1.0)
+    for faces in (F, F[:-3]):  # a result and a refusal (open surface)
+        parent, child = Pipe()
+        tetra_worker.run(child, V, faces, {"edge_length_fac": 0.3})
+        assert parent.recv()[0] in ("ok", "error")
+        assert not list(tmp_path.glob("tetmorph-tetwild-*"))

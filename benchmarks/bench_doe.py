@@ -28,6 +28,10 @@ precompute of the same mesh that makes nothing but stacked solves, as a
 earlier thread count, ``solver/linalg/threads.py``: the main precompute's
 single updates run on one thread, and so do its stacked solves after them).
 
+The process sets the allocator up as ``tetmorph doe`` does
+(``solver/workflows/batch_memory.py``; ``TETMORPH_BATCH_MALLOC=0`` keeps
+glibc's defaults, which is how a service session's batch runs).
+
 With ``--components B`` it also prints where one variant's time goes in a
 stacked solve of ``B`` rows against a single update (median of 3, per
 variant): the right-hand sides, the interior back-substitution (3 columns
@@ -228,6 +232,10 @@ def main() -> None:
     ap.add_argument("--fresh", action="store_true", help="also run each block size (> 2 rows) on a second "
                     "precompute that makes only stacked solves, as a `tetmorph doe` process does")
     a = ap.parse_args()
+    from solver.workflows.batch_memory import keep_freed_memory
+
+    # as `tetmorph doe` and a Ray actor do (TETMORPH_BATCH_MALLOC=0: glibc's defaults)
+    print("allocator:", "keeps freed memory (batch process)" if keep_freed_memory() else "glibc defaults")
     for size in (float(s) for s in a.sizes.split(",")):
         run(size, [int(b) for b in a.blocks.split(",")], a.rows, a.singles, a.repeats, a.fresh)
         if a.components:

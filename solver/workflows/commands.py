@@ -25,6 +25,7 @@ from ..documents import dump_json, load_json
 from ..errors import SolverError
 from ..io import read_mesh
 from ..mesh import Mesh
+from .batch_memory import keep_freed_memory
 from .bounds import MAX_VALUE, TOL, shape_bounds
 from .doe import BLOCK, deck_writer, run_doe, write_summary
 from .plan import plan_values, read_plan
@@ -35,7 +36,12 @@ __all__ = ["add_commands", "build_parser", "main"]
 
 
 def _setup(args: argparse.Namespace) -> tuple[Mesh, Deformer, Shapes]:
-    """Read the mesh, factor the SPEC, parse the shapes (in that order of cost: documents first)."""
+    """Read the mesh, factor the SPEC, parse the shapes (in that order of cost: documents first).
+
+    The process runs one batch from here on, so it keeps freed memory for reuse
+    (:func:`~solver.workflows.batch_memory.keep_freed_memory`).
+    """
+    keep_freed_memory()
     spec = load_json(args.spec, "SPEC")
     shapes_doc = load_json(args.shapes, "SHAPES")
     mesh = read_mesh(args.mesh, args.format)

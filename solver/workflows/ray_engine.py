@@ -38,6 +38,7 @@ from typing import Any
 from ..deform.deformer import Deformer, DeformResult
 from ..errors import SolverError, SpecError
 from ..mesh import Mesh
+from .batch_memory import keep_freed_memory
 from .doe import BLOCK, DoeResult, Variant, deck_writer, run_doe, write_summary
 from .plan import Plan, plan_values, read_plan
 from .shapes import parse_shapes, variant_move
@@ -87,6 +88,7 @@ class DoeWorker:
 
     def __init__(self, mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any]) -> None:
         t0 = time.perf_counter()
+        keep_freed_memory()  # an actor's process runs one batch
         self.deformer = Deformer(mesh, spec)
         self.shapes = parse_shapes(shapes_doc, self.deformer)
         self.setup_ms = 1e3 * (time.perf_counter() - t0)

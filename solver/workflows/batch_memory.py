@@ -1,0 +1,49 @@
+"""Allocator settings for a process that runs one batch of stacked solves (``tetmorph doe``, a Ray actor).
+
+A DOE block allocates and frees the same large temporaries over and over:
+right-hand sides and solutions of 48 columns (tens of MB), 16 position arrays
+and 16 scaled-Jacobian arrays per block. glibc's malloc serves blocks above
+its mmap threshold (at most 32 MB by default) with fresh ``mmap`` pages and
+returns freed heap tops to the system, so every block pays the page faults of
+first touching that memory again. A batch process has one job and a stable
+working set, so it can keep freed memory for reuse instead: the mmap
+threshold and the trim threshold raised to 1 GB and 2 GB. Peak memory is
+then the working set's high-water mark, a few percent above the default's
+(``benchmarks/bench_doe.py`` prints peak RSS).
+
+The service does not call this: it holds many sessions and must give the
+memory of a deleted one back.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+
+__all__ = ["keep_freed_memory"]
+
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+
+
+def keep_freed_memory() -> bool:
+    """Raise glibc's mmap and trim thresholds for this process; False where that is not possible.
+
+    ``TETMORPH_BATCH_MALLOC=0`` leaves the allocator as it is.
+
+    Returns
+    -------
+    bool
+        Whether both settings were applied (False on a C library without ``mallopt``).
+    """
+    if os.environ.get("TETMORPH_BATCH_MALLOC", "1") == "0":
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):  # pragma: no cover - not glibc
+        return False
+    mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
+    mallopt.restype = ctypes.c_int
+    return bool(mallopt(_M_MMAP_THRESHOLD, 1 << 30)) and bool(mallopt(_M_TRIM_THRESHOLD, (1 << 31) - 1))

@@ -242,8 +242,8 @@ class SplitPositions(Positions):
         D = np.empty((cols.size, 3 * k))
         for j, P in enumerate(Ps):
             D[:, 3 * j:3 * j + 3] = P[cols] - self._rest_coupled
-        R = self.Mfb @ D  # one sparse product for every array: (f, 3 k)
-        R += np.tile(self.r0, (1, k))
+        R = np.ascontiguousarray(self.Mfb @ D)  # one sparse product for every array: (f, 3 k)
+        R.reshape(R.shape[0], k, 3)[...] += self.r0[:, None, :]  # r0 into every array's block (a view: no tiling)
         dx = np.ascontiguousarray(self.interior.solve(R), dtype=np.float64)
         single = self.interior_precision == "single"
         rels: list[float | None] = [None] * k

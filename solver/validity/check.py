@@ -80,7 +80,7 @@ class CheckResult:
         return out
 
 
-@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
+@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
 def _sj_kernel(F, TC, sj):  # pragma: no cover - compiled
     """Scaled Jacobian of every tet: ``F`` the (3 n,) flat coordinates, ``TC`` the (4, m) corner rows.
 

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import asyncio
 import multiprocessing as mp
+import shutil
+import tempfile
 import threading
 import time
 from collections.abc import Awaitable, Callable
@@ -109,8 +111,10 @@ class JobRunner:
 
     def submit(self, owner: str, target: Callable[..., None], args: tuple[Any, ...],
                finish: Callable[[Any], Awaitable[dict[str, Any]]]) -> Job:
-        """Start a job: ``target(conn, *args)`` in a worker process, then ``await finish(message)``.
+        """Start a job: ``target(conn, work, *args)`` in a worker process, then ``await finish(message)``.
 
+        ``work`` is a scratch folder of the job's own, removed when the process has
+        ended, also when it was killed (cancelled, or past the time limit).
         ``target`` sends one message through ``conn``: ``("ok", ...)`` or
         ``("error", error_dict)``. ``finish`` turns an ``ok`` message into the
         job's result (stored mesh document).
@@ -217,7 +221,8 @@ class JobRunner:
                 return
             job.status, job.stage, job.started = "running", "tetrahedralizing", time.time()
             parent, child = _SPAWN.Pipe(duplex=False)
-            proc = _SPAWN.Process(target=target, args=(child, *args), daemon=True)
+            work = tempfile.mkdtemp(prefix=f"tetmorph-job-{job.id}-")
+            proc = _SPAWN.Process(target=target, args=(child, work, *args), daemon=True)
             job.process = proc
             try:
                 proc.start()
@@ -226,6 +231,7 @@ class JobRunner:
             finally:
                 self._kill(job)
                 parent.close()
+                shutil.rmtree(work, ignore_errors=True)
             if msg is None:
                 job.status, job.stage, job.finished = "failed", "failed", time.time()
                 alive = time.time() - job.started < job.time_limit_s

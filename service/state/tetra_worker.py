@@ -7,8 +7,6 @@ process; :func:`run` is the entry point of the child.
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -17,12 +15,14 @@ import numpy as np
 __all__ = ["run"]
 
 
-def run(conn: Connection, V: np.ndarray, F: np.ndarray, options: dict[str, Any]) -> None:
-    """Tetrahedralize and send ``("ok", V, T, info)`` or ``("error", error_dict)`` through ``conn``."""
+def run(conn: Connection, work: str, V: np.ndarray, F: np.ndarray, options: dict[str, Any]) -> None:
+    """Tetrahedralize in the folder ``work``; send ``("ok", V, T, info)`` or ``("error", error_dict)``.
+
+    ``work`` belongs to the job runner, which removes it when this process has ended.
+    """
     from solver.errors import SolverError
     from solver.io.tetrahedralize import tetrahedralize
 
-    work = tempfile.mkdtemp(prefix="tetmorph-tetwild-")
     os.chdir(work)  # fTetWild writes into the working directory
     try:
         mesh, info = tetrahedralize(V, F, **options)
@@ -34,5 +34,3 @@ def run(conn: Connection, V: np.ndarray, F: np.ndarray, options: dict[str, Any])
                              "details": {}}))
     finally:
         conn.close()
-        os.chdir(tempfile.gettempdir())
-        shutil.rmtree(work, ignore_errors=True)  # a worker killed at its time limit leaves it behind

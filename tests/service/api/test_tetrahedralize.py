@@ -10,7 +10,12 @@ from solver.testing import sphere_surface
 from ..conftest import err, running
 
 
-def test_tetrahedralize_closed_surface(client, tc, tmp_path):
+def test_tetrahedralize_closed_surface(client, tc, tmp_path, monkeypatch):
+    import tempfile
+
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))  # where the job runner makes each job's folder
     V, F = sphere_surface(2, 1.0)
     path = tmp_path / "ball.stl"
     meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
@@ -20,6 +25,7 @@ def test_tetrahedralize_closed_surface(client, tc, tmp_path):
     assert doc["tetrahedralization"]["surface_triangles"] == len(F)
     enclosed = np.einsum("ij,ij->i", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])).sum() / 6
     assert abs(info["quality"]["total_volume"] / enclosed - 1) < 0.01  # envelope 1e-3 of diag
+    assert not list(scratch.glob("tetmorph-job-*"))  # the job's scratch folder went with it
     # the stored mesh deforms like any other
     spec = {"selections": {"s": {"box": {"min": [-2, -2, -2], "max": [2, 2, -0.8]}},
                            "n": {"box": {"min": [-2, -2, 0.8], "max": [2, 2, 2]}}},
@@ -101,9 +107,14 @@ def test_long_tetrahedralization_runs_beside_the_service_and_can_be_cancelled(tm
         assert r.status_code == 404 and err(r)["code"] == "job_not_found"
 
 
-def test_tetrahedralization_time_limit_and_worker_failure(tmp_path):
+def test_tetrahedralization_time_limit_and_worker_failure(tmp_path, monkeypatch):
+    """A job stopped at its time limit or by its worker's death answers a typed error and leaves no scratch folder."""
+    import tempfile
     import time
 
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))  # where the job runner makes each job's folder
 
     path = _big_surface(tmp_path)
     with running(tmp_path / "d", job_wait_s=30, tetra_time_limit_s=1.5) as tc:
@@ -112,6 +123,7 @@ def test_tetrahedralization_time_limit_and_worker_failure(tmp_path):
                     data={"edge_length_fac": "0.02"})
         assert r.status_code == 422 and err(r)["code"] == "job_time_limit", r.text
         assert time.perf_counter() - t0 < 10
+        assert not list(scratch.glob("tetmorph-job-*"))  # the killed worker's folder is gone
     with running(tmp_path / "e", job_wait_s=0.2) as tc:
         job = tc.post("/v1/tetrahedralize", files=[("file", ("big.stl", path.read_bytes()))],
                       data={"edge_length_fac": "0.02"}).json()
@@ -123,6 +135,7 @@ def test_tetrahedralization_time_limit_and_worker_failure(tmp_path):
             assert time.monotonic() < deadline
             time.sleep(0.1)
         assert doc["status"] == "failed" and doc["error"]["code"] == "worker_failed"
+        assert not list(scratch.glob("tetmorph-job-*"))
 
 
 def test_tetrahedralize_refuses_surfaces_over_the_size_cap(tmp_path):
@@ -134,18 +147,3 @@ def test_tetrahedralize_refuses_surfaces_over_the_size_cap(tmp_path):
         e = err(r)
         assert r.status_code == 422 and e["code"] == "too_many_triangles" and e["details"]["triangles"] == len(F)
 
-
-def test_the_worker_removes_its_working_folder(tmp_path, monkeypatch):
-    import tempfile
-    from multiprocessing import Pipe
-
-    from service.state import tetra_worker
-
-    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
-    monkeypatch.chdir(tmp_path)  # run() changes the working directory; restored after the test
-    V, F = sphere_surface(1, 1.0)
-    for faces in (F, F[:-3]):  # a result and a refusal (open surface)
-        parent, child = Pipe()
-        tetra_worker.run(child, V, faces, {"edge_length_fac": 0.3})
-        assert parent.recv()[0] in ("ok", "error")
-        assert not list(tmp_path.glob("tetmorph-tetwild-*"))

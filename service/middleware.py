@@ -108,6 +108,15 @@ def may_hold_bad_text(raw: bytes | str) -> bool:
     return b"\\ud" in low or b"\\u0000" in low
 
 
+def _bad_text(text: str) -> bool:
+    """Whether ``text`` holds a lone surrogate (no UTF-8 encoding) or NUL."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return "\x00" in text
+
+
 def lone_surrogate(doc: object, path: str = "body") -> str | None:
     r"""Where ``doc`` (parsed JSON) holds a string or key that is not valid Unicode or holds NUL, else None.
 
@@ -123,19 +132,11 @@ def lone_surrogate(doc: object, path: str = "body") -> str | None:
     while stack:
         x, at = stack.pop()
         if isinstance(x, str):
-            try:
-                x.encode("utf-8")
-            except UnicodeEncodeError:
-                return at
-            if "\x00" in x:
+            if _bad_text(x):
                 return at
         elif isinstance(x, dict):
             for k, v in x.items():
-                try:
-                    str(k).encode("utf-8")
-                except UnicodeEncodeError:
-                    return f"{at} (a key)"
-                if "\x00" in str(k):
+                if _bad_text(str(k)):
                     return f"{at} (a key)"
                 stack.append((v, f"{at}.{k}"))
         elif isinstance(x, list):

@@ -304,6 +304,9 @@ class FileStore:
             return None
         return {**rec, "presets": self._presets(session_id)}
 
+    def _has_record(self, session_id: str) -> bool:
+        return valid_id(session_id) and (self.sessions_dir / f"{session_id}.json").is_file()
+
     def _presets(self, session_id: str) -> list[dict[str, Any]]:
         try:
             doc = json.loads((self.presets_dir / f"{session_id}.json").read_text())
@@ -313,7 +316,7 @@ class FileStore:
 
     def save_presets(self, session_id: str, presets: list[dict[str, Any]]) -> bool:
         """Replace a session's presets file (atomically); False when the session has no record."""
-        if not valid_id(session_id) or not (self.sessions_dir / f"{session_id}.json").is_file():
+        if not self._has_record(session_id):
             return False
         self.presets_dir.mkdir(exist_ok=True)
         _write_json(self.presets_dir / f"{session_id}.json", presets)
@@ -321,7 +324,7 @@ class FileStore:
 
     def load_presets(self, session_id: str) -> list[dict[str, Any]] | None:
         """A session's presets, or None when it has no record."""
-        if not valid_id(session_id) or not (self.sessions_dir / f"{session_id}.json").is_file():
+        if not self._has_record(session_id):
             return None
         return self._presets(session_id)
 

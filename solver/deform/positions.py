@@ -250,13 +250,14 @@ class SplitPositions(Positions):
         refined = [False] * k
         if single:  # the mean-value rows at the new positions, in double precision, per array
             res, rn, dn = block_residual(self.Mff, R, dx, 3)
-            rels = [float(r) / max(float(d), 1e-300) for r, d in zip(rn, dn, strict=True)]
-            refined = [bool(r is not None and r > MIXED_TOL) for r in rels]
+            rel = rn / np.maximum(dn, 1e-300)  # per array: largest row residual over largest displacement
+            refined = (rel > MIXED_TOL).tolist()
             if any(refined):
                 c = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
                 dx[:, c] += np.asarray(self.interior.solve(res[:, c]), dtype=np.float64)
                 _, rn, dn = block_residual(self.Mff, R, dx, 3)
-                rels = [float(rn[j]) / max(float(dn[j]), 1e-300) if refined[j] else rels[j] for j in range(k)]
+                rel = np.where(refined, rn / np.maximum(dn, 1e-300), rel)
+            rels = rel.tolist()
         out = []
         for j, P in enumerate(Ps):
             Q = corrected(P, fi, dx, 3 * j, overwrite)
@@ -270,7 +271,6 @@ class SplitPositions(Positions):
 
 
 RhsFor = Callable[[Move, np.ndarray], RightHandSides]
-
 
 
 def refinement_probe(system: ConstrainedSolver, vector: bool, x0: np.ndarray, rhs: RightHandSides) -> float:

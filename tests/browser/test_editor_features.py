@@ -357,14 +357,20 @@ def test_undo_and_redo_with_a_visible_history(page):
     np.testing.assert_allclose(positions(page), snaps[2], atol=1e-6)
 
 
+def save_lift_preset(pg) -> np.ndarray:
+    """On a new bracket session, make a lift-and-tilt MOVE, save it as preset "lift 5"; its positions."""
+    bracket_session(pg)
+    numeric_move(pg, t=(0, 0, 5), axis=(1, 0, 0), angle=20)
+    settle(pg)
+    moved = positions(pg)
+    pg.fill("#preset-name", "lift 5")
+    pg.click("#preset-save")
+    pg.wait_for_selector("#presets li:has-text('lift 5')")  # stored on the service
+    return moved
+
+
 def test_named_presets_are_kept_with_the_session(page):
-    bracket_session(page)
-    numeric_move(page, t=(0, 0, 5), axis=(1, 0, 0), angle=20)
-    settle(page)
-    moved = positions(page)
-    page.fill("#preset-name", "lift 5")
-    page.click("#preset-save")
-    page.wait_for_selector("#presets li:has-text('lift 5')")  # stored on the service
+    moved = save_lift_preset(page)
     page.click("#reset")
     page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
     sid = page.evaluate("window.tetmorph.state.sessionId")
@@ -382,13 +388,7 @@ def test_named_presets_are_kept_with_the_session(page):
 
 def test_presets_live_on_the_service_another_browser_sees_and_applies_them(pages, server):
     a = pages(server)
-    bracket_session(a)
-    numeric_move(a, t=(0, 0, 5), axis=(1, 0, 0), angle=20)
-    settle(a)
-    moved = positions(a)
-    a.fill("#preset-name", "lift 5")
-    a.click("#preset-save")
-    a.wait_for_selector("#presets li:has-text('lift 5')")
+    moved = save_lift_preset(a)
     sid = a.evaluate("window.tetmorph.state.sessionId")
     stored = httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]
     assert [p["name"] for p in stored] == ["lift 5"]

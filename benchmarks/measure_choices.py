@@ -21,6 +21,14 @@ Sections (all by default, or pick with --only):
 ``kernels``    the compiled per-update and assembly kernels against the same formulas as numpy
                array expressions (bracket 0.95): quality check, rotation of the normals,
                mean-value weights.
+``interior``   the interior back-substitution of the 107k bracket's single update (3 right-hand
+               sides): PARDISO in single and double precision on one and two threads, with
+               solve-phase settings changed one at a time (iparm 24, 25, no scaling and
+               matching, orderings), and SuperLU in single precision; and, on the 1M bracket,
+               PARDISO's orderings for a 48-column (DOE block) solve: factor entries and time.
+``layout``     building stacked right-hand sides: numpy's asfortranarray against the tiled
+               copy of ``solver/linalg/layout.py`` (160k x 48, to float32) and back; hstack
+               against tile for the boundary system's repeated rest block (40k x 16).
 ``check``      the per-update element check on the 1M-tet bracket (gmsh size 0.44) at perturbed
                positions: ``ElementCheck.check`` (inverted count, degenerate count, minimum, exact
                1st percentile, ids) against ``tet_quality`` alone (the volume and scaled Jacobian
@@ -252,9 +260,9 @@ def pardiso() -> None:
     import scipy.sparse as sp
 
     from solver import precompute, read_mesh
-    from solver.linalg import factorization as fz
+    from solver.linalg.pardiso import PardisoFactor, mkl_runtime
 
-    fz._locate_mkl()
+    os.environ.setdefault("PYPARDISO_MKL_RT", mkl_runtime() or "")
     print("| mesh | interior unknowns | iparm | factor ms | solve ms (3 rhs) | relative residual |")
     print("|---|---:|---|---:|---:|---:|")
     for size in (0.95, 0.44):
@@ -283,7 +291,7 @@ def pardiso() -> None:
         for label in ("PARDISO defaults", "tetmorph"):
             if label == "tetmorph":
                 t = time.perf_counter()
-                f = fz._PardisoFactor(A, "x", symmetric=False)
+                f = PardisoFactor(A, "x", mtype=11)
                 tf = 1e3 * (time.perf_counter() - t)
                 solve = f.solve
             else:
@@ -300,6 +308,103 @@ def pardiso() -> None:
             res = np.abs(A @ x - b).max() / np.abs(b).max()
             print(f"| bracket {size:g} | {A.shape[0]:,} | {label} | {tf:.0f} | "
                   f"{1e2 * (time.perf_counter() - t):.1f} | {res:.1e} |", flush=True)
+
+
+def _median_ms(f, n: int = 15) -> str:
+    f()
+    ts = []
+    for _ in range(n):
+        t = time.perf_counter()
+        f()
+        ts.append(1e3 * (time.perf_counter() - t))
+    return f"{np.median(ts):.2f} [{min(ts):.2f}-{max(ts):.2f}]"
+
+
+def _pardiso_with(M, single: bool, iparm: dict[int, int]):
+    """A PARDISO factor of ``M`` whose ``iparm`` (1-based numbers) is changed before the factorization."""
+    from solver.linalg import pardiso as pm
+
+    orig = pm.PardisoFactor._call
+
+    def call(self, phase, b, x):
+        if phase == 12:
+            for k, v in iparm.items():
+                self._iparm[k - 1] = v
+        return orig(self, phase, b, x)
+
+    pm.PardisoFactor._call = call
+    try:
+        return pm.PardisoFactor(M, "interior", mtype=11, single=single)
+    finally:
+        pm.PardisoFactor._call = orig
+
+
+def interior() -> None:
+    import scipy.sparse.linalg as spla
+
+    from solver import precompute, read_mesh
+    from solver.linalg import pardiso as pm
+
+    mesh = read_mesh(deck("bracket", 0.95))
+    d = precompute(mesh, end_spec(mesh))
+    M = d.data.positions.Mff.tocsr()
+    del d
+    B = np.random.default_rng(0).standard_normal((M.shape[0], 3))
+    print(f"bracket 0.95: {M.shape[0]:,} interior unknowns, {M.nnz:,} nonzeros; 3 right-hand sides, "
+          "median [min-max] of 15 solves")
+    print("| factor | iparm changed | factor entries | threads | solve ms | relative residual |")
+    print("|---|---|---:|---:|---:|---:|")
+    keep = pm.solve_threads
+    cases = [(True, {}), (False, {}), (True, {24: 1}), (True, {24: 10}), (True, {25: 1}), (True, {25: 2}),
+             (True, {11: 0, 13: 0}), (True, {2: 0}), (True, {2: 2})]
+    try:
+        for single, iparm in cases:
+            F = _pardiso_with(M, single, iparm)
+            res = float(np.abs(M @ F.solve(B) - B).max() / np.abs(B).max())
+            for threads in (1, 2):
+                pm.solve_threads = lambda columns, stacked, n=threads: n
+                label = ", ".join(f"{k} = {v}" for k, v in iparm.items()) or "tetmorph's"
+                print(f"| PARDISO {'single' if single else 'double'} | {label} | {F.nnz:,} | {threads} | "
+                      f"{_median_ms(lambda F=F: F.solve(B))} | {res:.1e} |", flush=True)
+            F.release()
+    finally:
+        pm.solve_threads = keep
+    lu = spla.splu(M.tocsc().astype(np.float32), permc_spec="COLAMD")
+    B32 = B.astype(np.float32)
+    res = float(np.abs(M @ lu.solve(B32) - B).max() / np.abs(B).max())
+    print(f"| SuperLU single | COLAMD | {lu.L.nnz + lu.U.nnz:,} | 1 | {_median_ms(lambda: lu.solve(B32))} | "
+          f"{res:.1e} |")
+    mesh = read_mesh(deck("bracket", 0.44))
+    d = precompute(mesh, end_spec(mesh))
+    M = d.data.positions.Mff.tocsr()
+    del d
+    B = np.random.default_rng(0).standard_normal((M.shape[0], 48))
+    print(f"\nbracket 0.44: {M.shape[0]:,} interior unknowns; 48 right-hand sides, median [min-max] of 3 solves")
+    print("| iparm(2) | factor s | factor entries | solve ms |")
+    print("|---:|---:|---:|---:|")
+    for order in (3, 2, 13, 23):
+        t = time.perf_counter()
+        F = _pardiso_with(M, True, {2: order})
+        tf = time.perf_counter() - t
+        print(f"| {order} | {tf:.1f} | {F.nnz:,} | {_median_ms(lambda F=F: F.solve(B), 3)} |", flush=True)
+        F.release()
+
+
+def layout() -> None:
+    from solver.linalg.layout import c_copy, fortran_copy
+
+    b = np.random.default_rng(0).standard_normal((160_000, 48))
+    x = np.asfortranarray(b, dtype=np.float32)
+    col = np.random.default_rng(1).standard_normal((40_000, 1))
+    print("| step | ms, median [min-max] of 15 |")
+    print("|---|---:|")
+    for name, f in (("numpy asfortranarray, 160k x 48 float64 -> float32", lambda: np.asfortranarray(b, np.float32)),
+                    ("fortran_copy (tiles), same", lambda: fortran_copy(b, np.float32)),
+                    ("numpy ascontiguousarray, 160k x 48 Fortran float32", lambda: np.ascontiguousarray(x)),
+                    ("c_copy (tiles), same", lambda: c_copy(x, np.float32)),
+                    ("numpy hstack of 16 copies of a 40k x 1 block", lambda: np.hstack([col] * 16)),
+                    ("numpy tile, same", lambda: np.tile(col, (1, 16)))):
+        print(f"| {name} | {_median_ms(f)} |", flush=True)
 
 
 def _numpy_tet_quality(V, T):
@@ -379,7 +484,8 @@ def check() -> None:
 
 
 SECTIONS = {"orderings": orderings, "small-lu": small_lu, "penalty": penalty, "refine": refine, "midside": midside,
-            "constraints": constraints, "pardiso": pardiso, "kernels": kernels, "check": check}
+            "constraints": constraints, "pardiso": pardiso, "interior": interior, "layout": layout, "kernels": kernels,
+            "check": check}
 
 
 def main() -> None:

@@ -148,7 +148,7 @@ class Positions:
         u = self.unknowns
         d = np.hstack([r.d for r in rhss if r.d is not None])
         c = np.hstack([self._layout(r.c) for r in rhss])
-        x0 = np.tile(self._layout(V0[u]), (1, k))  # one column block per MOVE (tile: 0.2 ms where hstack took 2.5)
+        x0 = np.tile(self._layout(V0[u]), (1, k))  # a block per MOVE; faster than hstack (measure_choices layout)
         x = self.system.solve(x0, d, c, refine=self.refine_steps)
         w = x.shape[1] // k
         for j, P in enumerate(Ps):

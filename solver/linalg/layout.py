@@ -6,7 +6,8 @@ position array). numpy's ``asfortranarray`` of a tall (n, k) C-order array
 walks one of the two arrays with a stride of k (or n) elements per step; for
 a DOE block on the 1M-tet bracket (160k rows, 48 columns) that is about 40 ms.
 The kernels here copy tiles of rows, so both arrays are read and written in
-runs of at least a cache line: a few milliseconds for the same block.
+runs of at least a cache line: about 4.4 ms for the same block (``python
+benchmarks/measure_choices.py --only layout``).
 """
 
 from __future__ import annotations

@@ -23,6 +23,7 @@ the rest shape).
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -41,7 +42,8 @@ from .rhs import RightHandSides
 from .rotation_field import REFINE_STEPS
 from .thin_walls import WallRows
 
-__all__ = ["Positions", "SplitPositions", "JointPositions", "PositionSolve", "positions_precompute", "REFINE_TOL",
+__all__ = ["Positions", "SplitPositions", "JointPositions", "PositionSolve", "positions_precompute", "interior_start",
+           "InteriorStart", "REFINE_TOL",
            "MIXED_TOL"]
 
 
@@ -299,8 +301,50 @@ def probe_move(cs: ConstraintSet) -> Move:
     return Move({h: HandleMove(0.01 * cs.diag * axis, np.radians(10.0) / 2 * axis) for h in cs.handle_names})
 
 
+@dataclass(frozen=True, eq=False)
+class InteriorStart:
+    """A split solve's interior mean-value system, its LU under way on a second thread.
+
+    Started by :func:`interior_start` as soon as the operators exist, so the
+    factorization (which mostly runs without the GIL) overlaps the rest of the
+    set-up; :func:`positions_precompute` takes the factor.
+
+    Attributes
+    ----------
+    fi : (f,) int array
+        Free interior vertices.
+    Mfi : (f, n) csr matrix
+    Mff : (f, f) csr matrix
+    lu : Future of Factor
+    """
+
+    fi: np.ndarray
+    Mfi: sp.csr_matrix
+    Mff: sp.csr_matrix
+    lu: Future
+
+    def settle(self) -> None:
+        """Wait for the factorization to end, whatever its outcome (a set-up that failed leaves nothing running)."""
+        wait([self.lu])
+
+
+def interior_start(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators) -> InteriorStart | None:
+    """Start factoring the interior mean-value system of a split solve (None for joint or no free interior)."""
+    if cs.mode == "joint":
+        return None
+    fi = np.flatnonzero(mesh.interior & ~np.isin(np.arange(mesh.n), cs.constrained) & mesh.referenced)
+    if not fi.size:
+        return None
+    Mfi = csr(ops.Mi[fi])
+    Mff = csr(Mfi[:, fi])
+    pool = ThreadPoolExecutor(1, thread_name_prefix="tetmorph-interior-lu")
+    lu = pool.submit(fz.lu, Mff.tocsc(), "interior mean-value system", single=spec.precision == "mixed")
+    pool.shutdown(wait=False)  # the thread ends with its one task
+    return InteriorStart(fi, Mfi, Mff, lu)
+
+
 def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators, walls: WallRows | None,
-                         rhs_for: RhsFor) -> Positions:
+                         rhs_for: RhsFor, start: InteriorStart | None = None) -> Positions:
     """Assemble and factor the position solve that ``cs.mode`` names.
 
     Parameters
@@ -312,6 +356,9 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
     walls : WallRows or None
     rhs_for : callable
         ``rhs_for(move, rows) -> RightHandSides`` for the refinement probe.
+    start : InteriorStart, optional
+        The interior factorization already under way (:func:`interior_start`); started here when
+        not given.
 
     Returns
     -------
@@ -321,6 +368,43 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
     ------
     FactorizationError
     """
+    if start is None:
+        start = interior_start(mesh, spec, cs, ops)
+    try:
+        system, probe = _boundary_system(mesh, spec, cs, ops, walls, rhs_for)
+    except BaseException:
+        if start is not None:
+            start.settle()
+        raise
+    steps = 0 if probe <= REFINE_TOL * cs.diag else REFINE_STEPS
+    nf = system.factorizations if system is not None else 0
+    rows = np.flatnonzero(mesh.referenced) if cs.mode == "joint" else cs.bidx
+    common: dict[str, Any] = dict(system=system, unknowns=cs.unknowns, rows=rows, vector=cs.vector,
+                                  refine_steps=steps, refine_probe=probe)
+    if cs.mode == "joint":
+        return JointPositions(factorizations=nf, **common)
+    fi = np.zeros(0, np.int64)
+    Mfi = interior = Mff = Mfb = r0 = rest_coupled = None
+    coupled = np.zeros(0, np.int64)
+    if start is not None:
+        fi, Mfi, Mff = start.fi, start.Mfi, start.Mff
+        interior = start.lu.result()
+        nf += 1
+        is_free = np.zeros(mesh.n, bool)
+        is_free[fi] = True
+        used = np.zeros(mesh.n, bool)
+        used[Mfi.indices] = True
+        coupled = np.flatnonzero(used & ~is_free)
+        Mfb = csr(Mfi[:, coupled])
+        r0 = Mfi @ mesh.V
+        rest_coupled = np.ascontiguousarray(mesh.V[coupled])
+    return SplitPositions(factorizations=nf, free_interior=fi, Mfi=Mfi, interior=interior, Mff=Mff, Mfb=Mfb,
+                          coupled=coupled, r0=r0, rest_coupled=rest_coupled, **common)
+
+
+def _boundary_system(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators, walls: WallRows | None,
+                     rhs_for: RhsFor) -> tuple[ConstrainedSolver | None, float]:
+    """The least-squares position system (boundary rows for split, every row for joint) and its probe step."""
     if cs.mode == "joint":
         rows = np.flatnonzero(mesh.referenced)
         A = csr(ops.Lb + sp.diags(ops.wi) @ ops.Mi)  # every row of eq. (4.2), weighted
@@ -341,27 +425,4 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
     probe = 0.0
     if system is not None and cs.handle_names:
         probe = refinement_probe(system, cs.vector, mesh.V[cs.unknowns], rhs_for(probe_move(cs), rows))
-    steps = 0 if probe <= REFINE_TOL * cs.diag else REFINE_STEPS
-    nf = system.factorizations if system is not None else 0
-    common: dict[str, Any] = dict(system=system, unknowns=cs.unknowns, rows=rows, vector=cs.vector,
-                                  refine_steps=steps, refine_probe=probe)
-    if cs.mode == "joint":
-        return JointPositions(factorizations=nf, **common)
-    fi = np.flatnonzero(mesh.interior & ~np.isin(np.arange(mesh.n), cs.constrained) & mesh.referenced)
-    Mfi = interior = Mff = Mfb = r0 = rest_coupled = None
-    coupled = np.zeros(0, np.int64)
-    if fi.size:
-        Mfi = csr(ops.Mi[fi])
-        Mff = csr(Mfi[:, fi])
-        interior = fz.lu(Mff.tocsc(), "interior mean-value system", single=spec.precision == "mixed")
-        nf += 1
-        is_free = np.zeros(mesh.n, bool)
-        is_free[fi] = True
-        used = np.zeros(mesh.n, bool)
-        used[Mfi.indices] = True
-        coupled = np.flatnonzero(used & ~is_free)
-        Mfb = csr(Mfi[:, coupled])
-        r0 = Mfi @ mesh.V
-        rest_coupled = np.ascontiguousarray(mesh.V[coupled])
-    return SplitPositions(factorizations=nf, free_interior=fi, Mfi=Mfi, interior=interior, Mff=Mff, Mfb=Mfb,
-                          coupled=coupled, r0=r0, rest_coupled=rest_coupled, **common)
+    return system, probe

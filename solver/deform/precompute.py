@@ -23,7 +23,7 @@ from ..validity.check import ElementCheck, SurfaceCheck
 from ..validity.midside import MidsideNodes
 from .constraint_set import ConstraintSet, constraint_set
 from .operators import operators
-from .positions import Positions, positions_precompute
+from .positions import Positions, interior_start, positions_precompute
 from .rhs import RightHandSides, handle_targets, right_hand_sides
 from .rotation_field import RotationField, rotation_field_precompute
 from .thin_walls import WallRows, wall_rows
@@ -142,24 +142,30 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) 
     cs = constraint_set(mesh, spec)
     report("constraints", 0.05)
     ops = operators(mesh, spec)
-    walls = wall_rows(mesh, spec.thin_walls, ops.Lb)
-    t_assembly = time.perf_counter() - t0
-    report("assembly", 0.35)
-    t1 = time.perf_counter()
-    rotation = rotation_field_precompute(mesh, spec, cs, ops)
-    t_rot = time.perf_counter() - t1
-    report("rotation", 0.5)
-    t2 = time.perf_counter()
+    start = interior_start(mesh, spec, cs, ops)  # the interior LU runs on a second thread from here
+    try:
+        walls = wall_rows(mesh, spec.thin_walls, ops.Lb)
+        t_assembly = time.perf_counter() - t0
+        report("assembly", 0.35)
+        t1 = time.perf_counter()
+        rotation = rotation_field_precompute(mesh, spec, cs, ops)
+        t_rot = time.perf_counter() - t1
+        report("rotation", 0.5)
+        midside = MidsideNodes(mesh.V, mesh.T10) if mesh.T10 is not None else None
+        check = _surface_check(mesh) if mesh.is_surface else ElementCheck(mesh.V, mesh.T, mesh.cells, mesh.T10,
+                                                                          mesh.degenerate_at_rest)
+        t2 = time.perf_counter()
 
-    def rhs_for(move: Move, rows: np.ndarray) -> RightHandSides:
-        return right_hand_sides(mesh, cs, rotation, ops.delta, walls, rows, True, move)
+        def rhs_for(move: Move, rows: np.ndarray) -> RightHandSides:
+            return right_hand_sides(mesh, cs, rotation, ops.delta, walls, rows, True, move)
 
-    positions = positions_precompute(mesh, spec, cs, ops, walls, rhs_for)
+        positions = positions_precompute(mesh, spec, cs, ops, walls, rhs_for, start)
+    except BaseException:
+        if start is not None:
+            start.settle()
+        raise
     t_pos = time.perf_counter() - t2
     report("positions", 0.95)
-    midside = MidsideNodes(mesh.V, mesh.T10) if mesh.T10 is not None else None
-    check = _surface_check(mesh) if mesh.is_surface else ElementCheck(mesh.V, mesh.T, mesh.cells, mesh.T10,
-                                                                      mesh.degenerate_at_rest)
     timings = {"assembly_ms": 1e3 * t_assembly, "rotation_factorization_ms": 1e3 * t_rot,
                "position_factorization_ms": 1e3 * t_pos, "total_ms": 1e3 * (time.perf_counter() - t0)}
     data = DeformData(mesh=mesh, spec=spec, constraints=cs, delta=ops.delta, walls=walls, rotation=rotation,

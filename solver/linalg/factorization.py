@@ -10,6 +10,11 @@ Backends, in order of preference:
     non-symmetric mean-value-coordinate system (LU with a symmetric METIS
     ordering: 10x faster than SuperLU there), and for symmetric systems too when
     CHOLMOD is missing.
+``supernodal``
+    Mean-value systems of medium size (``SUPERNODAL_MAX``): SuperLU without
+    pivoting on a METIS ordering, back-substituted by tetmorph's own dense
+    supernode sweeps (:mod:`solver.linalg.supernodal`), which cost less than
+    PARDISO's solve phase there. Systems that need pivoting go to PARDISO.
 ``scipy``
     SuperLU through :func:`scipy.sparse.linalg.splu`. Always available but one
     to two orders of magnitude slower on large meshes.
@@ -40,6 +45,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import FactorizationError
 from .pardiso import PardisoFactor, mkl_runtime
+from .supernodal import Unsuitable, lu_supernodal
 
 __all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
@@ -127,6 +133,15 @@ _LU_BACKEND: str | None = None
 #: 8.2 ms). Measured on interior mean-value systems: benchmarks/measure_choices.py
 #: --only small-lu.
 LU_SMALL = 5_000
+
+
+#: Square systems from ``LU_SMALL`` up to this size are factored by SuperLU without pivoting
+#: on a METIS ordering and back-substituted by :mod:`solver.linalg.supernodal`: at the 107k-tet
+#: bracket's interior (12,892 unknowns) its solve takes less than half of PARDISO's, while on the
+#: 1M-tet meshes (144k unknowns) PARDISO's solve is near its memory-traffic floor and SuperLU's
+#: factorization would be far slower (benchmarks/measure_choices.py --only supernodal).
+#: ``TETMORPH_INTERIOR_LU=pardiso`` keeps PARDISO at every size.
+SUPERNODAL_MAX = 40_000
 
 
 def lu_backend() -> str:
@@ -281,9 +296,10 @@ def lu(A: sp.spmatrix, what: str = "system", single: bool = False) -> Factor:
     what : str
         Name of the system, used in error messages.
     single : bool
-        Factor in single precision where the backend can (MKL PARDISO, above
-        ``LU_SMALL`` unknowns): half the bytes per back-substitution; the
-        solution is float32 (the caller refines or states the accuracy).
+        Factor in single precision where the backend can (above ``LU_SMALL``
+        unknowns: the supernodal solve up to ``SUPERNODAL_MAX``, then MKL
+        PARDISO): half the bytes per back-substitution; the solution carries
+        single-precision rounding (the caller refines or states the accuracy).
 
     Returns
     -------
@@ -303,6 +319,12 @@ def lu(A: sp.spmatrix, what: str = "system", single: bool = False) -> Factor:
     """
     A = _prepared(A, what)
     if lu_backend() == "pardiso" and A.shape[0] > LU_SMALL:
+        if (A.shape[0] <= SUPERNODAL_MAX
+                and os.environ.get("TETMORPH_INTERIOR_LU", "").strip().lower() != "pardiso"):
+            try:
+                return lu_supernodal(A, single)
+            except Unsuitable:  # not structurally symmetric, or needs pivoting: PARDISO pivots
+                pass
         return PardisoFactor(A, what, mtype=11, single=single)
     return _SuperLUFactor(A, what, symmetric=False)
 

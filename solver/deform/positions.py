@@ -34,6 +34,7 @@ from ..constraints.move import HandleMove, Move
 from ..constraints.spec import Spec
 from ..linalg import factorization as fz
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
+from ..linalg.products import shifted_product
 from ..linalg.residual import block_residual, corrected
 from ..mesh import Mesh
 from .constraint_set import ConstraintSet
@@ -148,9 +149,14 @@ class Positions:
         if self.system is None or not k:
             return Ps
         u = self.unknowns
-        d = np.hstack([r.d for r in rhss if r.d is not None])
-        c = np.hstack([self._layout(r.c) for r in rhss])
-        x0 = np.tile(self._layout(V0[u]), (1, k))  # a block per MOVE; faster than hstack (measure_choices layout)
+        if k == 1:
+            d = rhss[0].d
+            assert d is not None
+            c, x0 = self._layout(rhss[0].c), self._layout(V0[u])
+        else:
+            d = np.hstack([r.d for r in rhss if r.d is not None])
+            c = np.hstack([self._layout(r.c) for r in rhss])
+            x0 = np.tile(self._layout(V0[u]), (1, k))  # a block per MOVE; faster than hstack (measure_choices)
         x = self.system.solve(x0, d, c, refine=self.refine_steps)
         w = x.shape[1] // k
         for j, P in enumerate(Ps):
@@ -241,11 +247,14 @@ class SplitPositions(Positions):
         if self.interior is None or self.Mfb is None or self.Mff is None or self.r0 is None or not Ps:
             return [PositionSolve(P.copy()) for P in Ps]
         fi, cols, k = self.free_interior, self.coupled, len(Ps)
-        D = np.empty((cols.size, 3 * k))
-        for j, P in enumerate(Ps):
-            D[:, 3 * j:3 * j + 3] = P[cols] - self._rest_coupled
-        R = np.ascontiguousarray(self.Mfb @ D)  # one sparse product for every array: (f, 3 k)
-        R.reshape(R.shape[0], k, 3)[...] += self.r0[:, None, :]  # r0 into every array's block (a view: no tiling)
+        if k == 1:  # one update: the product, the shift and r0 in one threaded pass
+            R = shifted_product(self.Mfb, cols, Ps[0], self._rest_coupled, self.r0)
+        else:
+            D = np.empty((cols.size, 3 * k))
+            for j, P in enumerate(Ps):
+                D[:, 3 * j:3 * j + 3] = P[cols] - self._rest_coupled
+            R = np.ascontiguousarray(self.Mfb @ D)  # one sparse product for every array: (f, 3 k)
+            R.reshape(R.shape[0], k, 3)[...] += self.r0[:, None, :]  # r0 into every block (a view: no tiling)
         dx = np.ascontiguousarray(self.interior.solve(R), dtype=np.float64)
         single = self.interior_precision == "single"
         rels: list[float | None] = [None] * k
@@ -421,7 +430,7 @@ def _boundary_system(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators, 
         if cs.vector:
             A = sp.kron(A, sp.identity(3), format="csr")
         system = constrained_solver(cs.pasm.C, A=A, method=spec.method, beta=spec.penalty_weight, what=what,
-                                    analysis=cs.pra)
+                                    analysis=cs.pra, per_update=True)
     probe = 0.0
     if system is not None and cs.handle_names:
         probe = refinement_probe(system, cs.vector, mesh.V[cs.unknowns], rhs_for(probe_move(cs), rows))

@@ -40,6 +40,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import factorization as fz
+from . import products
 from .rank import RANK_TOL, RankAnalysis, rank_analysis
 
 __all__ = ["ConstrainedSolver", "NullSpaceSolver", "KKTSolver", "PenaltySolver", "constrained_solver", "METHODS",
@@ -118,8 +119,8 @@ class _Quadratic:
     def gradient(self, x: np.ndarray, c: np.ndarray | None) -> np.ndarray:
         """``g - H x``: with ``A``, ``A^T (c - A x)``; with ``H``, ``-H x`` (``c`` ignored)."""
         if self.A is not None:
-            assert self.At is not None
-            return self.At @ (c - self.A @ x)
+            assert self.At is not None and c is not None
+            return products.gradient(self.A, self.At, c, x)  # one threaded pass per product
         assert self.H is not None
         return -(self.H @ x)
 
@@ -176,7 +177,7 @@ class NullSpaceSolver(_Quadratic):
 
     def __init__(self, C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.spmatrix | None = None,
                  what: str = "system", rank_tol: float = RANK_TOL, analysis: RankAnalysis | None = None,
-                 beta: float = 0.0) -> None:
+                 beta: float = 0.0, per_update: bool = False) -> None:
         super().__init__(C, A, H, analysis, rank_tol)
         Z = self.ra.Z
         self._Zt = sp.csr_matrix(Z.T)
@@ -186,7 +187,7 @@ class NullSpaceSolver(_Quadratic):
         else:
             assert self.H is not None
             Hr = (self._Zt @ self.H @ Z).tocsc()
-        self._f = fz.cholesky(Hr, f"{what} (null space)") if Z.shape[1] else None
+        self._f = fz.cholesky(Hr, f"{what} (null space)", sweeps=per_update) if Z.shape[1] else None
         self.factorizations = int(self._f is not None)
 
     @property
@@ -219,7 +220,7 @@ class KKTSolver(_Quadratic):
 
     def __init__(self, C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.spmatrix | None = None,
                  what: str = "system", rank_tol: float = RANK_TOL, analysis: RankAnalysis | None = None,
-                 beta: float = 0.0) -> None:
+                 beta: float = 0.0, per_update: bool = False) -> None:
         super().__init__(C, A, H, analysis, rank_tol)
         Hf = self._full_H()
         dg = Hf.diagonal()
@@ -248,11 +249,12 @@ class PenaltySolver(_Quadratic):
 
     def __init__(self, C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.spmatrix | None = None,
                  what: str = "system", rank_tol: float = RANK_TOL, analysis: RankAnalysis | None = None,
-                 beta: float = 1.0e4) -> None:
+                 beta: float = 1.0e4, per_update: bool = False) -> None:
         super().__init__(C, A, H, analysis, rank_tol)
         self.beta = beta
         self._Ckt = sp.csr_matrix(self.Ck.T)
-        self._f = fz.cholesky((self._full_H() + beta ** 2 * (self._Ckt @ self.Ck)).tocsc(), f"{what} (penalty)")
+        self._f = fz.cholesky((self._full_H() + beta ** 2 * (self._Ckt @ self.Ck)).tocsc(), f"{what} (penalty)",
+                              sweeps=per_update)
         self.factorizations = 1
 
     @property
@@ -272,7 +274,8 @@ METHODS: dict[str, Any] = {"null_space": NullSpaceSolver, "kkt": KKTSolver, "pen
 
 def constrained_solver(C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.spmatrix | None = None,
                        method: str = "null_space", beta: float = 1.0e4, what: str = "system",
-                       rank_tol: float = RANK_TOL, analysis: RankAnalysis | None = None) -> ConstrainedSolver:
+                       rank_tol: float = RANK_TOL, analysis: RankAnalysis | None = None,
+                       per_update: bool = False) -> ConstrainedSolver:
     """Factor once for ``min 1/2 x^T H x - g^T x s.t. C x = d`` by ``method``.
 
     Parameters
@@ -292,6 +295,9 @@ def constrained_solver(C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.sp
         Relative tolerance of the dependency test.
     analysis : RankAnalysis, optional
         :func:`~solver.linalg.rank.rank_analysis` of ``C``, when the caller already has it.
+    per_update : bool
+        The system is back-substituted on every update with a few columns: a
+        Cholesky factor gets the supernodal sweeps (:func:`~solver.linalg.factorization.cholesky`).
 
     Returns
     -------
@@ -315,5 +321,6 @@ def constrained_solver(C: sp.spmatrix, *, A: sp.spmatrix | None = None, H: sp.sp
     cls = METHODS.get(method)
     if cls is None:
         raise ValueError(f"method must be one of {list(METHODS)}, got {method!r}")
-    solver: ConstrainedSolver = cls(C, A=A, H=H, what=what, rank_tol=rank_tol, analysis=analysis, beta=beta)
+    solver: ConstrainedSolver = cls(C, A=A, H=H, what=what, rank_tol=rank_tol, analysis=analysis, beta=beta,
+                                    per_update=per_update)
     return solver

@@ -11,10 +11,12 @@ Backends, in order of preference:
     ordering: 10x faster than SuperLU there), and for symmetric systems too when
     CHOLMOD is missing.
 ``supernodal``
-    Mean-value systems of medium size (``SUPERNODAL_MAX``): SuperLU without
-    pivoting on a METIS ordering, back-substituted by tetmorph's own dense
-    supernode sweeps (:mod:`solver.linalg.supernodal`), which cost less than
-    PARDISO's solve phase there. Systems that need pivoting go to PARDISO.
+    Systems of medium size (``SUPERNODAL_MAX``) that are solved on every
+    update: the square mean-value system (SuperLU without pivoting on a METIS
+    ordering) and the boundary position system (CHOLMOD's factor exported),
+    back-substituted by tetmorph's own two-thread dense supernode sweeps
+    (:mod:`solver.linalg.supernodal`), which cost less than PARDISO's and
+    CHOLMOD's solves there. Systems that need pivoting stay with PARDISO.
 ``scipy``
     SuperLU through :func:`scipy.sparse.linalg.splu`. Always available but one
     to two orders of magnitude slower on large meshes.
@@ -23,7 +25,7 @@ Falling back from CHOLMOD emits a :class:`PerformanceWarning` once.
 ``TETMORPH_SOLVER=cholmod|pardiso|scipy`` forces the symmetric backend
 (``scipy`` also forces SuperLU for the non-symmetric one).
 
-Process-wide counters (:data:`STATS`: ``"factorizations"``, ``"solves"``) are
+Process-wide counters (:data:`STATS`: ``"factorizations"``, ``"solves"`` of CHOLMOD and SuperLU) are
 kept for tests and diagnostics only; no REPORT reads them (each precompute
 object counts its own factorizations). Factors are built once and never
 mutated. CHOLMOD and PARDISO keep work space inside the factor object, so
@@ -45,7 +47,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import FactorizationError
 from .pardiso import PardisoFactor, mkl_runtime
-from .supernodal import Unsuitable, lu_supernodal
+from .supernodal import Unsuitable, cholmod_supernodal, lu_supernodal
 
 __all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
@@ -135,13 +137,20 @@ _LU_BACKEND: str | None = None
 LU_SMALL = 5_000
 
 
-#: Square systems from ``LU_SMALL`` up to this size are factored by SuperLU without pivoting
-#: on a METIS ordering and back-substituted by :mod:`solver.linalg.supernodal`: at the 107k-tet
-#: bracket's interior (12,892 unknowns) its solve takes less than half of PARDISO's, while on the
-#: 1M-tet meshes (144k unknowns) PARDISO's solve is near its memory-traffic floor and SuperLU's
+#: Systems from ``LU_SMALL`` up to this size are back-substituted by tetmorph's own dense
+#: supernode sweeps (:mod:`solver.linalg.supernodal`): square mean-value systems factored by
+#: SuperLU without pivoting on a METIS ordering, symmetric ones by CHOLMOD (its ``L`` exported).
+#: At the 107k-tet bracket's interior (12,892 unknowns) the sweeps take 1.3 ms against PARDISO's
+#: 4.8, and at its boundary system (8,160) 0.8 ms against CHOLMOD's 1.4; on the 1M meshes'
+#: interior (144k unknowns) PARDISO stays, its solve near its memory-traffic floor, and SuperLU's
 #: factorization would be far slower (benchmarks/measure_choices.py --only supernodal).
-#: ``TETMORPH_INTERIOR_LU=pardiso`` keeps PARDISO at every size.
+#: ``TETMORPH_SUPERNODAL=0`` keeps PARDISO and CHOLMOD at every size.
 SUPERNODAL_MAX = 40_000
+
+
+def _supernodal(n: int) -> bool:
+    """Whether an ``n``-unknown system gets the supernodal sweeps (``SUPERNODAL_MAX``, ``TETMORPH_SUPERNODAL``)."""
+    return LU_SMALL < n <= SUPERNODAL_MAX and os.environ.get("TETMORPH_SUPERNODAL", "1").strip() != "0"
 
 
 def lu_backend() -> str:
@@ -251,7 +260,7 @@ class _SuperLUFactor:
         return self._f.solve(np.asarray(b, dtype=np.float64))
 
 
-def cholesky(M: sp.spmatrix, what: str = "system") -> Factor:
+def cholesky(M: sp.spmatrix, what: str = "system", sweeps: bool = False) -> Factor:
     """Factor a symmetric positive definite sparse matrix.
 
     Parameters
@@ -260,6 +269,11 @@ def cholesky(M: sp.spmatrix, what: str = "system") -> Factor:
         Symmetric positive definite.
     what : str
         Name of the system, used in error messages.
+    sweeps : bool
+        Back-substitute with the supernodal sweeps (CHOLMOD's ``L`` exported; sizes
+        above ``LU_SMALL`` up to ``SUPERNODAL_MAX``): for systems solved on every
+        update. The export costs set-up time, so systems solved only at set-up
+        keep CHOLMOD's own solve.
 
     Returns
     -------
@@ -281,7 +295,13 @@ def cholesky(M: sp.spmatrix, what: str = "system") -> Factor:
     M = _prepared(M, what)
     b = backend()
     if b == "cholmod":
-        return _CholmodFactor(M, what)
+        f = _CholmodFactor(M, what)
+        if sweeps and _supernodal(M.shape[0]):
+            try:
+                return cholmod_supernodal(f._f, M)
+            except Unsuitable:  # the probe missed: CHOLMOD's own solve
+                pass
+        return f
     if b == "pardiso":
         return PardisoFactor(M, what, mtype=2)
     return _SuperLUFactor(M, what, symmetric=True)
@@ -319,8 +339,7 @@ def lu(A: sp.spmatrix, what: str = "system", single: bool = False) -> Factor:
     """
     A = _prepared(A, what)
     if lu_backend() == "pardiso" and A.shape[0] > LU_SMALL:
-        if (A.shape[0] <= SUPERNODAL_MAX
-                and os.environ.get("TETMORPH_INTERIOR_LU", "").strip().lower() != "pardiso"):
+        if _supernodal(A.shape[0]):
             try:
                 return lu_supernodal(A, single)
             except Unsuitable:  # not structurally symmetric, or needs pivoting: PARDISO pivots

@@ -48,6 +48,39 @@ def _residual_kernel(indptr, indices, data, B, X, width, R, rmax, xmax):  # prag
                     xmax[c, b] = x2
 
 
+@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
+def _residual3_kernel(indptr, indices, data, B, X, R, rmax, xmax):  # pragma: no cover - compiled
+    """:func:`_residual_kernel` for one block of three columns (one update), with the sums in registers."""
+    n = B.shape[0]
+    nch = rmax.shape[0]
+    for c in numba.prange(nch):
+        lo = c * n // nch
+        hi = (c + 1) * n // nch
+        rm = 0.0
+        xm = 0.0
+        for i in range(lo, hi):
+            a0 = B[i, 0]
+            a1 = B[i, 1]
+            a2 = B[i, 2]
+            for p in range(indptr[i], indptr[i + 1]):
+                v = data[p]
+                k = indices[p]
+                a0 -= v * X[k, 0]
+                a1 -= v * X[k, 1]
+                a2 -= v * X[k, 2]
+            R[i, 0] = a0
+            R[i, 1] = a1
+            R[i, 2] = a2
+            r2 = a0 * a0 + a1 * a1 + a2 * a2
+            x2 = X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1] + X[i, 2] * X[i, 2]
+            if not r2 <= rm:  # NaN propagates: a NaN row is the largest
+                rm = r2
+            if not x2 <= xm:
+                xm = x2
+        rmax[c, 0] = rm
+        xmax[c, 0] = xm
+
+
 @numba.njit(parallel=True, cache=True, nogil=True)
 def _subtract_rows(Q, rows, X, col):  # pragma: no cover - compiled
     w = Q.shape[1]
@@ -131,5 +164,8 @@ def block_residual(A: sp.csr_matrix, B: np.ndarray, X: np.ndarray,
     nch = max(1, min(numba.get_num_threads(), n))
     rmax = np.zeros((nch, m // width))
     xmax = np.zeros((nch, m // width))
-    _residual_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, width, R, rmax, xmax)
+    if m == 3 and width == 3:
+        _residual3_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, R, rmax, xmax)
+    else:
+        _residual_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, width, R, rmax, xmax)
     return R, np.sqrt(rmax.max(axis=0)), np.sqrt(xmax.max(axis=0))

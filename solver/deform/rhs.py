@@ -78,10 +78,13 @@ def right_hand_sides(mesh: Mesh, cs: ConstraintSet, rotation: RotationField, del
     r, sigma = rotation.solve(move)
     bpos = np.full(mesh.n, -1, np.int64)
     bpos[cs.bidx] = np.arange(cs.bidx.size)
-    b = np.zeros((mesh.n, 3))
-    if cs.bidx.size:
-        b[cs.bidx] = np.exp(sigma)[:, None] * rotate_by_log(delta[cs.bidx], r)
-    c = b[rows]
+    nb = rotate_by_log(delta[cs.bidx], r, np.exp(sigma)) if cs.bidx.size else np.zeros((0, 3))
+    if rows is cs.bidx or np.array_equal(rows, cs.bidx):  # the split solve's rows: the boundary itself
+        c = nb
+    else:  # joint: zero on interior rows
+        b = np.zeros((mesh.n, 3))
+        b[cs.bidx] = nb
+        c = b[rows]
     if walls is not None:
         c = np.vstack([c, walls.rhs(r, sigma, bpos)])
     d = None

@@ -55,8 +55,7 @@ class WallRows:
         """(k, 3) right-hand side for boundary rotation logarithms ``r`` and log-scales ``sigma``."""
         a, b = bpos[self.E[:, 0]], bpos[self.E[:, 1]]
         rr = 0.5 * (r[a] + r[b])
-        s = np.exp(0.5 * (sigma[a] + sigma[b]))
-        return (self.w * s)[:, None] * rotate_by_log(self.D0, rr)
+        return rotate_by_log(self.D0, rr, self.w * np.exp(0.5 * (sigma[a] + sigma[b])))
 
 
 def wall_rows(mesh: Mesh, weight: float, Lb: sp.csr_matrix) -> WallRows | None:

@@ -181,6 +181,10 @@ class NullSpaceSolver(_Quadratic):
         super().__init__(C, A, H, analysis, rank_tol)
         Z = self.ra.Z
         self._Zt = sp.csr_matrix(Z.T)
+        self._touched = np.flatnonzero(self.ra.touched)  # start() projects these rows on every solve
+        self._ZcT = sp.csr_matrix(self.ra.Zc.T)
+        self._Xp_t = sp.csr_matrix(self.ra.Xp[self._touched])
+        self._Zc_t = sp.csr_matrix(self.ra.Zc[self._touched])
         if self.A is not None:
             AZ = (self.A @ Z).tocsc()
             Hr = (AZ.T @ AZ).tocsc()
@@ -198,12 +202,9 @@ class NullSpaceSolver(_Quadratic):
 
     def start(self, x0: np.ndarray, d: np.ndarray) -> np.ndarray:
         """``x0`` projected onto the kept constraints."""
-        ra = self.ra
         x = x0.copy()
-        t = ra.touched
         dk = np.where(self.kept[:, None], d, 0.0)
-        proj = ra.Xp @ dk + ra.Zc @ (ra.Zc.T @ x0)
-        x[t] = proj[t]
+        x[self._touched] = self._Xp_t @ dk + self._Zc_t @ (self._ZcT @ x0)
         return x
 
     def step(self, r: np.ndarray, x: np.ndarray, d: np.ndarray) -> np.ndarray:

@@ -273,7 +273,23 @@ def _forward(starts, rstart, R, bstart, LB, dstart, LD, ldinv, s_lo, s_hi, y, ac
             t[0, i] = z
             t[1, i] = z
             t[2, i] = z
-        for a in range(w):
+        a = 0
+        while a + 4 <= w:  # four block columns per pass over t: a quarter of its loads and stores
+            c = c0 + a
+            p0, p1, p2, p3 = y[0, c], y[0, c + 1], y[0, c + 2], y[0, c + 3]
+            q0, q1, q2, q3 = y[1, c], y[1, c + 1], y[1, c + 2], y[1, c + 3]
+            u0, u1, u2, u3 = y[2, c], y[2, c + 1], y[2, c + 2], y[2, c + 3]
+            b0 = bstart[s] + a * r
+            for i in range(r):
+                v0 = LB[b0 + i]
+                v1 = LB[b0 + r + i]
+                v2 = LB[b0 + 2 * r + i]
+                v3 = LB[b0 + 3 * r + i]
+                t[0, i] += p0 * v0 + p1 * v1 + p2 * v2 + p3 * v3
+                t[1, i] += q0 * v0 + q1 * v1 + q2 * v2 + q3 * v3
+                t[2, i] += u0 * v0 + u1 * v1 + u2 * v2 + u3 * v3
+            a += 4
+        for a in range(a, w):
             y0 = y[0, c0 + a]
             y1 = y[1, c0 + a]
             y2 = y[2, c0 + a]
@@ -314,7 +330,46 @@ def _backward(starts, rstart, R, bstart, UB, dstart, UD, udinv, s_lo, s_hi, y): 
                 t[0, i] = y[0, k]
                 t[1, i] = y[1, k]
                 t[2, i] = y[2, k]
-            for a in range(w):
+            a = 0
+            while a + 4 <= w:  # four block rows per pass over the gathered values
+                b0 = bstart[s] + a * r
+                s00 = s01 = s02 = s10 = s11 = s12 = z
+                s20 = s21 = s22 = s30 = s31 = s32 = z
+                for i in range(r):
+                    g0 = t[0, i]
+                    g1 = t[1, i]
+                    g2 = t[2, i]
+                    u0 = UB[b0 + i]
+                    u1 = UB[b0 + r + i]
+                    u2 = UB[b0 + 2 * r + i]
+                    u3 = UB[b0 + 3 * r + i]
+                    s00 += u0 * g0
+                    s01 += u0 * g1
+                    s02 += u0 * g2
+                    s10 += u1 * g0
+                    s11 += u1 * g1
+                    s12 += u1 * g2
+                    s20 += u2 * g0
+                    s21 += u2 * g1
+                    s22 += u2 * g2
+                    s30 += u3 * g0
+                    s31 += u3 * g1
+                    s32 += u3 * g2
+                c = c0 + a
+                y[0, c] -= s00
+                y[1, c] -= s01
+                y[2, c] -= s02
+                y[0, c + 1] -= s10
+                y[1, c + 1] -= s11
+                y[2, c + 1] -= s12
+                y[0, c + 2] -= s20
+                y[1, c + 2] -= s21
+                y[2, c + 2] -= s22
+                y[0, c + 3] -= s30
+                y[1, c + 3] -= s31
+                y[2, c + 3] -= s32
+                a += 4
+            for a in range(a, w):
                 base = bstart[s] + a * r
                 a0 = z
                 a1 = z

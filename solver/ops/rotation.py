@@ -8,8 +8,8 @@ import numpy as np
 __all__ = ["rotate_by_log", "log_to_matrix"]
 
 
-def rotate_by_log(v: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Rotate each vector ``v_i`` about ``r_i / |r_i|`` by ``2 |r_i|``.
+def rotate_by_log(v: np.ndarray, r: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+    """Rotate each vector ``v_i`` about ``r_i / |r_i|`` by ``2 |r_i|`` (and scale it by ``scale_i``).
 
     Parameters
     ----------
@@ -17,11 +17,13 @@ def rotate_by_log(v: np.ndarray, r: np.ndarray) -> np.ndarray:
         Vectors (the mean curvature normals ``delta_i``).
     r : (k, 3) float array
         Quaternion logarithms ``r_i = (theta_i / 2) a_i`` (eq. 3.5-3.8 and ECLS eq. 24).
+    scale : (k,) float array, optional
+        Factors applied in the same pass (the scale field ``s_i`` of eq. 3.2).
 
     Returns
     -------
     (k, 3) float array
-        ``R_i v_i`` by Rodrigues' formula; ``v_i`` itself where ``r_i = 0``.
+        ``s_i R_i v_i`` by Rodrigues' formula; ``s_i v_i`` where ``r_i = 0``.
 
     Examples
     --------
@@ -32,24 +34,29 @@ def rotate_by_log(v: np.ndarray, r: np.ndarray) -> np.ndarray:
     r = np.ascontiguousarray(r, dtype=np.float64)
     out = np.empty_like(v)
     if len(v):
-        _rotate_kernel(v, r, out)
+        ones = scale is None
+        f = np.ones(1) if ones else np.ascontiguousarray(scale, dtype=np.float64)
+        if not ones and f.shape != (len(v),):
+            raise ValueError(f"rotate_by_log: scale {f.shape} does not match {len(v)} vectors")
+        _rotate_kernel(v, r, f, ones, out)
     return out
 
 
 @numba.njit(parallel=True, cache=True)
-def _rotate_kernel(v, r, out):  # pragma: no cover - compiled
+def _rotate_kernel(v, r, scale, ones, out):  # pragma: no cover - compiled
     for i in numba.prange(v.shape[0]):
+        f = 1.0 if ones else scale[i]
         half = np.sqrt(r[i, 0] ** 2 + r[i, 1] ** 2 + r[i, 2] ** 2)
         if half == 0.0:
-            out[i, 0], out[i, 1], out[i, 2] = v[i, 0], v[i, 1], v[i, 2]
+            out[i, 0], out[i, 1], out[i, 2] = f * v[i, 0], f * v[i, 1], f * v[i, 2]
             continue
         ax, ay, az = r[i, 0] / half, r[i, 1] / half, r[i, 2] / half
         c, s = np.cos(2.0 * half), np.sin(2.0 * half)
         vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
         k = (ax * vx + ay * vy + az * vz) * (1.0 - c)
-        out[i, 0] = vx * c + (ay * vz - az * vy) * s + ax * k
-        out[i, 1] = vy * c + (az * vx - ax * vz) * s + ay * k
-        out[i, 2] = vz * c + (ax * vy - ay * vx) * s + az * k
+        out[i, 0] = f * (vx * c + (ay * vz - az * vy) * s + ax * k)
+        out[i, 1] = f * (vy * c + (az * vx - ax * vz) * s + ay * k)
+        out[i, 2] = f * (vz * c + (ax * vy - ay * vx) * s + az * k)
 
 
 def log_to_matrix(r: np.ndarray) -> np.ndarray:

@@ -289,11 +289,11 @@ def _forward(starts, rstart, R, bstart, LB, dstart, LD, ldinv, s_lo, s_hi, y, ac
                 t[1, i] += q0 * v0 + q1 * v1 + q2 * v2 + q3 * v3
                 t[2, i] += u0 * v0 + u1 * v1 + u2 * v2 + u3 * v3
             a += 4
-        for a in range(a, w):
-            y0 = y[0, c0 + a]
-            y1 = y[1, c0 + a]
-            y2 = y[2, c0 + a]
-            base = bstart[s] + a * r
+        for j in range(a, w):  # the last one to three columns
+            y0 = y[0, c0 + j]
+            y1 = y[1, c0 + j]
+            y2 = y[2, c0 + j]
+            base = bstart[s] + j * r
             for i in range(r):
                 v = LB[base + i]
                 t[0, i] += y0 * v
@@ -369,8 +369,8 @@ def _backward(starts, rstart, R, bstart, UB, dstart, UD, udinv, s_lo, s_hi, y): 
                 y[1, c + 3] -= s31
                 y[2, c + 3] -= s32
                 a += 4
-            for a in range(a, w):
-                base = bstart[s] + a * r
+            for j in range(a, w):  # the last one to three rows
+                base = bstart[s] + j * r
                 a0 = z
                 a1 = z
                 a2 = z
@@ -379,9 +379,9 @@ def _backward(starts, rstart, R, bstart, UB, dstart, UD, udinv, s_lo, s_hi, y): 
                     a0 += u * t[0, i]
                     a1 += u * t[1, i]
                     a2 += u * t[2, i]
-                y[0, c0 + a] -= a0
-                y[1, c0 + a] -= a1
-                y[2, c0 + a] -= a2
+                y[0, c0 + j] -= a0
+                y[1, c0 + j] -= a1
+                y[2, c0 + j] -= a2
         for a in range(w - 1, -1, -1):
             a0 = z
             a1 = z

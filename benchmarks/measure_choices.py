@@ -26,6 +26,11 @@ Sections (all by default, or pick with --only):
                solve-phase settings changed one at a time (iparm 24, 25, no scaling and
                matching, orderings), and SuperLU in single precision; and, on the 1M bracket,
                PARDISO's orderings for a 48-column (DOE block) solve: factor entries and time.
+``supernodal`` the supernodal sweeps (``solver/linalg/supernodal.py``) against PARDISO's and
+               CHOLMOD's own solves: the interior mean-value system of the bracket at gmsh sizes
+               0.95 and 0.7 (107k tets, and a mid size; the table gives counts), single and double, two threads
+               and one, with each factorization's set-up time; the boundary position system of
+               the 107k and 1M brackets for 3, 6, 12 and 48 right-hand sides.
 ``layout``     building stacked right-hand sides: numpy's asfortranarray against the tiled
                copy of ``solver/linalg/layout.py`` (160k x 48, to float32) and back; hstack
                against tile for the boundary system's repeated rest block (40k x 16).
@@ -390,6 +395,73 @@ def interior() -> None:
         F.release()
 
 
+def supernodal() -> None:
+    import copy
+
+    from solver import precompute, read_mesh
+    from solver.linalg import factorization as fz
+    from solver.linalg import pardiso as pm
+    from solver.linalg.supernodal import cholmod_supernodal, lu_supernodal
+
+    def one_thread(f):
+        g = copy.copy(f)
+        g._split = np.zeros(2, np.int64)  # no cut: one thread sweeps every supernode
+        return g
+
+    print("Interior mean-value systems (3 right-hand sides), median [min-max] of 15 solves; set-up is one "
+          "factorization (ordering included)")
+    print("| mesh | unknowns | backend | precision | threads | set-up s | solve ms | relative residual |")
+    print("|---|---:|---|---|---:|---:|---:|---:|")
+    for size in (0.95, 0.7):
+        mesh = read_mesh(deck("bracket", size))
+        os.environ["TETMORPH_SUPERNODAL"] = "0"  # the precompute only builds the matrix; PARDISO is quicker
+        try:
+            M = precompute(mesh, end_spec(mesh)).data.positions.Mff.tocsc()
+        finally:
+            del os.environ["TETMORPH_SUPERNODAL"]
+        B = np.random.default_rng(0).standard_normal((M.shape[0], 3))
+        label = f"bracket {size} ({len(mesh.T):,} tets)"
+        for single in (True, False):
+            prec = "single" if single else "double"
+            t = time.perf_counter()
+            P = pm.PardisoFactor(M, "interior", mtype=11, single=single)
+            tp = time.perf_counter() - t
+            res = float(np.abs(M @ P.solve(B) - B).max() / np.abs(B).max())
+            ms = _median_ms(lambda P=P, B=B: P.solve(B))
+            print(f"| {label} | {M.shape[0]:,} | PARDISO | {prec} | 2 | {tp:.3f} | {ms} | {res:.1e} |", flush=True)
+            P.release()
+            t = time.perf_counter()
+            S = lu_supernodal(M, single)
+            ts = time.perf_counter() - t
+            res = float(np.abs(M @ S.solve(B) - B).max() / np.abs(B).max())
+            for f, n in ((S, S.threads), (one_thread(S), 1)):
+                print(f"| {label} | {M.shape[0]:,} | supernodal | {prec} | {n} | {ts:.3f} | "
+                      f"{_median_ms(lambda f=f, B=B: f.solve(B))} | {res:.1e} |", flush=True)
+    print("\nBoundary position systems (null-space reduced, CHOLMOD's factor exported), median [min-max] of 9 solves")
+    print("| mesh | unknowns | columns | CHOLMOD ms | supernodal ms | max difference / max |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for size in (0.95, 0.44):
+        mesh = read_mesh(deck("bracket", size))
+        os.environ["TETMORPH_SUPERNODAL"] = "0"
+        try:
+            d = precompute(mesh, end_spec(mesh))
+        finally:
+            del os.environ["TETMORPH_SUPERNODAL"]
+        chol = d.data.positions.system._f  # CHOLMOD's own factor of the reduced system
+        Lm = chol._f.L()
+        Hr = (Lm @ Lm.T).tocsc()
+        inv = np.argsort(chol._f.P())
+        S = cholmod_supernodal(chol._f, Hr[inv][:, inv])
+        del d, Lm, Hr
+        for k in (3, 6, 12, 48):
+            B = np.random.default_rng(k).standard_normal((S.shape[0], k))
+            ref = chol.solve(B)
+            diff = float(np.abs(S.solve(B) - ref).max() / np.abs(ref).max())
+            print(f"| bracket {size} | {S.shape[0]:,} | {k} | {_median_ms(lambda B=B, c=chol: c.solve(B), 9)} | "
+                  f"{_median_ms(lambda B=B, f=S: f.solve(B), 9)} | {diff:.1e} |", flush=True)
+    print(f"\n(tetmorph uses the supernodal sweeps from {fz.LU_SMALL:,} to {fz.SUPERNODAL_MAX:,} unknowns)")
+
+
 def layout() -> None:
     from solver.linalg.layout import c_copy, fortran_copy
 
@@ -485,7 +557,7 @@ def check() -> None:
 
 SECTIONS = {"orderings": orderings, "small-lu": small_lu, "penalty": penalty, "refine": refine, "midside": midside,
             "constraints": constraints, "pardiso": pardiso, "interior": interior, "layout": layout, "kernels": kernels,
-            "check": check}
+            "check": check, "supernodal": supernodal}
 
 
 def main() -> None:

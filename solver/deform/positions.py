@@ -34,7 +34,7 @@ from ..constraints.move import HandleMove, Move
 from ..constraints.spec import Spec
 from ..linalg import factorization as fz
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
-from ..linalg.products import shifted_product
+from ..linalg.products import offset_product, shifted_product
 from ..linalg.residual import block_residual, corrected
 from ..mesh import Mesh
 from .constraint_set import ConstraintSet
@@ -253,20 +253,21 @@ class SplitPositions(Positions):
             D = np.empty((cols.size, 3 * k))
             for j, P in enumerate(Ps):
                 D[:, 3 * j:3 * j + 3] = P[cols] - self._rest_coupled
-            R = np.ascontiguousarray(self.Mfb @ D)  # one sparse product for every array: (f, 3 k)
-            R.reshape(R.shape[0], k, 3)[...] += self.r0[:, None, :]  # r0 into every block (a view: no tiling)
+            R = offset_product(self.Mfb, D, self.r0)  # one threaded product for every array, r0 in each block
         dx = np.ascontiguousarray(self.interior.solve(R), dtype=np.float64)
         single = self.interior_precision == "single"
         rels: list[float | None] = [None] * k
         refined = [False] * k
         if single:  # the mean-value rows at the new positions, in double precision, per array
-            res, rn, dn = block_residual(self.Mff, R, dx, 3)
+            _, rn, dn = block_residual(self.Mff, R, dx, 3, store=False)  # norms only: refining is rare
             rel = rn / np.maximum(dn, 1e-300)  # per array: largest row residual over largest displacement
             refined = (rel > MIXED_TOL).tolist()
             if any(refined):
                 c = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
-                dx[:, c] += np.asarray(self.interior.solve(res[:, c]), dtype=np.float64)
-                _, rn, dn = block_residual(self.Mff, R, dx, 3)
+                res, _, _ = block_residual(self.Mff, R[:, c], dx[:, c], 3)
+                assert res is not None
+                dx[:, c] += self.interior.solve(res)
+                _, rn, dn = block_residual(self.Mff, R, dx, 3, store=False)
                 rel = np.where(refined, rn / np.maximum(dn, 1e-300), rel)
             rels = rel.tolist()
         out = []

@@ -101,7 +101,7 @@ class PardisoFactor:
         symmetric indefinite (LDL^T). For 2 and -2 only the upper triangle is used.
     single : bool
         Factor and solve in single precision (float32 values, right-hand sides
-        and solutions; the caller converts).
+        and solutions inside PARDISO; ``solve`` returns float64).
 
     Raises
     ------
@@ -179,7 +179,7 @@ class PardisoFactor:
         return int(err.value)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        """Solve ``A x = b`` for ``b`` of shape (n,) or (n, k); ``x`` in the factor's precision.
+        """Solve ``A x = b`` for ``b`` of shape (n,) or (n, k).
 
         Parameters
         ----------
@@ -187,7 +187,10 @@ class PardisoFactor:
 
         Returns
         -------
-        x : array of ``b``'s shape, float32 for a single-precision factor, else float64
+        x : float64 array of ``b``'s shape
+            A single-precision factor's solution carries its rounding; it is
+            widened in the copy out of PARDISO's column-major layout (one pass,
+            where a float32 result would take a second one in every caller).
         """
         shape = np.shape(b)
         B = fortran_copy(np.reshape(b, (shape[0], -1)), self.dtype)
@@ -203,7 +206,7 @@ class PardisoFactor:
         if err:
             raise FactorizationError(f"PARDISO back-substitution failed ({_ERRORS.get(err, err)})",
                                      code="factorization_failed")
-        return c_copy(X, self.dtype).reshape(shape)
+        return c_copy(X, np.float64).reshape(shape)
 
     def release(self) -> None:
         """Free PARDISO's memory for this factor (also done when the object is collected)."""

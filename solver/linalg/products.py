@@ -16,7 +16,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["gradient", "shifted_product"]
+__all__ = ["gradient", "shifted_product", "offset_product"]
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
@@ -60,6 +60,21 @@ def _shifted_rows(indptr, indices, data, cols, P, rest, r0, out):  # pragma: no 
             g = cols[j]
             for q in range(k):
                 out[i, q] += v * (P[g, q] - rest[j, q])
+
+
+@numba.njit(parallel=True, cache=True, nogil=True)
+def _offset_rows(indptr, indices, data, D, r0, out):  # pragma: no cover - compiled
+    """``out[:, block j] = r0 + M D[:, block j]`` row by row, blocks of ``r0``'s width."""
+    n, m = out.shape
+    w = r0.shape[1]
+    for i in numba.prange(n):
+        for q in range(m):
+            out[i, q] = r0[i, q % w]
+        for p in range(indptr[i], indptr[i + 1]):
+            v = data[p]
+            j = indices[p]
+            for q in range(m):
+                out[i, q] += v * D[j, q]
 
 
 def _f64(x: np.ndarray) -> np.ndarray:
@@ -127,4 +142,31 @@ def shifted_product(M: sp.csr_matrix, cols: np.ndarray, P: np.ndarray, rest: np.
                          f"r0 {r0.shape} do not agree")
     out = np.empty(r0.shape)
     _shifted_rows(M.indptr, M.indices, _f64(M.data), np.ascontiguousarray(cols, dtype=np.int64), P, rest, r0, out)
+    return out
+
+
+def offset_product(M: sp.csr_matrix, D: np.ndarray, r0: np.ndarray) -> np.ndarray:
+    """``M D`` with ``r0`` added to every block of ``r0``'s width: the stacked interior right-hand sides.
+
+    Parameters
+    ----------
+    M : (f, c) csr matrix
+    D : (c, w k) array
+    r0 : (f, w) array
+
+    Returns
+    -------
+    (f, w k) float64 array
+
+    Examples
+    --------
+    >>> M = sp.csr_matrix(np.array([[1.0, 2.0]]))
+    >>> offset_product(M, np.array([[1.0, 0.0], [1.0, 1.0]]), np.array([[0.5]])).tolist()
+    [[3.5, 2.5]]
+    """
+    D, r0 = _f64(D), _f64(r0)
+    if M.shape != (r0.shape[0], D.shape[0]) or r0.shape[1] < 1 or D.shape[1] % r0.shape[1]:
+        raise ValueError(f"offset_product: M {M.shape}, D {D.shape}, r0 {r0.shape} do not agree")
+    out = np.empty((M.shape[0], D.shape[1]))
+    _offset_rows(M.indptr, M.indices, _f64(M.data), D, r0, out)
     return out

@@ -19,7 +19,7 @@ __all__ = ["block_residual", "corrected"]
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
-def _residual_kernel(indptr, indices, data, B, X, width, R, rmax, xmax):  # pragma: no cover - compiled
+def _residual_kernel(indptr, indices, data, B, X, width, store, R, rmax, xmax):  # pragma: no cover - compiled
     n, m = B.shape
     nb = m // width
     nch = rmax.shape[0]
@@ -39,7 +39,8 @@ def _residual_kernel(indptr, indices, data, B, X, width, R, rmax, xmax):  # prag
                 r2 = 0.0
                 x2 = 0.0
                 for q in range(b * width, (b + 1) * width):
-                    R[i, q] = acc[q]
+                    if store:
+                        R[i, q] = acc[q]
                     r2 += acc[q] * acc[q]
                     x2 += X[i, q] * X[i, q]
                 if not r2 <= rmax[c, b]:  # NaN propagates: a NaN row is the largest
@@ -49,7 +50,7 @@ def _residual_kernel(indptr, indices, data, B, X, width, R, rmax, xmax):  # prag
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-def _residual3_kernel(indptr, indices, data, B, X, R, rmax, xmax):  # pragma: no cover - compiled
+def _residual3_kernel(indptr, indices, data, B, X, store, R, rmax, xmax):  # pragma: no cover - compiled
     """:func:`_residual_kernel` for one block of three columns (one update), with the sums in registers."""
     n = B.shape[0]
     nch = rmax.shape[0]
@@ -68,9 +69,10 @@ def _residual3_kernel(indptr, indices, data, B, X, R, rmax, xmax):  # pragma: no
                 a0 -= v * X[k, 0]
                 a1 -= v * X[k, 1]
                 a2 -= v * X[k, 2]
-            R[i, 0] = a0
-            R[i, 1] = a1
-            R[i, 2] = a2
+            if store:
+                R[i, 0] = a0
+                R[i, 1] = a1
+                R[i, 2] = a2
             r2 = a0 * a0 + a1 * a1 + a2 * a2
             x2 = X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1] + X[i, 2] * X[i, 2]
             if not r2 <= rm:  # NaN propagates: a NaN row is the largest
@@ -126,7 +128,7 @@ def corrected(P: np.ndarray, rows: np.ndarray, X: np.ndarray, col: int, overwrit
 
 
 def block_residual(A: sp.csr_matrix, B: np.ndarray, X: np.ndarray,
-                   width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   width: int, store: bool = True) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
     """``R = B - A X`` with the largest row norms of ``R`` and ``X`` per block of columns.
 
     Parameters
@@ -137,10 +139,12 @@ def block_residual(A: sp.csr_matrix, B: np.ndarray, X: np.ndarray,
         Converted to C-ordered float64 when it is not.
     width : int
         Columns per block; ``m`` must be a multiple of it.
+    store : bool
+        Return ``R`` (else None: only the norms, without writing an (n, m) array).
 
     Returns
     -------
-    R : (n, m) float64 array
+    R : (n, m) float64 array or None
     r : (m // width,) float array
         ``max_i |R[i, block]|``.
     x : (m // width,) float array
@@ -160,12 +164,12 @@ def block_residual(A: sp.csr_matrix, B: np.ndarray, X: np.ndarray,
     A = A.tocsr() if not sp.isspmatrix_csr(A) else A
     Bc = np.ascontiguousarray(B, dtype=np.float64)
     Xc = np.ascontiguousarray(X, dtype=np.float64)
-    R = np.empty((n, m))
+    R = np.empty((n, m) if store else (0, 0))
     nch = max(1, min(numba.get_num_threads(), n))
     rmax = np.zeros((nch, m // width))
     xmax = np.zeros((nch, m // width))
     if m == 3 and width == 3:
-        _residual3_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, R, rmax, xmax)
+        _residual3_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, store, R, rmax, xmax)
     else:
-        _residual_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, width, R, rmax, xmax)
-    return R, np.sqrt(rmax.max(axis=0)), np.sqrt(xmax.max(axis=0))
+        _residual_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, width, store, R, rmax, xmax)
+    return (R if store else None), np.sqrt(rmax.max(axis=0)), np.sqrt(xmax.max(axis=0))

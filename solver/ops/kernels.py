@@ -50,8 +50,32 @@ def compile_all() -> float:
     X = np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]])
     corner_jacobians(X, oriented(X, H, "hexahedron"), "hexahedron")
     block_residual(sp.identity(4, format="csr"), np.ones((4, 6)), np.ones((4, 6)), 3)
+    block_residual(sp.identity(4, format="csr"), np.ones((4, 3)), np.ones((4, 3)), 3)
     corrected(np.zeros((4, 3)), np.arange(4), np.ones((4, 6)), 3)
+    c_copy(fortran_copy(V, np.float32), np.float64)  # a single-precision PARDISO solution, returned in double
+    _supernodal_kernels()
     return time.perf_counter() - t0
+
+
+def _supernodal_kernels() -> None:
+    """The supernodal sweeps (both precisions, three and many columns) and the fused products."""
+    import scipy.sparse as sp
+
+    from ..linalg.products import gradient, offset_product, shifted_product
+    from ..linalg.supernodal import SupernodalFactor, lu_supernodal
+
+    n = 40
+    A = sp.csc_matrix(sp.diags([-1.0, 4.0, -1.0], [-1, 0, 1], shape=(n, n)))
+    for single in (False, True):
+        f = lu_supernodal(A, single)
+        f.solve(np.ones((n, 3)))
+        f.solve(np.ones((n, 12)))
+    L = sp.csc_matrix(sp.tril(A))
+    SupernodalFactor(L, None, np.arange(n)).solve(np.ones((n, 3)))
+    Acsr = sp.csr_matrix(A)
+    gradient(Acsr, Acsr, np.ones((n, 3)), np.ones((n, 3)))
+    shifted_product(Acsr, np.arange(n), np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)))
+    offset_product(Acsr, np.ones((n, 6)), np.ones((n, 3)))
 
 
 if __name__ == "__main__":

@@ -64,3 +64,22 @@ def test_the_report_is_plain_json(bracket):
     r = precompute(bracket, bend_spec(bracket)).solve(bend_move(bracket, angle=10.0, frac=0.01))
     assert r.report["interior_precision"] == "single"
     json.dumps(r.report, allow_nan=False)  # only Python numbers, bools and strings: no numpy scalars
+
+
+def test_a_refinement_step_brings_the_interior_closer_to_the_exact_solve(monkeypatch):
+    """With the tolerance at 0 every mixed solve refines once: its residual drops and it nears the exact solve."""
+    from solver.deform import positions
+
+    mesh = load("tet/cube_big_tetra.mesh")
+    spec = bend_spec(mesh)
+    moves = [bend_move(mesh, angle=a, frac=0.02) for a in (10.0, 20.0)]
+    exact = precompute(mesh, {**spec, "precision": "exact"})
+    d = precompute(mesh, spec)
+    plain = [d.solve(m) for m in moves]
+    monkeypatch.setattr(positions, "MIXED_TOL", 0.0)
+    refined = [d.solve(moves[0])] + list(d.solve_many(moves))  # one update, and two stacked
+    for r, p, m in zip(refined, [plain[0], *plain], [moves[0], *moves], strict=True):
+        assert r.report["interior_refined"] is True and p.report["interior_refined"] is False
+        assert r.report["mean_value_residual"] < p.report["mean_value_residual"]
+        ref = exact.solve(m).V
+        assert np.abs(r.V - ref).max() < np.abs(p.V - ref).max()

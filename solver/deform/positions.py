@@ -254,7 +254,7 @@ class SplitPositions(Positions):
             for j, P in enumerate(Ps):
                 D[:, 3 * j:3 * j + 3] = P[cols] - self._rest_coupled
             R = offset_product(self.Mfb, D, self.r0)  # one threaded product for every array, r0 in each block
-        dx = np.ascontiguousarray(self.interior.solve(R), dtype=np.float64)
+        dx = self.interior.solve(R)  # float32 from a single-precision PARDISO factor: kept, it widens exactly
         single = self.interior_precision == "single"
         rels: list[float | None] = [None] * k
         refined = [False] * k
@@ -266,6 +266,7 @@ class SplitPositions(Positions):
                 c = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
                 res, _, _ = block_residual(self.Mff, R[:, c], dx[:, c], 3)
                 assert res is not None
+                dx = np.array(dx, dtype=np.float64)  # the correction leaves float32
                 dx[:, c] += self.interior.solve(res)
                 _, rn, dn = block_residual(self.Mff, R, dx, 3, store=False)
                 rel = np.where(refined, rn / np.maximum(dn, 1e-300), rel)

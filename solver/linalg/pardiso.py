@@ -101,7 +101,7 @@ class PardisoFactor:
         symmetric indefinite (LDL^T). For 2 and -2 only the upper triangle is used.
     single : bool
         Factor and solve in single precision (float32 values, right-hand sides
-        and solutions inside PARDISO; ``solve`` returns float64).
+        and solutions; the caller converts where it needs to).
 
     Raises
     ------
@@ -187,10 +187,9 @@ class PardisoFactor:
 
         Returns
         -------
-        x : float64 array of ``b``'s shape
-            A single-precision factor's solution carries its rounding; it is
-            widened in the copy out of PARDISO's column-major layout (one pass,
-            where a float32 result would take a second one in every caller).
+        x : array of ``b``'s shape, float32 for a single-precision factor, else float64
+            (callers keep a float32 solution as it is: its values widen exactly, and a
+            stacked solve's residual then gathers half the bytes)
         """
         shape = np.shape(b)
         B = fortran_copy(np.reshape(b, (shape[0], -1)), self.dtype)
@@ -206,7 +205,7 @@ class PardisoFactor:
         if err:
             raise FactorizationError(f"PARDISO back-substitution failed ({_ERRORS.get(err, err)})",
                                      code="factorization_failed")
-        return c_copy(X, np.float64).reshape(shape)
+        return c_copy(X, self.dtype).reshape(shape)
 
     def release(self) -> None:
         """Free PARDISO's memory for this factor (also done when the object is collected)."""

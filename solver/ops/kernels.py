@@ -52,7 +52,9 @@ def compile_all() -> float:
     block_residual(sp.identity(4, format="csr"), np.ones((4, 6)), np.ones((4, 6)), 3)
     block_residual(sp.identity(4, format="csr"), np.ones((4, 3)), np.ones((4, 3)), 3)
     corrected(np.zeros((4, 3)), np.arange(4), np.ones((4, 6)), 3)
-    c_copy(fortran_copy(V, np.float32), np.float64)  # a single-precision PARDISO solution, returned in double
+    for X in (np.ones((4, 3), np.float32), np.ones((4, 6), np.float32)):  # single-precision solutions
+        block_residual(sp.identity(4, format="csr"), np.ones(X.shape), X, 3, store=False)
+        corrected(np.zeros((4, 3)), np.arange(4), X, 0)
     _supernodal_kernels()
     return time.perf_counter() - t0
 

@@ -139,8 +139,9 @@ class _Quadratic:
         x0 : (N, k) array
         d : (m, k) array
             Targets of every row (dropped rows are ignored).
-        c : (l, k) array or None
-            Least-squares right-hand side when built from ``A``.
+        c : (l, k) array, (b, l, w) array or None
+            Least-squares right-hand side when built from ``A`` (stacked: ``b`` blocks
+            of ``w`` columns, ``k = b w``, read in place by the gradient).
         refine : int
 
         Returns

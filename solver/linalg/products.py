@@ -34,6 +34,22 @@ def _residual_rows(indptr, indices, data, c, x, out):  # pragma: no cover - comp
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
+def _residual_rows_stacked(indptr, indices, data, c, x, out):  # pragma: no cover - compiled
+    """``out[:, block j] = c[j] - A x[:, block j]`` row by row, ``c`` of shape (k, l, w)."""
+    n, m = out.shape
+    k, _, w = c.shape
+    for i in numba.prange(n):
+        for j in range(k):
+            for q in range(w):
+                out[i, j * w + q] = c[j, i, q]
+        for p in range(indptr[i], indptr[i + 1]):
+            v = data[p]
+            col = indices[p]
+            for q in range(m):
+                out[i, q] -= v * x[col, q]
+
+
+@numba.njit(parallel=True, cache=True, nogil=True)
 def _product_rows(indptr, indices, data, x, out):  # pragma: no cover - compiled
     """``out = A x`` row by row."""
     n, k = out.shape
@@ -89,7 +105,9 @@ def gradient(A: sp.csr_matrix, At: sp.csr_matrix, c: np.ndarray, x: np.ndarray) 
     A : (l, N) csr matrix
     At : (N, l) csr matrix
         ``A^T`` in CSR (its rows are ``A``'s columns).
-    c : (l, k) array
+    c : (l, k) or (b, l, w) array
+        The right-hand sides; stacked as ``b`` blocks of ``w`` columns (``k = b w``)
+        they are read in place (no (l, k) copy is made of them).
     x : (N, k) array
 
     Returns
@@ -103,10 +121,15 @@ def gradient(A: sp.csr_matrix, At: sp.csr_matrix, c: np.ndarray, x: np.ndarray) 
     [1.0, 3.0]
     """
     c, x = _f64(c), _f64(x)
-    if A.shape != (c.shape[0], x.shape[0]) or At.shape != (A.shape[1], A.shape[0]) or c.shape[1:] != x.shape[1:]:
+    stacked = c.ndim == 3
+    rows, cols = (c.shape[1], c.shape[0] * c.shape[2]) if stacked else (c.shape[0], c.shape[1] if c.ndim == 2 else -1)
+    if A.shape != (rows, x.shape[0]) or At.shape != (A.shape[1], A.shape[0]) or x.ndim != 2 or cols != x.shape[1]:
         raise ValueError(f"gradient: A {A.shape}, At {At.shape}, c {c.shape}, x {x.shape} do not agree")
-    t = np.empty(c.shape)
-    _residual_rows(A.indptr, A.indices, _f64(A.data), c, x, t)
+    t = np.empty((rows, cols))
+    if stacked:
+        _residual_rows_stacked(A.indptr, A.indices, _f64(A.data), c, x, t)
+    else:
+        _residual_rows(A.indptr, A.indices, _f64(A.data), c, x, t)
     out = np.empty(x.shape)
     _product_rows(At.indptr, At.indices, _f64(At.data), t, out)
     return out

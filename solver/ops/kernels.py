@@ -76,6 +76,7 @@ def _supernodal_kernels() -> None:
     SupernodalFactor(L, None, np.arange(n)).solve(np.ones((n, 3)))
     Acsr = sp.csr_matrix(A)
     gradient(Acsr, Acsr, np.ones((n, 3)), np.ones((n, 3)))
+    gradient(Acsr, Acsr, np.ones((2, n, 3)), np.ones((n, 6)))
     shifted_product(Acsr, np.arange(n), np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)))
     offset_product(Acsr, np.ones((n, 6)), np.ones((n, 3)))
 

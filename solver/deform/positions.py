@@ -34,7 +34,7 @@ from ..constraints.move import HandleMove, Move
 from ..constraints.spec import Spec
 from ..linalg import factorization as fz
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
-from ..linalg.products import offset_product, shifted_product
+from ..linalg.products import offset_product, shifted_product, stacked_differences
 from ..linalg.residual import block_residual, corrected
 from ..mesh import Mesh
 from .constraint_set import ConstraintSet
@@ -251,9 +251,7 @@ class SplitPositions(Positions):
         if k == 1:  # one update: the product, the shift and r0 in one threaded pass
             R = shifted_product(self.Mfb, cols, Ps[0], self._rest_coupled, self.r0)
         else:
-            D = np.empty((cols.size, 3 * k))
-            for j, P in enumerate(Ps):
-                D[:, 3 * j:3 * j + 3] = P[cols] - self._rest_coupled
+            D = stacked_differences(Ps, cols, self._rest_coupled)
             R = offset_product(self.Mfb, D, self.r0)  # one threaded product for every array, r0 in each block
         dx = self.interior.solve(R)  # float32 from a single-precision PARDISO factor: kept, it widens exactly
         single = self.interior_precision == "single"

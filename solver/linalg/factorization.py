@@ -139,11 +139,12 @@ LU_SMALL = 5_000
 
 #: Systems from ``LU_SMALL`` up to this size are back-substituted by tetmorph's own dense
 #: supernode sweeps (:mod:`solver.linalg.supernodal`): square mean-value systems factored by
-#: SuperLU without pivoting on a METIS ordering, symmetric ones by CHOLMOD (its ``L`` exported).
-#: At the 107k-tet bracket's interior (12,892 unknowns) the sweeps take 1.3 ms against PARDISO's
-#: 4.8, and at its boundary system (8,160) 0.8 ms against CHOLMOD's 1.4; on the 1M meshes'
-#: interior (144k unknowns) PARDISO stays, its solve near its memory-traffic floor, and SuperLU's
-#: factorization would be far slower (benchmarks/measure_choices.py --only supernodal).
+#: SuperLU without pivoting on a METIS ordering, and the boundary position system (CHOLMOD's
+#: ``L`` exported). Interior solves of 3 columns: 12,892 unknowns (107k-tet bracket) 1.2 ms against
+#: PARDISO's 5.0, 33,643 (259k tets) 4.5 against 14.6; their factorization costs more (0.27-0.29
+#: against 0.07 s, and 0.9-1.5 against 0.2-0.24 s), which set-up hides on a second thread at 107k.
+#: The 1M meshes' interior (144k unknowns) stays with PARDISO, whose solve is near its
+#: memory-traffic floor there (benchmarks/measure_choices.py --only supernodal).
 #: ``TETMORPH_SUPERNODAL=0`` keeps PARDISO and CHOLMOD at every size.
 SUPERNODAL_MAX = 40_000
 

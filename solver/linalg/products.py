@@ -16,7 +16,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["gradient", "shifted_product", "offset_product"]
+__all__ = ["gradient", "shifted_product", "offset_product", "stacked_differences"]
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
@@ -91,6 +91,16 @@ def _offset_rows(indptr, indices, data, D, r0, out):  # pragma: no cover - compi
             j = indices[p]
             for q in range(m):
                 out[i, q] += v * D[j, q]
+
+
+@numba.njit(parallel=True, cache=True, nogil=True)
+def _differences_into(P, cols, rest, D, col):  # pragma: no cover - compiled
+    """``D[:, col:col + w] = P[cols] - rest``."""
+    w = rest.shape[1]
+    for i in numba.prange(cols.shape[0]):
+        g = cols[i]
+        for q in range(w):
+            D[i, col + q] = P[g, q] - rest[i, q]
 
 
 def _f64(x: np.ndarray) -> np.ndarray:
@@ -193,3 +203,24 @@ def offset_product(M: sp.csr_matrix, D: np.ndarray, r0: np.ndarray) -> np.ndarra
     out = np.empty((M.shape[0], D.shape[1]))
     _offset_rows(M.indptr, M.indices, _f64(M.data), D, r0, out)
     return out
+
+
+def stacked_differences(Ps: list[np.ndarray], cols: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """``[P_1[cols] - rest, P_2[cols] - rest, ...]`` side by side: (c, w k) for k arrays ``P_j`` (n, w).
+
+    Examples
+    --------
+    >>> P = np.array([[1.0], [2.0], [4.0]])
+    >>> stacked_differences([P, 2 * P], np.array([2, 0]), np.array([[1.0], [1.0]])).tolist()
+    [[3.0, 7.0], [0.0, 1.0]]
+    """
+    rest = _f64(rest)
+    c = np.ascontiguousarray(cols, dtype=np.int64)
+    w = rest.shape[1]
+    if rest.shape[0] != c.size or any(P.ndim != 2 or P.shape[1] != w for P in Ps):
+        raise ValueError(f"stacked_differences: {c.size} cols, rest {rest.shape}, arrays "
+                         f"{[P.shape for P in Ps][:3]} do not agree")
+    D = np.empty((c.size, w * len(Ps)))
+    for j, P in enumerate(Ps):
+        _differences_into(_f64(P), c, rest, D, w * j)
+    return D

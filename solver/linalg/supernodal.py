@@ -1,4 +1,4 @@
-"""Supernodal back-substitution over an exported LU factor, for mean-value systems up to medium size.
+"""Supernodal back-substitution over an exported LU or Cholesky factor, for systems up to medium size.
 
 A factor is cut into supernodes: runs of consecutive columns ``c0..c1-1`` of
 ``L`` that share one row pattern ``R`` below their diagonal block (and, the
@@ -12,21 +12,28 @@ once per supernode: forward, ``y[R] -= L[R, c] y[c]`` as three axpys into a
 dense buffer scattered once; backward, ``y[c] -= U[c, R] y[R]`` as dot
 products over a buffer gathered once.
 
-Why not PARDISO's own solve: at the size of the 107k-tet bracket's interior
-(12,892 unknowns, 2.8M factor entries, three right-hand sides) PARDISO's
-phase 33 takes about 5 ms in single or double precision, on one thread or
-two, whatever its solve settings -- several times the bytes it reads at this
-machine's bandwidth -- and the sweeps here less than half of that
-(``benchmarks/measure_choices.py --only supernodal``). The 1M meshes' factors
-stay with PARDISO, whose solve is near its memory-traffic floor there and
-uses both cores (:data:`~solver.linalg.factorization.SUPERNODAL_MAX`).
+Why not PARDISO's or CHOLMOD's own solve: at the 107k-tet bracket's interior
+(12,892 unknowns, three right-hand sides) PARDISO's phase 33 takes 5.0 ms in
+single precision whatever its solve settings, the sweeps here 1.2 ms on two
+threads (2.2 on one); at its boundary system (8,160 unknowns) CHOLMOD takes
+1.3 ms, the sweeps 0.7 (``benchmarks/measure_choices.py --only supernodal``).
+The two-thread split is the elimination tree's: the two subtrees under the
+top separator are swept at once and their updates of the top summed after.
+The 1M meshes' interior (144k unknowns) stays with PARDISO: SuperLU's
+factorization grows much faster than PARDISO's (33,643 unknowns: 0.9-1.5 s
+against 0.2 s) (:data:`~solver.linalg.factorization.SUPERNODAL_MAX`).
 
-The factor comes from SuperLU without pivoting on PARDISO's METIS ordering:
-the mean-value systems are diagonally dominant (every row is ``1`` on the
-diagonal and minus convex weights elsewhere). A factor that needed a row
+An LU factor comes from SuperLU without pivoting on PARDISO's METIS
+ordering (:func:`lu_supernodal`): the mean-value systems are diagonally
+dominant (every row is ``1`` on the diagonal and minus convex weights
+elsewhere). A Cholesky factor is CHOLMOD's ``L`` (:func:`cholmod_supernodal`;
+``U = L^T`` shares its off-diagonal blocks). A factor that needed a row
 exchange, whose pattern is not structurally symmetric, or whose probe solve
 misses a backward error of :data:`PROBE_TOL` is refused with
-:class:`Unsuitable`, and the caller falls back to PARDISO, which pivots.
+:class:`Unsuitable`, and the caller keeps PARDISO (which pivots) or CHOLMOD.
+
+Many right-hand sides (a DOE block) are swept together, each factor entry
+read once for all of them (:data:`GROUPED_COLUMNS`).
 
 Every solve allocates its own work arrays: one factor serves concurrent
 solves without a lock.
@@ -41,9 +48,9 @@ import scipy.sparse as sp
 __all__ = ["SupernodalFactor", "Unsuitable", "supernode_starts", "tree_split", "lu_supernodal", "cholmod_supernodal"]
 
 #: Up to this many right-hand sides a solve sweeps three at a time; beyond, one sweep takes all of
-#: them (each factor entry read once). The 1M bracket's boundary system (37,142 unknowns): three
-#: columns 4.8 ms, six 9.5 ms as two sweeps and 22 ms in one; 48 columns 45 ms in one sweep
-#: (CHOLMOD: 7.9, 13.1 and 86 ms; benchmarks/measure_choices.py --only supernodal).
+#: them (each factor entry read once). The 1M bracket's boundary system (37,142 unknowns): 3 columns
+#: 4.4 ms, 6 (two sweeps) 9.2, 12 (one) 21.0, 48 (one) 54.2 ms; CHOLMOD's solve 8.8, 13.0, 25.1 and
+#: 88.1 ms (``benchmarks/measure_choices.py --only supernodal``).
 GROUPED_COLUMNS = 9
 #: Normwise backward error a probe solve (in double precision) must meet at set-up.
 PROBE_TOL = 1e-12

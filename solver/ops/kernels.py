@@ -63,7 +63,7 @@ def _supernodal_kernels() -> None:
     """The supernodal sweeps (both precisions, three and many columns) and the fused products."""
     import scipy.sparse as sp
 
-    from ..linalg.products import gradient, offset_product, shifted_product
+    from ..linalg.products import gradient, offset_product, shifted_product, stacked_differences
     from ..linalg.supernodal import SupernodalFactor, lu_supernodal
 
     n = 40
@@ -79,6 +79,7 @@ def _supernodal_kernels() -> None:
     gradient(Acsr, Acsr, np.ones((2, n, 3)), np.ones((n, 6)))
     shifted_product(Acsr, np.arange(n), np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)))
     offset_product(Acsr, np.ones((n, 6)), np.ones((n, 3)))
+    stacked_differences([np.ones((n, 3))] * 2, np.arange(n), np.ones((n, 3)))
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ import pytest
 import scipy.sparse as sp
 
 from solver import precompute
-from solver.linalg.products import gradient, offset_product, shifted_product
+from solver.linalg.products import gradient, offset_product, shifted_product, stacked_differences
 from tests.conftest import bend_spec, load
 
 
@@ -39,7 +39,9 @@ def test_interior_products_match_scipy(systems):
     ref = pos.Mfb @ D + pos.r0
     got = shifted_product(pos.Mfb, pos.coupled, P, pos.rest_coupled, pos.r0)
     assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max()
-    D2 = np.hstack([D, 2 * D])
+    P2 = P + 1.0
+    D2 = np.hstack([D, P2[pos.coupled] - pos.rest_coupled])
+    assert np.array_equal(stacked_differences([P, P2], pos.coupled, pos.rest_coupled), D2)
     ref2 = pos.Mfb @ D2 + np.tile(pos.r0, (1, 2))
     assert np.abs(offset_product(pos.Mfb, D2, pos.r0) - ref2).max() <= 1e-12 * np.abs(ref2).max()
 

@@ -28,8 +28,9 @@ ordering (:func:`lu_supernodal`): the mean-value systems are diagonally
 dominant (every row is ``1`` on the diagonal and minus convex weights
 elsewhere). A Cholesky factor is CHOLMOD's ``L`` (:func:`cholmod_supernodal`;
 ``U = L^T`` shares its off-diagonal blocks). A factor that needed a row
-exchange, whose pattern is not structurally symmetric, or whose probe solve
-misses a backward error of :data:`PROBE_TOL` is refused with
+exchange, that holds an entry of ``U`` outside the pattern of ``L^T`` or lacks
+a diagonal entry, or whose probe solve misses a backward error of
+:data:`PROBE_TOL` is refused with
 :class:`Unsuitable`, and the caller keeps PARDISO (which pivots) or CHOLMOD.
 
 Many right-hand sides (a DOE block) are swept together, each factor entry
@@ -109,8 +110,9 @@ def tree_split(first: np.ndarray, work: np.ndarray) -> tuple[int, int]:
 
     ``[0, m1)`` and ``[m1, m2)`` are unions of whole subtrees of the elimination
     tree, balanced by ``work``; ``[m2, n)`` is the chain above them (for a
-    nested-dissection order, the top separator). Their columns never update each
-    other, only the chain's. ``(0, 0)`` when the order does not lay subtrees out
+    nested-dissection order, the top separator). For a complete symbolic pattern
+    their columns never update each other, only the chain's (the caller checks
+    the stored pattern, which may lack dropped zeros). ``(0, 0)`` when the order does not lay subtrees out
     as contiguous ranges (one thread then sweeps everything).
 
     Parameters
@@ -157,18 +159,21 @@ def tree_split(first: np.ndarray, work: np.ndarray) -> tuple[int, int]:
 
 @numba.njit(cache=True, nogil=True)
 def _column_stats(Lp, Li):  # pragma: no cover - compiled
-    """First row below the diagonal of every column (-1 when none); rows need not be sorted."""
+    """First row below the diagonal of every column (-1 when none) and how many rows lie below it."""
     n = Lp.shape[0] - 1
     first = np.full(n, -1, np.int64)
+    below = np.zeros(n, np.int64)
     for c in range(n):
         m = n
         for p in range(Lp[c], Lp[c + 1]):
             r = Li[p]
-            if c < r < m:
-                m = r
+            if r > c:
+                below[c] += 1
+                if r < m:
+                    m = r
         if m < n:
             first[c] = m
-    return first
+    return first, below
 
 
 @numba.njit(cache=True, nogil=True)
@@ -556,7 +561,9 @@ def _scatter(y, perm, X):  # pragma: no cover - compiled
 class SupernodalFactor:
     """``A[perm][:, perm] = L U`` held as dense supernode blocks; ``solve`` back-substitutes.
 
-    Build with :func:`lu_supernodal`.
+    Build with :func:`lu_supernodal` or :func:`cholmod_supernodal`. Two threads
+    sweep when :func:`tree_split` finds two subtrees and no stored entry of the
+    first reaches into the second (``threads``).
 
     Parameters
     ----------
@@ -573,14 +580,15 @@ class SupernodalFactor:
     Raises
     ------
     Unsuitable
-        An entry of ``U`` lies outside the pattern of ``L^T`` (not structurally
-        symmetric), or a diagonal entry is zero.
+        An entry of ``U`` lies outside the pattern of ``L^T``, or a diagonal
+        entry is zero or missing.
 
     Attributes
     ----------
     supernodes : int
     nnz : int
-        Entries held in the blocks (explicit zeros of the diagonal blocks included).
+        Entries the sweeps read: both off-diagonal blocks and both full diagonal
+        blocks of every supernode (a Cholesky factor's shared block counted twice).
     nbytes : int
     """
 
@@ -593,19 +601,25 @@ class SupernodalFactor:
         self.dtype = np.float32 if single else np.float64
         self._perm = np.ascontiguousarray(perm, dtype=np.int64)
         Lp, Li = L.indptr.astype(np.int64), L.indices.astype(np.int64)
-        first = _column_stats(Lp, Li)
+        first, below = _column_stats(Lp, Li)
         m1, m2 = tree_split(first, np.diff(Lp))
         starts = supernode_starts(Lp, first, (m1, m2))
-        self._split = np.searchsorted(starts, [m1, m2]).astype(np.int64)
-        self.threads = 2 if 0 < m1 < m2 else 1
         last = starts[1:] - 1
-        r = Lp[last + 1] - Lp[last] - 1  # rows below a supernode's block
+        r = below[last]  # rows below a supernode's block
         w = np.diff(starts)
         rstart = np.r_[0, np.cumsum(r)].astype(np.int64)
         bstart = np.r_[0, np.cumsum(r * w)].astype(np.int64)
         dstart = np.r_[0, np.cumsum(w * w)].astype(np.int64)
         R = np.empty(rstart[-1], np.int64)
         _rows_below(starts, Lp, Li, rstart, R)
+        split = np.searchsorted(starts, [m1, m2]).astype(np.int64)
+        # The tree comes from the stored pattern; an exported factor may have dropped exact zeros, so a
+        # column of the first part could still reach into the second. Two threads only when none does.
+        first_part = R[:rstart[split[0]]]
+        if not (0 < m1 < m2) or np.any((first_part >= m1) & (first_part < m2)):
+            split = np.zeros(2, np.int64)
+        self._split = split
+        self.threads = 2 if split[0] > 0 else 1
         triangles = [(Lp, Li, L.data.astype(np.float64))]
         if U is not None:
             triangles.append(_transpose(U.indptr.astype(np.int64), U.indices.astype(np.int64),
@@ -616,7 +630,10 @@ class SupernodalFactor:
             D = np.zeros(dstart[-1])
             dinv = np.zeros(n)
             if not _fill(starts, Mp, Mi, Mx, j == 0, rstart, R, bstart, dstart, B, D, dinv):
-                raise Unsuitable("the factor's pattern does not fit its supernodes (not structurally symmetric)")
+                raise Unsuitable("the factor's pattern does not fit its supernodes (an entry of U outside "
+                                 "the pattern of L^T, or a zero on the diagonal)")
+            if not np.all(dinv != 0.0):
+                raise Unsuitable(f"the factor has no diagonal entry in {int(np.sum(dinv == 0.0))} columns")
             blocks += [B, D, dinv]
         if U is None:  # Cholesky, U = L^T: the same off-diagonal blocks, the diagonal blocks transposed
             LB, LD, ldinv = blocks
@@ -700,9 +717,10 @@ def lu_supernodal(A: sp.spmatrix, single: bool = False) -> SupernodalFactor:
 
     The ordering is PARDISO's METIS nested dissection of the symmetrized
     pattern (:func:`~solver.linalg.pardiso.nested_dissection`); SuperLU factors
-    the ordered matrix in its natural order with diagonal pivots only. Every
-    step but two short scipy conversions runs without the GIL, so the
-    factorization overlaps Python work on another thread.
+    the ordered matrix in its natural order with diagonal pivots only. The
+    ordering (a ctypes call) and the factorization release the GIL, so most of
+    the work overlaps Python work on another thread; the exports, the layout's
+    numpy steps and the probe's product do not.
 
     Parameters
     ----------

@@ -63,13 +63,17 @@ def _supernodal_kernels() -> None:
     """The supernodal sweeps (both precisions, three and many columns) and the fused products."""
     import scipy.sparse as sp
 
+    from ..errors import FactorizationError
     from ..linalg.products import gradient, offset_product, shifted_product, stacked_differences
     from ..linalg.supernodal import SupernodalFactor, lu_supernodal
 
     n = 40
     A = sp.csc_matrix(sp.diags([-1.0, 4.0, -1.0], [-1, 0, 1], shape=(n, n)))
     for single in (False, True):
-        f = lu_supernodal(A, single)
+        try:
+            f = lu_supernodal(A, single)
+        except FactorizationError:  # no MKL for the ordering: the LU path is not used either
+            break
         f.solve(np.ones((n, 3)))
         f.solve(np.ones((n, 12)))
     L = sp.csc_matrix(sp.tril(A))

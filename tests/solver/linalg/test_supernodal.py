@@ -142,3 +142,23 @@ def test_interior_backend_choice_leaves_positions_unchanged(monkeypatch):
     assert disp > 0
     assert np.abs(a.V - b.V).max() <= 1e-9 * disp
     assert a.report["inverted_elements"] == b.report["inverted_elements"]
+
+
+def test_a_factor_with_dropped_zeros_is_swept_on_one_thread():
+    """An exported L without the fill its tree implies must not be split: a column would reach the other part."""
+    Ld = np.eye(4)
+    Ld[1, 0] = Ld[2, 0] = Ld[3, 0] = Ld[3, 1] = Ld[3, 2] = 1.0
+    A = sp.csc_matrix(2.0 * Ld)  # L's column 1 reaches row 3 but not row 2, so the tree misses an edge
+    lu = spla.splu(A, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    f = SupernodalFactor(lu.L, lu.U, np.arange(4))
+    rng = np.random.default_rng(0)
+    for _ in range(300):  # a race shows up in a fraction of the solves
+        b = rng.standard_normal((4, 3))
+        assert np.abs(f.solve(b) - np.linalg.solve(A.toarray(), b)).max() <= 1e-12
+
+
+def test_a_factor_without_a_diagonal_entry_is_refused():
+    L = sp.csc_matrix(np.array([[1.0, 0.0], [1.0, 0.0]]))  # column 1 has no diagonal entry
+    U = sp.csc_matrix(np.array([[2.0, 1.0], [0.0, 0.0]]))
+    with pytest.raises(Unsuitable):
+        SupernodalFactor(L, U, np.arange(2))

@@ -32,6 +32,12 @@ The process sets the allocator up as ``tetmorph doe`` does
 (``solver/workflows/batch_memory.py``; ``TETMORPH_BATCH_MALLOC=0`` keeps
 glibc's defaults, which is how a service session's batch runs).
 
+With ``--oneshot N`` each block size of more than 2 rows also runs N times in
+a fresh process of its own that sets the allocator up, reads the mesh, makes
+one precompute and one ``run_doe`` of the plan, as one ``tetmorph doe``
+invocation does (its first block pays for its allocations and PARDISO's work
+space); the ratio is to the median single update of the main process.
+
 With ``--components B`` it also prints where one variant's time goes in a
 stacked solve of ``B`` rows against a single update (median of 3, per
 variant): the right-hand sides, the interior back-substitution (3 columns
@@ -41,7 +47,7 @@ stacked positions and the stacked updates; then a profile of one stacked
 ``solve_many`` by each function's own time.
 
     python benchmarks/bench_doe.py [--sizes 0.95,0.44] [--blocks 1,4,16,64] [--rows 64] [--repeats 3]
-                                   [--components 16] [--fresh]
+                                   [--components 16] [--fresh] [--oneshot 3]
 """
 
 from __future__ import annotations
@@ -76,7 +82,49 @@ def spread(v: list[float], fmt: str = ".1f") -> str:
     return f"{np.median(v):{fmt}} [{min(v):{fmt}}-{max(v):{fmt}}]"
 
 
-def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int, fresh: bool = False) -> None:
+def oneshot_case(size: float, block: int, rows: int) -> dict:
+    """One `tetmorph doe`-like process: allocator set, mesh read, one precompute, one `run_doe` of the plan."""
+    from solver import precompute, read_mesh
+    from solver.workflows import parse_plan, parse_shapes, run_doe
+    from solver.workflows.batch_memory import keep_freed_memory
+
+    keep_freed_memory()
+    mesh = read_mesh(bracket_deck(size))
+    d = precompute(mesh, {"selections": {"bottom": {"set": "FIXED"}, "top": {"set": "LOAD"}},
+                          "fixed": ["bottom"], "handles": {"top": "top"}})
+    shapes = parse_shapes(SHAPES, d)
+    values = np.random.default_rng(0).uniform(-1, 1, (rows, shapes.count))  # the plan of run()
+    plan = parse_plan([dict(zip(shapes.names, r, strict=True)) for r in values.tolist()])
+    t = time.perf_counter()
+    res = run_doe(d, shapes, plan, block=block)
+    wall = 1e3 * (time.perf_counter() - t) - res.timings["output_ms"]
+    return {"per_variant_ms": wall / rows, "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20}
+
+
+def oneshot(size: float, blocks: list[int], rows: int, repeats: int, single_ms: list[float]) -> None:
+    """Each block size in fresh processes (the first block's allocations and work space included)."""
+    import json
+    import subprocess
+
+    s = float(np.median(single_ms))
+    print(f"\none-shot processes ({repeats} per block size, alternating), against the single update's median "
+          f"{s:.1f} ms above")
+    print("| case | wall ms per variant, median [min-max] | wall / single update | peak RSS GB |")
+    print("|---|---:|---:|---:|")
+    got: dict[int, list[dict]] = {b: [] for b in blocks}
+    for _ in range(repeats):
+        for b in blocks:
+            out = subprocess.run([sys.executable, __file__, "--oneshot-case", f"{size:g}:{b}:{rows}"],
+                                 capture_output=True, text=True, check=True)
+            got[b].append(json.loads(out.stdout.strip().splitlines()[-1]))
+    for b in blocks:
+        per = [r["per_variant_ms"] for r in got[b]]
+        print(f"| doe, block {b}, one-shot process | {spread(per)} | {spread([p / s for p in per], '.2f')} | "
+              f"{max(r['peak_rss_gb'] for r in got[b]):.2f} |")
+
+
+def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int,
+        fresh: bool = False) -> list[float]:
     from solver import precompute, read_mesh
     from solver.workflows import parse_plan, parse_shapes, run_doe, variant_move
 
@@ -158,6 +206,7 @@ def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int, f
     for b in f_blocks if fd is not None else []:
         print(f"| doe, block {b}, own factor (as `tetmorph doe`) | {spread(f_per[b])} | {spread(f_ratio[b], '.2f')} "
               "| | |")
+    return single
 
 
 def timed(f, n: int = 3) -> tuple[float, float]:
@@ -231,13 +280,25 @@ def main() -> None:
     ap.add_argument("--components", type=int, default=0, help="also print the cost breakdown for this block size")
     ap.add_argument("--fresh", action="store_true", help="also run each block size (> 2 rows) on a second "
                     "precompute that makes only stacked solves, as a `tetmorph doe` process does")
+    ap.add_argument("--oneshot", type=int, default=0, metavar="N",
+                    help="also run each block size N times in a fresh process of its own (one precompute, one DOE)")
+    ap.add_argument("--oneshot-case", help=argparse.SUPPRESS)
     a = ap.parse_args()
+    if a.oneshot_case:
+        import json
+
+        size_s, block_s, rows_s = a.oneshot_case.split(":")
+        print(json.dumps(oneshot_case(float(size_s), int(block_s), int(rows_s))))
+        return
     from solver.workflows.batch_memory import keep_freed_memory
 
     # as `tetmorph doe` and a Ray actor do (TETMORPH_BATCH_MALLOC=0: glibc's defaults)
     print("allocator:", "keeps freed memory (batch process)" if keep_freed_memory() else "glibc defaults")
     for size in (float(s) for s in a.sizes.split(",")):
-        run(size, [int(b) for b in a.blocks.split(",")], a.rows, a.singles, a.repeats, a.fresh)
+        blocks = [int(b) for b in a.blocks.split(",")]
+        single = run(size, blocks, a.rows, a.singles, a.repeats, a.fresh)
+        if a.oneshot:
+            oneshot(size, [b for b in blocks if b > 2], a.rows, a.oneshot, single)
         if a.components:
             components(size, a.components)
 

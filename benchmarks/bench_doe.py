@@ -98,7 +98,10 @@ def oneshot_case(size: float, block: int, rows: int) -> dict:
     t = time.perf_counter()
     res = run_doe(d, shapes, plan, block=block)
     wall = 1e3 * (time.perf_counter() - t) - res.timings["output_ms"]
-    return {"per_variant_ms": wall / rows, "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20}
+    # VmHWM: this process's own peak (ru_maxrss would carry the parent's across fork and exec)
+    hwm = next(int(line.split()[1]) for line in Path("/proc/self/status").read_text().splitlines()
+               if line.startswith("VmHWM:"))
+    return {"per_variant_ms": wall / rows, "peak_rss_gb": hwm / 2**20}
 
 
 def oneshot(size: float, blocks: list[int], rows: int, repeats: int, single_ms: list[float]) -> None:

@@ -429,6 +429,10 @@ def _sweep3(starts, rstart, R, bstart, LB, UB, dstart, LD, UD, ldinv, udinv, spl
     """
     n = y.shape[1]
     ns = starts.shape[0] - 1
+    if split[0] == 0:  # no cut: one thread, no buffers for the top
+        _forward(starts, rstart, R, bstart, LB, dstart, LD, ldinv, 0, ns, y, np.zeros((3, 0), y.dtype), n)
+        _backward(starts, rstart, R, bstart, UB, dstart, UD, udinv, 0, ns, y)
+        return
     top = starts[split[1]]
     acc = np.zeros((2, 3, n - top), y.dtype)
     for part in numba.prange(2):
@@ -512,6 +516,10 @@ def _sweep_wide(starts, rstart, R, bstart, LB, UB, dstart, LD, UD, ldinv, udinv,
     """:func:`_sweep3` for ``y`` of shape (n, k), any k."""
     n, k = y.shape
     ns = starts.shape[0] - 1
+    if split[0] == 0:  # no cut: one thread, no buffers for the top
+        _forward_wide(starts, rstart, R, bstart, LB, dstart, LD, ldinv, 0, ns, y, np.zeros((0, k), y.dtype), n)
+        _backward_wide(starts, rstart, R, bstart, UB, dstart, UD, udinv, 0, ns, y)
+        return
     top = starts[split[1]]
     acc = np.zeros((2, n - top, k), y.dtype)
     for part in numba.prange(2):

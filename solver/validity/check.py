@@ -274,8 +274,9 @@ class ElementCheck:
         if flat is not None and len(flat):
             is_flat[np.asarray(flat, np.int64)] = True
         self.rest_flat = is_flat if is_flat.any() else None
-        if self.rest_flat is not None and not self.cells and self.T10 is None:
-            self._flat_sorted = np.ascontiguousarray(self.rest_flat[self.order])
+        if not self.cells and self.T10 is None:  # kept: no per-check flag array (all False when none is flat)
+            flat_rest = self.rest_flat if self.rest_flat is not None else np.zeros(len(self.T), bool)
+            self._flat_sorted = np.ascontiguousarray(flat_rest[self.order])
         #: Elements flat at rest (zero volume), reported apart from what a morph inverts.
         self.degenerate_at_rest = np.flatnonzero(is_flat)
         self.sj_before = (rest.min_sj, rest.p01_sj)

@@ -20,20 +20,6 @@ __all__ = ["gradient", "shifted_product", "offset_product", "stacked_differences
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
-def _residual_rows(indptr, indices, data, c, x, out):  # pragma: no cover - compiled
-    """``out = c - A x`` row by row."""
-    n, k = out.shape
-    for i in numba.prange(n):
-        for q in range(k):
-            out[i, q] = c[i, q]
-        for p in range(indptr[i], indptr[i + 1]):
-            v = data[p]
-            j = indices[p]
-            for q in range(k):
-                out[i, q] -= v * x[j, q]
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
 def _residual_rows_stacked(indptr, indices, data, c, x, out):  # pragma: no cover - compiled
     """``out[:, block j] = c[j] - A x[:, block j]`` row by row, ``c`` of shape (k, l, w)."""
     n, m = out.shape
@@ -136,10 +122,7 @@ def gradient(A: sp.csr_matrix, At: sp.csr_matrix, c: np.ndarray, x: np.ndarray) 
     if A.shape != (rows, x.shape[0]) or At.shape != (A.shape[1], A.shape[0]) or x.ndim != 2 or cols != x.shape[1]:
         raise ValueError(f"gradient: A {A.shape}, At {At.shape}, c {c.shape}, x {x.shape} do not agree")
     t = np.empty((rows, cols))
-    if stacked:
-        _residual_rows_stacked(A.indptr, A.indices, _f64(A.data), c, x, t)
-    else:
-        _residual_rows(A.indptr, A.indices, _f64(A.data), c, x, t)
+    _residual_rows_stacked(A.indptr, A.indices, _f64(A.data), c if stacked else c[None], x, t)
     out = np.empty(x.shape)
     _product_rows(At.indptr, At.indices, _f64(At.data), t, out)
     return out

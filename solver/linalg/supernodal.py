@@ -252,6 +252,39 @@ def _fill(starts, Lp, Li, Lx, lower, rstart, R, bstart, dstart, B, D, dinv):  # 
     return True
 
 
+@numba.njit(cache=True, nogil=True, inline="always", fastmath=True, boundscheck=False)
+def _diag_row3(D, base, lo, hi, g, c0, a, y):  # pragma: no cover - compiled
+    """Row ``a`` of a diagonal block: ``y[:, c0 + a] = (y[:, c0 + a] - D[a, lo:hi] y[:, c0 + lo:c0 + hi]) g``.
+
+    ``y`` of shape (3, n); the forward sweep takes ``[0, a)`` of the lower block, the backward
+    ``(a, w)`` of the upper one.
+    """
+    z = y.dtype.type(0.0)
+    a0 = z
+    a1 = z
+    a2 = z
+    for e in range(lo, hi):
+        v = D[base + e]
+        a0 += v * y[0, c0 + e]
+        a1 += v * y[1, c0 + e]
+        a2 += v * y[2, c0 + e]
+    y[0, c0 + a] = (y[0, c0 + a] - a0) * g
+    y[1, c0 + a] = (y[1, c0 + a] - a1) * g
+    y[2, c0 + a] = (y[2, c0 + a] - a2) * g
+
+
+@numba.njit(cache=True, nogil=True, inline="always", fastmath=True, boundscheck=False)
+def _diag_row(D, base, lo, hi, g, c0, a, y):  # pragma: no cover - compiled
+    """:func:`_diag_row3` for ``y`` of shape (n, k)."""
+    k = y.shape[1]
+    for e in range(lo, hi):
+        v = D[base + e]
+        for q in range(k):
+            y[c0 + a, q] -= v * y[c0 + e, q]
+    for q in range(k):
+        y[c0 + a, q] *= g
+
+
 @numba.njit(cache=True, nogil=True, fastmath=True, boundscheck=False)
 def _forward(starts, rstart, R, bstart, LB, dstart, LD, ldinv, s_lo, s_hi, y, acc, top):  # pragma: no cover
     """``y <- L^{-1} y`` over supernodes ``s_lo..s_hi-1``; updates of columns ``>= top`` go to ``acc`` instead."""
@@ -266,19 +299,7 @@ def _forward(starts, rstart, R, bstart, LB, dstart, LD, ldinv, s_lo, s_hi, y, ac
         r0 = rstart[s]
         r = rstart[s + 1] - r0
         for a in range(w):
-            a0 = z
-            a1 = z
-            a2 = z
-            base = dstart[s] + a * w
-            for e in range(a):
-                v = LD[base + e]
-                a0 += v * y[0, c0 + e]
-                a1 += v * y[1, c0 + e]
-                a2 += v * y[2, c0 + e]
-            g = ldinv[c0 + a]
-            y[0, c0 + a] = (y[0, c0 + a] - a0) * g
-            y[1, c0 + a] = (y[1, c0 + a] - a1) * g
-            y[2, c0 + a] = (y[2, c0 + a] - a2) * g
+            _diag_row3(LD, dstart[s] + a * w, 0, a, ldinv[c0 + a], c0, a, y)
         if r == 0:
             continue
         for i in range(r):
@@ -395,19 +416,7 @@ def _backward(starts, rstart, R, bstart, UB, dstart, UD, udinv, s_lo, s_hi, y): 
                 y[1, c0 + j] -= a1
                 y[2, c0 + j] -= a2
         for a in range(w - 1, -1, -1):
-            a0 = z
-            a1 = z
-            a2 = z
-            base = dstart[s] + a * w
-            for e in range(a + 1, w):
-                v = UD[base + e]
-                a0 += v * y[0, c0 + e]
-                a1 += v * y[1, c0 + e]
-                a2 += v * y[2, c0 + e]
-            g = udinv[c0 + a]
-            y[0, c0 + a] = (y[0, c0 + a] - a0) * g
-            y[1, c0 + a] = (y[1, c0 + a] - a1) * g
-            y[2, c0 + a] = (y[2, c0 + a] - a2) * g
+            _diag_row3(UD, dstart[s] + a * w, a + 1, w, udinv[c0 + a], c0, a, y)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -458,14 +467,7 @@ def _forward_wide(starts, rstart, R, bstart, LB, dstart, LD, ldinv, s_lo, s_hi, 
         r0 = rstart[s]
         r = rstart[s + 1] - r0
         for a in range(w):
-            base = dstart[s] + a * w
-            for e in range(a):
-                v = LD[base + e]
-                for q in range(k):
-                    y[c0 + a, q] -= v * y[c0 + e, q]
-            g = ldinv[c0 + a]
-            for q in range(k):
-                y[c0 + a, q] *= g
+            _diag_row(LD, dstart[s] + a * w, 0, a, ldinv[c0 + a], c0, a, y)
         for a in range(w):
             base = bstart[s] + a * r
             for i in range(r):
@@ -501,14 +503,7 @@ def _backward_wide(starts, rstart, R, bstart, UB, dstart, UD, udinv, s_lo, s_hi,
             for q in range(k):
                 y[c0 + a, q] -= t[q]
         for a in range(w - 1, -1, -1):
-            base = dstart[s] + a * w
-            for e in range(a + 1, w):
-                v = UD[base + e]
-                for q in range(k):
-                    y[c0 + a, q] -= v * y[c0 + e, q]
-            g = udinv[c0 + a]
-            for q in range(k):
-                y[c0 + a, q] *= g
+            _diag_row(UD, dstart[s] + a * w, a + 1, w, udinv[c0 + a], c0, a, y)
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, fastmath=True, boundscheck=False)

@@ -22,6 +22,7 @@ the rest shape).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -33,8 +34,9 @@ import scipy.sparse as sp
 from ..constraints.move import HandleMove, Move
 from ..constraints.spec import Spec
 from ..linalg import factorization as fz
+from ..linalg.column_basis import column_basis
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
-from ..linalg.products import offset_product, shifted_product, stacked_differences
+from ..linalg.products import combination, offset_product, product, shifted_product, stacked_differences
 from ..linalg.residual import block_residual, corrected
 from ..mesh import Mesh
 from .constraint_set import ConstraintSet
@@ -243,18 +245,22 @@ class SplitPositions(Positions):
         (``r0 + Mfb (P_c - P0_c)``, :attr:`Mfb`). In single precision the
         double-precision residual of the mean-value rows is measured per array, and one
         refinement step is taken when it exceeds :data:`MIXED_TOL` of the interior
-        displacement.
+        displacement. A stacked solve of a single-precision factor on at least
+        :data:`BASIS_MIN` vertices back-substitutes only the directions its columns span
+        (:meth:`_through_basis`); the residual check is the same.
         """
         if self.interior is None or self.Mfb is None or self.Mff is None or self.r0 is None or not Ps:
             return [PositionSolve(P.copy()) for P in Ps]
         fi, cols, k = self.free_interior, self.coupled, len(Ps)
+        single = self.interior_precision == "single"
         if k == 1:  # one update: the product, the shift and r0 in one threaded pass
             R = shifted_product(self.Mfb, cols, Ps[0], self._rest_coupled, self.r0)
+            dx = self.interior.solve(R)  # float32 from a single-precision PARDISO factor: kept, it widens exactly
         else:
             D = stacked_differences(Ps, cols, self._rest_coupled)
             R = offset_product(self.Mfb, D, self.r0)  # one threaded product for every array, r0 in each block
-        dx = self.interior.solve(R)  # float32 from a single-precision PARDISO factor: kept, it widens exactly
-        single = self.interior_precision == "single"
+            basis = self._through_basis(Ps) if single and _use_basis(fi.size, k) else None
+            dx = basis if basis is not None else self.interior.solve(R)
         rels: list[float | None] = [None] * k
         refined = [False] * k
         if single:  # the mean-value rows at the new positions, in double precision, per array
@@ -276,10 +282,50 @@ class SplitPositions(Positions):
             out.append(PositionSolve(Q, rels[j], refined[j]) if single else PositionSolve(Q))
         return out
 
+    def _through_basis(self, Ps: list[np.ndarray]) -> np.ndarray | None:
+        """The stacked solve ``M_ff^{-1} (r0 + M_fb D)`` from the block's column basis, or None when it does not pay.
+
+        ``D ~= B C`` (:func:`~solver.linalg.column_basis.column_basis`, relative accuracy
+        :data:`BASIS_TOL` per column): one back-substitution of ``[M_fb B, r0]``
+        (``r + 3`` columns instead of ``3 k``), then ``dx = W [C; I I ... I]``, summed
+        in double precision and stored in the factor's single precision. The
+        caller's double-precision residual of every array against the true
+        right-hand side decides refinement as for a direct solve.
+        """
+        assert self.interior is not None and self.Mfb is not None and self.r0 is not None
+        D = stacked_differences(Ps, self.coupled, self._rest_coupled, order="F")  # column-major for the QR
+        m = D.shape[1]
+        cb = column_basis(D, BASIS_TOL)
+        r = cb.rank
+        if r + 3 >= BASIS_GAIN * m:
+            return None
+        W = self.interior.solve(np.hstack([product(self.Mfb, cb.basis), self.r0]))
+        C = np.vstack([cb.coefficients, np.tile(np.eye(3), (1, m // 3))])
+        return combination(W, C, np.float32)
+
     @property
     def _rest_coupled(self) -> np.ndarray:
         assert self.rest_coupled is not None
         return self.rest_coupled
+
+
+#: Stacked interior solves on at least this many free interior vertices go through the block's
+#: column basis (:meth:`SplitPositions._through_basis`) when the factor is single precision:
+#: there each solved column costs most (PARDISO's solve, above the supernodal sweeps' range).
+BASIS_MIN = 40_000
+#: Relative accuracy per column of that basis: far below float32's 6e-8, so the dropped
+#: directions are invisible next to the single-precision solve itself.
+BASIS_TOL = 1e-10
+#: The basis is used when its ``r + 3`` solved columns are fewer than this fraction of the block's.
+BASIS_GAIN = 0.75
+
+
+def _use_basis(free: int, k: int) -> bool:
+    """Whether a stacked solve of ``k`` arrays on ``free`` interior vertices tries the column basis.
+
+    ``TETMORPH_COLUMN_BASIS=0`` keeps the direct stacked solve.
+    """
+    return k >= 3 and free >= BASIS_MIN and os.environ.get("TETMORPH_COLUMN_BASIS", "1").strip() != "0"
 
 
 RhsFor = Callable[[Move, np.ndarray], RightHandSides]

@@ -16,7 +16,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["gradient", "shifted_product", "offset_product", "stacked_differences"]
+__all__ = ["gradient", "product", "combination", "shifted_product", "offset_product", "stacked_differences"]
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
@@ -87,6 +87,21 @@ def _differences_into(P, cols, rest, D, col):  # pragma: no cover - compiled
         g = cols[i]
         for q in range(w):
             D[i, col + q] = P[g, q] - rest[i, q]
+
+
+@numba.njit(parallel=True, cache=True, nogil=True)
+def _combine_rows(W, C, out):  # pragma: no cover - compiled
+    """``out = W C`` row by row, summed in float64 whatever ``W``'s and ``out``'s precision."""
+    n, m = out.shape
+    r = W.shape[1]
+    for i in numba.prange(n):
+        acc = np.zeros(m)
+        for t in range(r):
+            w = np.float64(W[i, t])
+            for q in range(m):
+                acc[q] += w * C[t, q]
+        for q in range(m):
+            out[i, q] = acc[q]
 
 
 def _f64(x: np.ndarray) -> np.ndarray:
@@ -161,6 +176,61 @@ def shifted_product(M: sp.csr_matrix, cols: np.ndarray, P: np.ndarray, rest: np.
     return out
 
 
+def product(M: sp.csr_matrix, X: np.ndarray) -> np.ndarray:
+    """``M X`` in one threaded pass over the rows (scipy's product runs on one thread).
+
+    Parameters
+    ----------
+    M : (f, c) csr matrix
+    X : (c, m) array
+
+    Returns
+    -------
+    (f, m) float64 array
+
+    Examples
+    --------
+    >>> product(sp.csr_matrix(np.array([[1.0, 2.0]])), np.array([[1.0, 0.0], [1.0, 1.0]])).tolist()
+    [[3.0, 2.0]]
+    """
+    X = _f64(X)
+    if X.ndim != 2 or M.shape[1] != X.shape[0]:
+        raise ValueError(f"product: M {M.shape}, X {X.shape} do not agree")
+    out = np.empty((M.shape[0], X.shape[1]))
+    _product_rows(M.indptr, M.indices, _f64(M.data), X, out)
+    return out
+
+
+def combination(W: np.ndarray, C: np.ndarray, dtype: type = np.float64) -> np.ndarray:
+    """``W C`` summed in double precision and stored as ``dtype`` (float32 or float64).
+
+    For a tall ``W`` of few columns (solutions of a column basis) and a small
+    ``C`` (their coefficients): one threaded pass that reads ``W`` as it is
+    (float32 solutions are widened exactly) and writes the result once.
+
+    Parameters
+    ----------
+    W : (f, r) float32 or float64 array
+    C : (r, m) float array
+    dtype : {numpy.float64, numpy.float32}
+
+    Returns
+    -------
+    (f, m) array of ``dtype``
+
+    Examples
+    --------
+    >>> combination(np.array([[1.0, 2.0]], np.float32), np.array([[1.0, 0.5], [1.0, 0.25]])).tolist()
+    [[3.0, 1.0]]
+    """
+    if W.ndim != 2 or C.ndim != 2 or W.shape[1] != C.shape[0]:
+        raise ValueError(f"combination: W {W.shape}, C {C.shape} do not agree")
+    Wc = np.ascontiguousarray(W, dtype=np.float32 if W.dtype == np.float32 else np.float64)
+    out = np.empty((W.shape[0], C.shape[1]), dtype=np.dtype(dtype))
+    _combine_rows(Wc, _f64(C), out)
+    return out
+
+
 def offset_product(M: sp.csr_matrix, D: np.ndarray, r0: np.ndarray) -> np.ndarray:
     """``M D`` with ``r0`` added to every block of ``r0``'s width: the stacked interior right-hand sides.
 
@@ -188,8 +258,10 @@ def offset_product(M: sp.csr_matrix, D: np.ndarray, r0: np.ndarray) -> np.ndarra
     return out
 
 
-def stacked_differences(Ps: list[np.ndarray], cols: np.ndarray, rest: np.ndarray) -> np.ndarray:
+def stacked_differences(Ps: list[np.ndarray], cols: np.ndarray, rest: np.ndarray, order: str = "C") -> np.ndarray:
     """``[P_1[cols] - rest, P_2[cols] - rest, ...]`` side by side: (c, w k) for k arrays ``P_j`` (n, w).
+
+    ``order="F"`` writes the block column-major (for LAPACK, without a transposing copy).
 
     Examples
     --------
@@ -203,7 +275,7 @@ def stacked_differences(Ps: list[np.ndarray], cols: np.ndarray, rest: np.ndarray
     if rest.shape[0] != c.size or any(P.ndim != 2 or P.shape[1] != w for P in Ps):
         raise ValueError(f"stacked_differences: {c.size} cols, rest {rest.shape}, arrays "
                          f"{[P.shape for P in Ps][:3]} do not agree")
-    D = np.empty((c.size, w * len(Ps)))
+    D = np.empty((c.size, w * len(Ps)), order="F" if order == "F" else "C")
     for j, P in enumerate(Ps):
         _differences_into(_f64(P), c, rest, D, w * j)
     return D

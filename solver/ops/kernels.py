@@ -64,7 +64,7 @@ def _supernodal_kernels() -> None:
     import scipy.sparse as sp
 
     from ..errors import FactorizationError
-    from ..linalg.products import gradient, offset_product, shifted_product, stacked_differences
+    from ..linalg.products import combination, gradient, offset_product, product, shifted_product, stacked_differences
     from ..linalg.supernodal import SupernodalFactor, lu_supernodal
 
     n = 40
@@ -84,6 +84,10 @@ def _supernodal_kernels() -> None:
     shifted_product(Acsr, np.arange(n), np.ones((n, 3)), np.ones((n, 3)), np.ones((n, 3)))
     offset_product(Acsr, np.ones((n, 6)), np.ones((n, 3)))
     stacked_differences([np.ones((n, 3))] * 2, np.arange(n), np.ones((n, 3)))
+    stacked_differences([np.ones((n, 3))] * 2, np.arange(n), np.ones((n, 3)), order="F")
+    product(Acsr, np.ones((n, 4)))
+    combination(np.ones((n, 4), np.float32), np.ones((4, 6)), np.float32)
+    combination(np.ones((n, 4)), np.ones((4, 6)))
 
 
 if __name__ == "__main__":

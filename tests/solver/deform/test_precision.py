@@ -89,3 +89,43 @@ def test_a_refinement_step_brings_the_interior_closer_to_the_exact_solve(monkeyp
         assert residual(r.V) < residual(p.V)
         ref = exact.solve(m).V
         assert np.abs(r.V - ref).max() < np.abs(p.V - ref).max()
+
+
+def test_stacked_solves_through_the_column_basis_match_separate_solves(monkeypatch):
+    """A block of MOVEs solved through its column basis: each as its own solve, within the stated accuracy."""
+    from solver.deform import positions
+
+    mesh = load("tet/cube_big_tetra.mesh")
+    d = precompute(mesh, bend_spec(mesh))
+    moves = [bend_move(mesh, angle=a, frac=f) for a, f in
+             [(20, 0.03), (-10, 0.01), (5, -0.02), (15, 0.0), (0, 0.02), (-20, -0.03), (8, 0.015), (-3, 0.0)]]
+    singles = [d.solve(m) for m in moves]
+    ranks: list[int] = []
+    basis = positions.column_basis
+
+    def spy(D, tol):
+        b = basis(D, tol)
+        ranks.append(b.rank)
+        return b
+
+    monkeypatch.setattr(positions, "column_basis", spy)
+    many = d.solve_many(moves)  # below BASIS_MIN: the direct stacked solve
+    assert ranks == []
+    monkeypatch.setattr(positions, "BASIS_MIN", 0)
+    through = d.solve_many(moves)
+    assert len(ranks) == 1 and ranks[0] + 3 < positions.BASIS_GAIN * 3 * len(moves)  # fewer columns solved
+    fi = d.data.positions.free_interior
+    W, _ = mvc_matrix(mesh.V, mesh.T, mesh.interior)
+    fixed = d.data.constraints.fixed
+    for one, direct, r in zip(singles, many, through, strict=True):
+        disp = np.linalg.norm(one.V[fi] - mesh.V[fi], axis=1).max()
+        for other in (direct, r):
+            assert np.linalg.norm(other.V - one.V, axis=1).max() <= 10 * MIXED_TOL * disp
+        res = float(np.linalg.norm(r.V[fi] - (W @ r.V)[fi], axis=1).max() / disp)  # independent residual
+        assert res <= MIXED_TOL
+        assert r.report["interior_refined"] is False  # met by the basis solve itself, not by a refinement step
+        assert np.array_equal(r.V[fixed], mesh.V[fixed])
+        assert r.report["inverted_elements"] == one.report["inverted_elements"]
+    monkeypatch.setenv("TETMORPH_COLUMN_BASIS", "0")
+    d.solve_many(moves)
+    assert len(ranks) == 1  # switched off

@@ -7,7 +7,7 @@ import pytest
 import scipy.sparse as sp
 
 from solver import precompute
-from solver.linalg.products import gradient, offset_product, shifted_product, stacked_differences
+from solver.linalg.products import combination, gradient, offset_product, product, shifted_product, stacked_differences
 from tests.conftest import bend_spec, load
 
 
@@ -44,6 +44,23 @@ def test_interior_products_match_scipy(systems):
     assert np.array_equal(stacked_differences([P, P2], pos.coupled, pos.rest_coupled), D2)
     ref2 = pos.Mfb @ D2 + np.tile(pos.r0, (1, 2))
     assert np.abs(offset_product(pos.Mfb, D2, pos.r0) - ref2).max() <= 1e-12 * np.abs(ref2).max()
+    F = stacked_differences([P, P2], pos.coupled, pos.rest_coupled, order="F")
+    assert F.flags.f_contiguous and np.array_equal(F, D2)
+    ref3 = pos.Mfb @ D2
+    assert np.abs(product(pos.Mfb, D2) - ref3).max() <= 1e-12 * np.abs(ref3).max()
+
+
+def test_combination_sums_in_double_and_stores_the_asked_precision():
+    rng = np.random.default_rng(2)
+    W = rng.standard_normal((2000, 7)).astype(np.float32)
+    C = rng.standard_normal((7, 30))
+    ref = W.astype(np.float64) @ C
+    got = combination(W, C)
+    assert got.dtype == np.float64 and np.abs(got - ref).max() <= 1e-13 * np.abs(ref).max()
+    single = combination(W, C, np.float32)
+    assert single.dtype == np.float32
+    # one rounding of the double sum (half a float32 unit), not a sum in float32
+    assert (np.abs(single - ref) <= 2.0 ** -24 * np.abs(ref) * (1 + 1e-9)).all()
 
 
 def test_shapes_that_do_not_agree_are_named():
@@ -52,5 +69,9 @@ def test_shapes_that_do_not_agree_are_named():
         gradient(A, A, np.ones((3, 2)), np.ones((3, 3)))
     with pytest.raises(ValueError, match="offset_product"):
         offset_product(A, np.ones((3, 4)), np.ones((3, 3)))
+    with pytest.raises(ValueError, match="product: M"):
+        product(A, np.ones((4, 2)))
+    with pytest.raises(ValueError, match="combination"):
+        combination(np.ones((3, 2)), np.ones((3, 2)))
     with pytest.raises(ValueError, match="shifted_product"):
         shifted_product(A, np.arange(2), np.ones((3, 3)), np.ones((2, 3)), np.ones((3, 3)))

@@ -38,6 +38,11 @@ one precompute and one ``run_doe`` of the plan, as one ``tetmorph doe``
 invocation does (its first block pays for its allocations and PARDISO's work
 space); the ratio is to the median single update of the main process.
 
+With ``--direct`` the one-shot processes also run with the interior's
+stacked solve made directly on every column (``TETMORPH_COLUMN_BASIS=0``)
+beside the default, which back-substitutes only the directions the block's
+columns span (``solver/deform/positions.py``).
+
 With ``--components B`` it also prints where one variant's time goes in a
 stacked solve of ``B`` rows against a single update (median of 3, per
 variant): the right-hand sides, the interior back-substitution (3 columns
@@ -47,7 +52,7 @@ stacked positions and the stacked updates; then a profile of one stacked
 ``solve_many`` by each function's own time.
 
     python benchmarks/bench_doe.py [--sizes 0.95,0.44] [--blocks 1,4,16,64] [--rows 64] [--repeats 3]
-                                   [--components 16] [--fresh] [--oneshot 3]
+                                   [--components 16] [--fresh] [--oneshot 3 [--direct]]
 """
 
 from __future__ import annotations
@@ -104,26 +109,31 @@ def oneshot_case(size: float, block: int, rows: int) -> dict:
     return {"per_variant_ms": wall / rows, "peak_rss_gb": hwm / 2**20}
 
 
-def oneshot(size: float, blocks: list[int], rows: int, repeats: int, single_ms: list[float]) -> None:
+def oneshot(size: float, blocks: list[int], rows: int, repeats: int, single_ms: list[float],
+            direct: bool = False) -> None:
     """Each block size in fresh processes (the first block's allocations and work space included)."""
     import json
+    import os
     import subprocess
 
     s = float(np.median(single_ms))
-    print(f"\none-shot processes ({repeats} per block size, alternating), against the single update's median "
+    print(f"\none-shot processes ({repeats} per case, alternating), against the single update's median "
           f"{s:.1f} ms above")
     print("| case | wall ms per variant, median [min-max] | wall / single update | peak RSS GB |")
     print("|---|---:|---:|---:|")
-    got: dict[int, list[dict]] = {b: [] for b in blocks}
+    cases = [(b, basis) for b in blocks for basis in ((True, False) if direct else (True,))]
+    got: dict[tuple[int, bool], list[dict]] = {c: [] for c in cases}
     for _ in range(repeats):
-        for b in blocks:
+        for b, basis in cases:
+            env = {**os.environ, "TETMORPH_COLUMN_BASIS": "1" if basis else "0"}
             out = subprocess.run([sys.executable, __file__, "--oneshot-case", f"{size:g}:{b}:{rows}"],
-                                 capture_output=True, text=True, check=True)
-            got[b].append(json.loads(out.stdout.strip().splitlines()[-1]))
-    for b in blocks:
-        per = [r["per_variant_ms"] for r in got[b]]
-        print(f"| doe, block {b}, one-shot process | {spread(per)} | {spread([p / s for p in per], '.2f')} | "
-              f"{max(r['peak_rss_gb'] for r in got[b]):.2f} |")
+                                 capture_output=True, text=True, check=True, env=env)
+            got[(b, basis)].append(json.loads(out.stdout.strip().splitlines()[-1]))
+    for b, basis in cases:
+        per = [r["per_variant_ms"] for r in got[(b, basis)]]
+        label = f"doe, block {b}, one-shot process" + ("" if basis else ", direct stacked solve")
+        print(f"| {label} | {spread(per)} | {spread([p / s for p in per], '.2f')} | "
+              f"{max(r['peak_rss_gb'] for r in got[(b, basis)]):.2f} |")
 
 
 def run(size: float, blocks: list[int], rows: int, singles: int, repeats: int,
@@ -285,6 +295,8 @@ def main() -> None:
                     "precompute that makes only stacked solves, as a `tetmorph doe` process does")
     ap.add_argument("--oneshot", type=int, default=0, metavar="N",
                     help="also run each block size N times in a fresh process of its own (one precompute, one DOE)")
+    ap.add_argument("--direct", action="store_true", help="with --oneshot, also run each block size with the "
+                    "direct stacked interior solve (TETMORPH_COLUMN_BASIS=0) beside the column basis")
     ap.add_argument("--oneshot-case", help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.oneshot_case:
@@ -301,7 +313,7 @@ def main() -> None:
         blocks = [int(b) for b in a.blocks.split(",")]
         single = run(size, blocks, a.rows, a.singles, a.repeats, a.fresh)
         if a.oneshot:
-            oneshot(size, [b for b in blocks if b > 2], a.rows, a.oneshot, single)
+            oneshot(size, [b for b in blocks if b > 2], a.rows, a.oneshot, single, a.direct)
         if a.components:
             components(size, a.components)
 

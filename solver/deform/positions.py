@@ -37,7 +37,7 @@ from ..linalg import factorization as fz
 from ..linalg.column_basis import column_basis
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
 from ..linalg.products import combination, offset_product, product, shifted_product, stacked_differences
-from ..linalg.residual import block_residual, corrected
+from ..linalg.residual import block_residual, corrected, coupled_residual_norms
 from ..mesh import Mesh
 from .constraint_set import ConstraintSet
 from .operators import Operators, csr
@@ -253,27 +253,33 @@ class SplitPositions(Positions):
             return [PositionSolve(P.copy()) for P in Ps]
         fi, cols, k = self.free_interior, self.coupled, len(Ps)
         single = self.interior_precision == "single"
+        D: np.ndarray | None = None
+        R: np.ndarray | None = None
         if k == 1:  # one update: the product, the shift and r0 in one threaded pass
             R = shifted_product(self.Mfb, cols, Ps[0], self._rest_coupled, self.r0)
             dx = self.interior.solve(R)  # float32 from a single-precision PARDISO factor: kept, it widens exactly
         else:
             D = stacked_differences(Ps, cols, self._rest_coupled)
-            R = offset_product(self.Mfb, D, self.r0)  # one threaded product for every array, r0 in each block
             basis = self._through_basis(Ps) if single and _use_basis(fi.size, k) else None
-            dx = basis if basis is not None else self.interior.solve(R)
+            if basis is not None:
+                dx = basis  # its right-hand side never formed: the check below reads r0 + Mfb D directly
+            else:
+                R = offset_product(self.Mfb, D, self.r0)  # one threaded product for every array, r0 in each block
+                dx = self.interior.solve(R)
         rels: list[float | None] = [None] * k
         refined = [False] * k
         if single:  # the mean-value rows at the new positions, in double precision, per array
-            _, rn, dn = block_residual(self.Mff, R, dx, 3, store=False)  # norms only: refining is rare
+            rn, dn = self._residual_norms(R, D, dx)  # norms only: refining is rare
             rel = rn / np.maximum(dn, 1e-300)  # per array: largest row residual over largest displacement
             refined = (rel > MIXED_TOL).tolist()
             if any(refined):
                 c = np.concatenate([np.arange(3 * j, 3 * j + 3) for j in range(k) if refined[j]])
-                res, _, _ = block_residual(self.Mff, R[:, c], dx[:, c], 3)
+                Rc = R[:, c] if R is not None else offset_product(self.Mfb, np.asarray(D)[:, c], self.r0)
+                res, _, _ = block_residual(self.Mff, Rc, dx[:, c], 3)
                 assert res is not None
                 dx = np.array(dx, dtype=np.float64)  # the correction leaves float32
                 dx[:, c] += self.interior.solve(res)
-                _, rn, dn = block_residual(self.Mff, R, dx, 3, store=False)
+                rn, dn = self._residual_norms(R, D, dx)
                 rel = np.where(refined, rn / np.maximum(dn, 1e-300), rel)
             rels = rel.tolist()
         out = []
@@ -281,6 +287,16 @@ class SplitPositions(Positions):
             Q = corrected(P, fi, dx, 3 * j, overwrite)
             out.append(PositionSolve(Q, rels[j], refined[j]) if single else PositionSolve(Q))
         return out
+
+    def _residual_norms(self, R: np.ndarray | None, D: np.ndarray | None,
+                        dx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Largest mean-value row residual and displacement per array: from ``R``, or from ``r0 + Mfb D``."""
+        assert self.Mff is not None and self.Mfb is not None and self.r0 is not None
+        if R is not None:
+            _, rn, dn = block_residual(self.Mff, R, dx, 3, store=False)
+            return rn, dn
+        assert D is not None
+        return coupled_residual_norms(self.Mff, self.Mfb, self.r0, D, dx, 3)
 
     def _through_basis(self, Ps: list[np.ndarray]) -> np.ndarray | None:
         """The stacked solve ``M_ff^{-1} (r0 + M_fb D)`` from the block's column basis, or None when it does not pay.

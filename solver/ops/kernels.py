@@ -23,7 +23,7 @@ def compile_all() -> float:
     import scipy.sparse as sp
 
     from ..linalg.layout import c_copy, fortran_copy
-    from ..linalg.residual import block_residual, corrected
+    from ..linalg.residual import block_residual, corrected, coupled_residual_norms
     from ..testing import cube_mesh
     from ..validity.check import tet_check
     from ..validity.quality import tet_quality
@@ -55,6 +55,8 @@ def compile_all() -> float:
     for X in (np.ones((4, 3), np.float32), np.ones((4, 6), np.float32)):  # single-precision solutions
         block_residual(sp.identity(4, format="csr"), np.ones(X.shape), X, 3, store=False)
         corrected(np.zeros((4, 3)), np.arange(4), X, 0)
+        coupled_residual_norms(sp.identity(4, format="csr"), sp.identity(4, format="csr"), np.ones((4, 3)),
+                               np.ones(X.shape), X, 3)
     _supernodal_kernels()
     return time.perf_counter() - t0
 

@@ -75,3 +75,21 @@ def test_shapes_that_do_not_agree_are_named():
         combination(np.ones((3, 2)), np.ones((3, 2)))
     with pytest.raises(ValueError, match="shifted_product"):
         shifted_product(A, np.arange(2), np.ones((3, 3)), np.ones((2, 3)), np.ones((3, 3)))
+
+
+def test_coupled_residual_norms_match_the_formed_right_hand_side(systems):
+    from solver.linalg.residual import block_residual, coupled_residual_norms
+
+    mesh, pos = systems
+    rng = np.random.default_rng(4)
+    D = rng.standard_normal((pos.coupled.size, 12))
+    X = rng.standard_normal((pos.free_interior.size, 12))
+    B = pos.Mfb @ D + np.tile(pos.r0, (1, 4))
+    _, r_ref, x_ref = block_residual(pos.Mff, B, X, 3)
+    for Xs in (X, X.astype(np.float32)):
+        _, r_ref, x_ref = block_residual(pos.Mff, B, Xs, 3)
+        r, x = coupled_residual_norms(pos.Mff, pos.Mfb, pos.r0, D, Xs, 3)
+        np.testing.assert_allclose(r, r_ref, rtol=1e-12)
+        np.testing.assert_array_equal(x, x_ref)
+    with pytest.raises(ValueError, match="coupled_residual_norms"):
+        coupled_residual_norms(pos.Mff, pos.Mfb, pos.r0, D[:, :5], X[:, :5], 3)

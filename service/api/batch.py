@@ -86,6 +86,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
         variants: list[Variant] = []
         try:
             nonlocal_shapes, built = shapes, d
+            bases: dict[int, Any] = {}  # the first block's interior basis, per deformer (solve_block)
             for start in range(0, plan.rows, body.block):
                 if job.stop.is_set():
                     break
@@ -94,7 +95,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
                     if dd is not built:  # rebuilt (evicted meanwhile): the shapes of the new deformer
                         nonlocal_shapes, built = await reg.run(parse_shapes, shapes_doc, dd), dd
                     variants += await reg.builder.solve(solve_block, dd, nonlocal_shapes, plan, start, body.block,
-                                                        body.inversion, z.writer(), job)
+                                                        body.inversion, z.writer(), job, bases)
                 job.done = len(variants)
             if job.stop.is_set():
                 z.discard()

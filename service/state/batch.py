@@ -32,7 +32,7 @@ from solver.deform.deformer import Deformer, DeformResult
 from solver.errors import SpecError
 from solver.io import write_mesh
 from solver.mesh import Mesh
-from solver.workflows.doe import DoeResult, Variant, run_doe, write_summary
+from solver.workflows.doe import DoeResult, Variant, doe_basis, run_doe, write_summary
 from solver.workflows.plan import Plan, parse_plan, plan_values
 from solver.workflows.shapes import Shapes, parse_shapes, variant_move
 
@@ -192,15 +192,27 @@ class DeckZip:
 
 
 def solve_block(deformer: Deformer, shapes: Shapes, plan: Plan, start: int, block: int, inversion: str | None,
-                out: Callable[[int, DeformResult], str], job: Job) -> list[Variant]:
-    """One block of rows (a thread's work): run_doe over the sub-plan, numbered as rows of the whole plan."""
+                out: Callable[[int, DeformResult], str], job: Job,
+                bases: dict[int, Any] | None = None) -> list[Variant]:
+    """One block of rows (a thread's work): run_doe over the sub-plan, numbered as rows of the whole plan.
+
+    ``bases`` keeps the interior column basis of the plan's first block per deformer
+    (:func:`~solver.workflows.doe.doe_basis`), built at the first block, so the
+    blocks solve as in one ``tetmorph doe`` run; a deformer rebuilt meanwhile builds its own.
+    """
     part = sub_plan(plan, start, min(start + block, plan.rows))
 
     def output(row: int, res: DeformResult) -> str:
         return out(row + start, res)
 
+    basis: Any = "first"
+    if bases is not None:
+        if id(deformer) not in bases or bases[id(deformer)][0] is not deformer:
+            bases.clear()
+            bases[id(deformer)] = (deformer, doe_basis(deformer, shapes, plan, block))
+        basis = bases[id(deformer)][1]
     r = run_doe(deformer, shapes, part, block=block, output=output, inversion=inversion,
-                cancelled=job.stop.is_set)
+                cancelled=job.stop.is_set, basis=basis)
     return [renumber(v, start) for v in r.variants]
 
 

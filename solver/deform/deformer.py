@@ -13,7 +13,7 @@ rotations are propagated quaternion logarithms (eq. 3.5-3.9; ECLS eq. 22-27).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..constraints.move import Move, parse_move, scaled_move
@@ -22,8 +22,17 @@ from ..mesh import Mesh
 from ..validity.quality import element_quality, summarize_quality
 from ..validity.safe_fraction import SAFE_TOL
 from .policy import move_safe_fraction
+from .positions import InteriorBasis
 from .precompute import DeformData, deform_precompute
-from .solve import BoundaryStage, Solved, complete, solve_boundary, solve_positions, solve_positions_many
+from .solve import (
+    BoundaryStage,
+    Solved,
+    complete,
+    interior_basis,
+    solve_boundary,
+    solve_positions,
+    solve_positions_many,
+)
 from .update import DeformResult, check_options, update
 
 __all__ = ["Deformer", "DeformResult", "precompute"]
@@ -142,23 +151,34 @@ class Deformer:
                       (t0, t1, t2))
 
     def solve_many(self, moves: list[Move | dict[str, Any]], inversion: str | None = None,
-                   quality: str = "basic", repair: bool | None = None) -> list[DeformResult]:
+                   quality: str = "basic", repair: bool | None = None,
+                   basis: InteriorBasis | None = None) -> list[DeformResult]:
         """:meth:`solve` for several MOVEs, stacked into one multi-column back-substitution per factor.
 
         Each REPORT's ``solve_ms`` is its share of the stacked solve. Results
-        equal separate :meth:`solve` calls to round-off.
+        equal separate :meth:`solve` calls to round-off. ``basis``
+        (:meth:`interior_basis` of other MOVEs of the same family) is what the
+        interior's stacked solve projects on before back-substituting the rest.
         """
         t0 = time.perf_counter()
         policy = inversion or self.spec.inversion
         check_options(policy, quality)
         mvs = [self.parse_move(m) for m in moves]
         t1 = time.perf_counter()
-        solved = solve_positions_many(self.data, mvs)
+        solved = solve_positions_many(self.data, mvs, basis)
         t2 = time.perf_counter()
         k = max(len(mvs), 1)
         share = (t0, t0 + (t1 - t0) / k, t0 + (t2 - t0) / k)
         rep = self.spec.repair if repair is None else repair
         return [update(self.data, mv, s, policy, quality, rep, share) for mv, s in zip(mvs, solved, strict=True)]
+
+    def interior_basis(self, moves: Sequence[Move | dict[str, Any]]) -> InteriorBasis | None:
+        """The interior column basis of ``moves``' boundary displacements, for :meth:`solve_many` of their family.
+
+        None where stacked solves use none (a double-precision or small interior
+        system, fewer than three MOVEs, or directions that would not pay).
+        """
+        return interior_basis(self.data, [self.parse_move(m) for m in moves])
 
 
 def precompute(mesh: Mesh, spec: Spec | dict[str, Any]) -> Deformer:

@@ -38,6 +38,7 @@ from ..linalg.column_basis import column_basis
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
 from ..linalg.products import combination, offset_product, product, shifted_product, stacked_differences
 from ..linalg.residual import block_residual, corrected, coupled_residual_norms
+from ..linalg.threads import one_blas_thread
 from ..mesh import Mesh
 from .constraint_set import ConstraintSet
 from .operators import Operators, csr
@@ -46,7 +47,7 @@ from .rotation_field import REFINE_STEPS
 from .thin_walls import WallRows
 
 __all__ = ["Positions", "SplitPositions", "JointPositions", "PositionSolve", "positions_precompute", "interior_start",
-           "InteriorStart", "REFINE_TOL",
+           "InteriorStart", "InteriorBasis", "REFINE_TOL",
            "MIXED_TOL"]
 
 
@@ -68,6 +69,34 @@ class PositionSolve:
     P: np.ndarray
     interior_residual: float | None = None
     refined: bool = False
+
+@dataclass(frozen=True, eq=False)
+class InteriorBasis:
+    """Boundary-displacement directions whose interior solutions are known (a DOE plan's first block).
+
+    Built by :meth:`SplitPositions.interior_basis`; stacked solves given it
+    (:meth:`SplitPositions.interior_solve_many`) project their displacements on
+    ``Q`` and back-substitute only what is left beyond :data:`BASIS_TOL` of each
+    column, often nothing. A block's result depends only on the block and the
+    basis, so every process that builds the basis from the same first block
+    (a Ray actor, a service batch) solves each block bit for bit alike.
+
+    Attributes
+    ----------
+    Q : (c, r) float64 array
+        Orthonormal directions over the coupled vertices (``SplitPositions.coupled``).
+    W : (f, r + 3) float array
+        ``M_ff^{-1} [M_fb Q, r0]`` in the interior factor's precision.
+    """
+
+    Q: np.ndarray
+    W: np.ndarray
+
+    @property
+    def rank(self) -> int:
+        """Directions held."""
+        return int(self.Q.shape[1])
+
 
 #: Mixed precision: the interior solve is refined once when the relative mean-value residual
 #: (largest row residual over the largest interior displacement) exceeds this.
@@ -134,9 +163,10 @@ class Positions:
         """Corner positions (n, 3) for one MOVE's right-hand sides (mid-side nodes at rest)."""
         return self.interior_solve_many([self.boundary(V0, constrained, rhs)], overwrite=True)[0]
 
-    def solve_many(self, V0: np.ndarray, constrained: np.ndarray, rhss: list[RightHandSides]) -> list[PositionSolve]:
+    def solve_many(self, V0: np.ndarray, constrained: np.ndarray, rhss: list[RightHandSides],
+                   basis: InteriorBasis | None = None) -> list[PositionSolve]:
         """:meth:`solve` for several MOVEs, their right-hand sides stacked into one back-substitution per factor."""
-        return self.interior_solve_many(self.boundary_many(V0, constrained, rhss), overwrite=True)
+        return self.interior_solve_many(self.boundary_many(V0, constrained, rhss), overwrite=True, basis=basis)
 
     def boundary(self, V0: np.ndarray, constrained: np.ndarray, rhs: RightHandSides) -> np.ndarray:
         """Positions with the fixed and handle nodes and the system's unknowns solved (interior at rest)."""
@@ -170,9 +200,14 @@ class Positions:
         """Interior positions for boundary positions ``P`` (joint: nothing left to solve)."""
         return self.interior_solve_many([P])[0]
 
-    def interior_solve_many(self, Ps: list[np.ndarray], overwrite: bool = False) -> list[PositionSolve]:
+    def interior_solve_many(self, Ps: list[np.ndarray], overwrite: bool = False,
+                            basis: InteriorBasis | None = None) -> list[PositionSolve]:
         """:meth:`interior_solve` for several position arrays (``overwrite``: the caller gives them up)."""
         return [PositionSolve(P) for P in Ps]
+
+    def interior_basis(self, Ps: list[np.ndarray]) -> InteriorBasis | None:
+        """The column basis of boundary positions ``Ps`` (None: no interior system, or it would not pay)."""
+        return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -237,7 +272,8 @@ class SplitPositions(Positions):
             return None
         return "single" if getattr(self.interior, "single", False) else "double"
 
-    def interior_solve_many(self, Ps: list[np.ndarray], overwrite: bool = False) -> list[PositionSolve]:
+    def interior_solve_many(self, Ps: list[np.ndarray], overwrite: bool = False,
+                            basis: InteriorBasis | None = None) -> list[PositionSolve]:
         """Interior positions for boundary positions ``Ps`` (new arrays unless ``overwrite``), in one solve.
 
         Residual form ``P_f -= M_ff^{-1} (M_f P)``, every position array a block of
@@ -247,7 +283,9 @@ class SplitPositions(Positions):
         refinement step is taken when it exceeds :data:`MIXED_TOL` of the interior
         displacement. A stacked solve of a single-precision factor on at least
         :data:`BASIS_MIN` vertices back-substitutes only the directions its columns span
-        (:meth:`_through_basis`); the residual check is the same.
+        (:meth:`_through_basis`): those of ``basis`` when given (built by
+        :meth:`interior_basis` from other arrays), else of its own columns; the
+        residual check is the same.
         """
         if self.interior is None or self.Mfb is None or self.Mff is None or self.r0 is None or not Ps:
             return [PositionSolve(P.copy()) for P in Ps]
@@ -260,9 +298,12 @@ class SplitPositions(Positions):
             dx = self.interior.solve(R)  # float32 from a single-precision PARDISO factor: kept, it widens exactly
         else:
             D = stacked_differences(Ps, cols, self._rest_coupled)
-            basis = self._through_basis(Ps) if single and _use_basis(fi.size, k) else None
-            if basis is not None:
-                dx = basis  # its right-hand side never formed: the check below reads r0 + Mfb D directly
+            via = None
+            if single and _use_basis(fi.size, k):
+                with one_blas_thread():  # small products: no spinning helper against the kernels after them
+                    via = self._through_basis(Ps, basis)
+            if via is not None:
+                dx = via  # its right-hand side never formed: the check below reads r0 + Mfb D directly
             else:
                 R = offset_product(self.Mfb, D, self.r0)  # one threaded product for every array, r0 in each block
                 dx = self.interior.solve(R)
@@ -298,26 +339,64 @@ class SplitPositions(Positions):
         assert D is not None
         return coupled_residual_norms(self.Mff, self.Mfb, self.r0, D, dx, 3)
 
-    def _through_basis(self, Ps: list[np.ndarray]) -> np.ndarray | None:
-        """The stacked solve ``M_ff^{-1} (r0 + M_fb D)`` from the block's column basis, or None when it does not pay.
+    def interior_basis(self, Ps: list[np.ndarray]) -> InteriorBasis | None:
+        """The column basis of the boundary displacements of ``Ps`` with its interior solutions.
 
-        ``D ~= B C`` (:func:`~solver.linalg.column_basis.column_basis`, relative accuracy
-        :data:`BASIS_TOL` per column): one back-substitution of ``[M_fb B, r0]``
-        (``r + 3`` columns instead of ``3 k``), then ``dx = W [C; I I ... I]``, summed
-        in double precision and stored in the factor's single precision. The
-        caller's double-precision residual of every array against the true
-        right-hand side decides refinement as for a direct solve.
+        None unless stacked solves use one (a single-precision factor on at least
+        :data:`BASIS_MIN` vertices, three or more arrays) and it holds fewer than
+        :data:`BASIS_GAIN` of the columns.
         """
+        if self.interior_precision != "single" or not _use_basis(self.free_interior.size, len(Ps)):
+            return None
+        with one_blas_thread():
+            return self._basis_of(stacked_differences(Ps, self.coupled, self._rest_coupled, order="F"))
+
+    def _basis_of(self, D: np.ndarray) -> InteriorBasis | None:
         assert self.interior is not None and self.Mfb is not None and self.r0 is not None
+        cb = column_basis(D, BASIS_TOL)
+        if cb.rank + 3 >= BASIS_GAIN * D.shape[1]:
+            return None
+        Q = np.linalg.qr(cb.basis)[0] if cb.rank else np.zeros((D.shape[0], 0))  # orthonormal, the same span
+        W = self.interior.solve(np.hstack([product(self.Mfb, Q), self.r0]))
+        return InteriorBasis(np.ascontiguousarray(Q), W)
+
+    def _through_basis(self, Ps: list[np.ndarray], basis: InteriorBasis | None) -> np.ndarray | None:
+        """The stacked solve ``M_ff^{-1} (r0 + M_fb D)`` through a column basis, or None when it does not pay.
+
+        ``D = Q C + E`` (projected twice on ``basis.Q``, built from ``D`` itself
+        when no basis is given); what is left beyond :data:`BASIS_TOL` of each
+        column's norm (:func:`~solver.linalg.column_basis.column_basis` of ``E``)
+        is back-substituted as a few more columns ``N``. Then ``dx = [W, W_N]
+        [C; I I ... I; C_N]``, summed in double precision and stored in the
+        factor's single precision. The caller's double-precision residual of every
+        array against the true right-hand side decides refinement as for a direct solve.
+        """
+        assert self.interior is not None and self.Mfb is not None
         D = stacked_differences(Ps, self.coupled, self._rest_coupled, order="F")  # column-major for the QR
         m = D.shape[1]
-        cb = column_basis(D, BASIS_TOL)
-        r = cb.rank
-        if r + 3 >= BASIS_GAIN * m:
-            return None
-        W = self.interior.solve(np.hstack([product(self.Mfb, cb.basis), self.r0]))
-        C = np.vstack([cb.coefficients, np.tile(np.eye(3), (1, m // 3))])
-        return combination(W, C, np.float32)
+        if basis is None:
+            basis = self._basis_of(D)
+            if basis is None:
+                return None
+        Q = basis.Q
+        C = Q.T @ D
+        E = D - (C.T @ Q.T).T  # column-major like D, for the QR below
+        C2 = Q.T @ E  # twice is enough: the remainder orthogonal to Q to round-off
+        E -= (C2.T @ Q.T).T
+        C += C2
+        norms = np.sqrt(np.einsum("ij,ij->j", D, D))
+        parts = [basis.W]
+        coef = [C, np.tile(np.eye(3), (1, m // 3))]
+        # every column within BASIS_TOL of its norm already: nothing left to solve (no QR of the remainder)
+        within = bool((np.sqrt(np.einsum("ij,ij->j", E, E)) <= BASIS_TOL * norms).all())
+        left = column_basis(E, BASIS_TOL, scale=norms) if not within else None
+        if left is not None and left.rank:
+            if left.rank >= BASIS_GAIN * m:  # the basis does not fit this block: solve it directly
+                return None
+            parts.append(self.interior.solve(product(self.Mfb, left.basis)))
+            coef.append(left.coefficients)
+        W = parts[0] if len(parts) == 1 else np.hstack(parts)
+        return combination(W, np.vstack(coef), np.float32)
 
     @property
     def _rest_coupled(self) -> np.ndarray:

@@ -16,13 +16,13 @@ from ..linalg import factorization as fz
 from ..ops.displacement import max_displacement
 from ..validity.check import CheckResult, SurfaceCheck
 from ..validity.midside import Placement
-from .positions import PositionSolve
+from .positions import InteriorBasis, PositionSolve
 from .precompute import DeformData
 from .report import Report, constraint_report, element_report
 from .rhs import RightHandSides
 
-__all__ = ["Solved", "BoundaryStage", "solve_positions", "solve_positions_many", "solve_boundary", "complete",
-           "check_positions", "evaluate"]
+__all__ = ["Solved", "BoundaryStage", "solve_positions", "solve_positions_many", "interior_basis", "solve_boundary",
+           "complete", "check_positions", "evaluate"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,15 +70,22 @@ def solve_positions(data: DeformData, move: Move) -> Solved:
     return finish(data, ps, rhs, move)
 
 
-def solve_positions_many(data: DeformData, moves: list[Move]) -> list[Solved]:
+def solve_positions_many(data: DeformData, moves: list[Move], basis: InteriorBasis | None = None) -> list[Solved]:
     """:func:`solve_positions` for several MOVEs: their right-hand sides stacked, one back-substitution per factor.
 
     Each result equals :func:`solve_positions` of its MOVE to round-off (a
-    multi-column solve sums in another order).
+    multi-column solve sums in another order). ``basis``: the interior's column
+    basis to solve through (:func:`interior_basis`).
     """
     rhss = [data.rhs(mv) for mv in moves]
-    solves = data.positions.solve_many(data.mesh.V, data.constraints.constrained, rhss)
+    solves = data.positions.solve_many(data.mesh.V, data.constraints.constrained, rhss, basis)
     return [finish(data, ps, rhs, mv) for ps, rhs, mv in zip(solves, rhss, moves, strict=True)]
+
+
+def interior_basis(data: DeformData, moves: list[Move]) -> InteriorBasis | None:
+    """The interior column basis of the boundary displacements of ``moves`` (None where stacked solves use none)."""
+    rhss = [data.rhs(mv) for mv in moves]
+    return data.positions.interior_basis(data.positions.boundary_many(data.mesh.V, data.constraints.constrained, rhss))
 
 
 @dataclass(frozen=True, eq=False)

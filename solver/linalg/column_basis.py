@@ -49,7 +49,7 @@ class ColumnBasis:
         return int(self.basis.shape[1])
 
 
-def column_basis(D: np.ndarray, tol: float) -> ColumnBasis:
+def column_basis(D: np.ndarray, tol: float, scale: np.ndarray | None = None) -> ColumnBasis:
     """The directions of ``D`` that matter to a relative accuracy ``tol`` per column.
 
     Each column is scaled to unit norm (a variant moved a little is
@@ -65,6 +65,9 @@ def column_basis(D: np.ndarray, tol: float) -> ColumnBasis:
     D : (c, m) float array
     tol : float
         Relative accuracy per column, in (0, 1).
+    scale : (m,) float array, optional
+        What each column's accuracy is relative to (default its own norm): the
+        norms of the block whose remainder ``D`` is, after a projection.
 
     Returns
     -------
@@ -98,6 +101,10 @@ def column_basis(D: np.ndarray, tol: float) -> ColumnBasis:
     norms = np.sqrt(np.einsum("ij,ij->j", R, R))
     if not norms.any():
         return ColumnBasis(np.zeros((c, 0)), np.zeros((0, m)), 0.0)
+    if scale is not None:
+        norms = np.asarray(scale, dtype=np.float64)
+        if norms.shape != (m,) or not np.isfinite(norms).all():
+            raise ValueError(f"column_basis: scale must be {m} finite norms, got shape {norms.shape}")
     scale = np.where(norms > 0.0, norms, 1.0)
     _, s, Vt = np.linalg.svd(R / scale)
     r = int(np.count_nonzero(s > tol))

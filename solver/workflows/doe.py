@@ -23,18 +23,19 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from ..deform.deformer import Deformer, DeformResult
+from ..deform.positions import InteriorBasis
 from ..errors import ConstraintError, SpecError
 from ..io import write_mesh
 from ..mesh import Mesh
 from .plan import Plan, plan_values
 from .shapes import Shapes, variant_move
 
-__all__ = ["Variant", "DoeResult", "run_doe", "deck_writer", "write_summary", "summary_rows", "BLOCK",
+__all__ = ["Variant", "DoeResult", "run_doe", "doe_basis", "deck_writer", "write_summary", "summary_rows", "BLOCK",
            "SUMMARY_FIELDS"]
 
 #: Rows solved together (one multi-column back-substitution) by default.
@@ -127,11 +128,11 @@ def _variant(row: int, params: dict[str, float], res: DeformResult, status: str)
                    r.get("max_displacement"), r.get("constraint_residual_max"), None, r)
 
 
-def _solve_block(deformer: Deformer, moves: list[Any], policy: str, quality: str
-                 ) -> list[DeformResult | ConstraintError]:
+def _solve_block(deformer: Deformer, moves: list[Any], policy: str, quality: str,
+                 basis: InteriorBasis | None = None) -> list[DeformResult | ConstraintError]:
     """Results of a block; a block whose stacked solve raises a conflict is solved row by row."""
     try:
-        return list(deformer.solve_many(moves, policy, quality))
+        return list(deformer.solve_many(moves, policy, quality, basis=basis))
     except ConstraintError:
         out: list[DeformResult | ConstraintError] = []
         for mv in moves:
@@ -142,9 +143,39 @@ def _solve_block(deformer: Deformer, moves: list[Any], policy: str, quality: str
         return out
 
 
+def doe_basis(deformer: Deformer, shapes: Shapes, plan: Plan, block: int = BLOCK) -> InteriorBasis | None:
+    """The interior column basis of the plan's first block, which :func:`run_doe` solves every block through.
+
+    A process that solves only some blocks of a plan (a Ray actor, a service
+    batch's block) passes this as ``run_doe(..., basis=)`` to get the decks of
+    a whole run bit for bit. None where stacked solves use no basis, or when
+    the first block's MOVEs conflict (such blocks are solved row by row).
+
+    Parameters
+    ----------
+    deformer : Deformer
+    shapes : Shapes
+    plan : Plan
+        The whole plan.
+    block : int
+        Rows per stacked solve, as given to :func:`run_doe`.
+
+    Returns
+    -------
+    InteriorBasis or None
+    """
+    theta = plan_values(plan, shapes)
+    first = [variant_move(deformer, shapes, theta[i], plan.where(i)) for i in range(min(block, plan.rows))]
+    try:
+        return deformer.interior_basis(first)
+    except ConstraintError:
+        return None
+
+
 def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOCK, output: Output | None = None,
             progress: Callable[[int, int], None] | None = None, cancelled: Callable[[], bool] | None = None,
-            inversion: str | None = None, quality: str = "basic") -> DoeResult:
+            inversion: str | None = None, quality: str = "basic",
+            basis: InteriorBasis | None | Literal["first"] = "first") -> DoeResult:
     """Morph every row of ``plan``.
 
     Parameters
@@ -166,6 +197,10 @@ def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOC
         Overrides the SPEC's policy, as ``morph --inversion``. With ``reject``
         an inverting row is recorded as ``rejected`` and the others go on.
     quality : {"basic", "full"}
+    basis : InteriorBasis, None or "first"
+        The interior column basis every block's stacked solve projects on
+        (:func:`doe_basis`): ``"first"`` builds it from this plan's first block;
+        None lets each block use its own columns only.
 
     Returns
     -------
@@ -190,12 +225,16 @@ def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOC
     variants: list[Variant] = []
     solve_s = output_s = 0.0
     stopped = False
+    if basis == "first":
+        t1 = time.perf_counter()
+        basis = doe_basis(deformer, shapes, plan, block) if plan.rows > 2 and block > 2 else None
+        solve_s += time.perf_counter() - t1
     for start in range(0, plan.rows, block):
         if cancelled is not None and cancelled():
             stopped = True
             break
         t1 = time.perf_counter()
-        results = _solve_block(deformer, moves[start:start + block], solve_policy, quality)
+        results = _solve_block(deformer, moves[start:start + block], solve_policy, quality, basis)
         t2 = time.perf_counter()
         solve_s += t2 - t1
         for j, res in enumerate(results):
@@ -217,6 +256,7 @@ def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOC
         if progress is not None:
             progress(len(variants), plan.rows)
     timings = {"solve_ms": 1e3 * solve_s, "output_ms": 1e3 * output_s,
+               "interior_basis_columns": float(basis.rank) if isinstance(basis, InteriorBasis) else 0.0,
                "total_ms": 1e3 * (time.perf_counter() - t0),
                "per_variant_ms": 1e3 * solve_s / max(len(variants), 1)}
     return DoeResult(shapes.names, variants, plan.rows, stopped, block, timings)

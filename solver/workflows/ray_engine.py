@@ -8,8 +8,10 @@ actors (``pip install 'tetmorph[cluster]'``):
 * each actor (:class:`DoeWorker`) builds the precompute from them once, then
   solves blocks of rows, each block one :func:`run_doe` call over the rows
   ``[k * block, (k + 1) * block)`` -- the very block the single-process
-  ``tetmorph doe`` stacks into one back-substitution, so every deck and every
-  summary value is bit-identical to it;
+  ``tetmorph doe`` stacks into one back-substitution, through the interior
+  column basis of the plan's first block that each actor builds once as
+  ``tetmorph doe`` does, so every deck and every summary value is
+  bit-identical to it;
 * decks are written by the actors into a private folder beside ``output``
   (a path every node reaches: a shared volume), one folder per attempt of a
   block; when the block's task returns, the driver renames them to their
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import hashlib
 import os
 import secrets
 import shutil
@@ -36,10 +39,11 @@ from pathlib import Path
 from typing import Any
 
 from ..deform.deformer import Deformer, DeformResult
+from ..deform.positions import InteriorBasis
 from ..errors import SolverError, SpecError
 from ..mesh import Mesh
 from .batch_memory import keep_freed_memory
-from .doe import BLOCK, DoeResult, Variant, deck_writer, run_doe, write_summary
+from .doe import BLOCK, DoeResult, Variant, deck_writer, doe_basis, run_doe, write_summary
 from .plan import Plan, plan_values, read_plan
 from .shapes import parse_shapes, variant_move
 
@@ -92,6 +96,7 @@ class DoeWorker:
         self.deformer = Deformer(mesh, spec)
         self.shapes = parse_shapes(shapes_doc, self.deformer)
         self.setup_ms = 1e3 * (time.perf_counter() - t0)
+        self._basis: tuple[tuple[int, int, bytes], InteriorBasis | None] | None = None
 
     def pid(self) -> int:
         """The actor's process id."""
@@ -117,6 +122,13 @@ class DoeWorker:
             return e.to_dict()
         return None
 
+    def basis(self, plan: Plan, block: int) -> InteriorBasis | None:
+        """The interior column basis of the plan's first block (:func:`~solver.workflows.doe.doe_basis`), built once."""
+        key = (plan.rows, block, hashlib.sha256(plan.values.tobytes()).digest())
+        if self._basis is None or self._basis[0] != key:
+            self._basis = (key, doe_basis(self.deformer, self.shapes, plan, block))
+        return self._basis[1]
+
     def solve(self, plan: Plan, start: int, block: int, output: str | None, file_format: str | None,
               inversion: str | None, quality: str, folder: str | None) -> tuple[list[Variant], list[tuple[str, str]]]:
         """Rows ``[start, start + block)``: their variants, and ``(written, final)`` deck paths."""
@@ -134,7 +146,7 @@ class DoeWorker:
                 return final
 
         r = run_doe(self.deformer, self.shapes, part, block=block, output=out, inversion=inversion,
-                    quality=quality)
+                    quality=quality, basis=self.basis(plan, block))
         return [Variant(**{**v.__dict__, "row": v.row + start}) for v in r.variants], files
 
 

@@ -151,3 +151,59 @@ def test_invalid_rows_stop_the_run_before_any_solve(plate_deformer):
         run_doe(plate_deformer, shapes, parse_plan([{"bent": 1}]))
     with pytest.raises(SpecError, match="block must be a positive integer"):
         run_doe(plate_deformer, shapes, plan, block=0)
+
+
+def test_blocks_solved_through_the_first_blocks_basis_are_the_same_wherever_they_run(monkeypatch):
+    """A large interior (BASIS_MIN lowered to reach it): every block projects on the first block's basis.
+
+    A block run alone with that basis (as a Ray actor or a service batch runs it)
+    gives the whole run's positions bit for bit; each row equals its own
+    separate solve within the mixed precision's stated accuracy, with no
+    refinement step, and the residual is recomputed here from the positions.
+    """
+    from solver import precompute
+    from solver.deform import positions
+    from solver.deform.positions import MIXED_TOL
+    from solver.ops.mvc_matrix import mvc_matrix
+    from solver.workflows.doe import doe_basis
+    from solver.workflows.plan import Plan
+    from solver.workflows.shapes import variant_move
+    from tests.conftest import bend_spec, load, longest_axis
+
+    monkeypatch.setattr(positions, "BASIS_MIN", 0)
+    mesh = load("tet/cube_big_tetra.mesh")
+    d = precompute(mesh, bend_spec(mesh))
+    ax, diag = longest_axis(mesh)
+    axis = [0.0, 0.0, 0.0]
+    axis[(ax + 1) % 3] = 1.0
+    shapes = parse_shapes({"shapes": {
+        "turn": {"handles": {"h": {"rotation": {"axis": axis, "angle_deg": 12}}}},
+        "lift": {"handles": {"h": {"translation": (0.02 * diag * np.eye(3)[(ax + 2) % 3]).tolist()}}},
+        "pull": {"handles": {"h": {"translation": (0.01 * diag * np.eye(3)[ax]).tolist()}}}}}, d)
+    values = np.random.default_rng(5).uniform(-1, 1, (24, 3))
+    plan = parse_plan([dict(zip(shapes.names, r, strict=True)) for r in values.tolist()])
+    got: dict[int, np.ndarray] = {}
+    reports: dict[int, dict] = {}
+
+    def keep(row, r):
+        got[row] = r.V
+        reports[row] = r.report
+
+    whole = run_doe(d, shapes, plan, block=8, output=keep)
+    assert whole.timings["interior_basis_columns"] > 0
+    basis = doe_basis(d, shapes, plan, 8)
+    assert basis is not None and basis.rank == whole.timings["interior_basis_columns"]
+    for start in (8, 16):  # the later blocks alone, as another process runs them
+        part = Plan(plan.columns, plan.values[start:start + 8], None)
+        alone: dict[int, np.ndarray] = {}
+        run_doe(d, shapes, part, block=8, basis=basis, output=lambda row, r, alone=alone: alone.setdefault(row, r.V))
+        for row, V in alone.items():
+            assert np.array_equal(V, got[row + start])
+    W, _ = mvc_matrix(mesh.V, mesh.T, mesh.interior)
+    fi = d.data.positions.free_interior
+    for i in range(plan.rows):
+        one = d.solve(variant_move(d, shapes, values[i]))
+        disp = np.linalg.norm(one.V[fi] - mesh.V[fi], axis=1).max()
+        assert np.linalg.norm(got[i + 1] - one.V, axis=1).max() <= 10 * MIXED_TOL * disp
+        res = np.linalg.norm(got[i + 1][fi] - (W @ got[i + 1])[fi], axis=1).max() / disp
+        assert res <= MIXED_TOL and reports[i + 1]["interior_refined"] is False

@@ -209,6 +209,10 @@ class Positions:
         """The column basis of boundary positions ``Ps`` (None: no interior system, or it would not pay)."""
         return None
 
+    def uses_basis(self, k: int) -> bool:
+        """Whether a stacked solve of ``k`` arrays goes through a column basis (no interior system: never)."""
+        return False
+
 
 @dataclass(frozen=True, eq=False)
 class JointPositions(Positions):
@@ -299,7 +303,7 @@ class SplitPositions(Positions):
         else:
             D = stacked_differences(Ps, cols, self._rest_coupled)
             via = None
-            if single and _use_basis(fi.size, k):
+            if self.uses_basis(k):
                 with one_blas_thread():  # small products: no spinning helper against the kernels after them
                     via = self._through_basis(Ps, basis)
             if via is not None:
@@ -346,10 +350,15 @@ class SplitPositions(Positions):
         :data:`BASIS_MIN` vertices, three or more arrays) and it holds fewer than
         :data:`BASIS_GAIN` of the columns.
         """
-        if self.interior_precision != "single" or not _use_basis(self.free_interior.size, len(Ps)):
+        if not self.uses_basis(len(Ps)):
             return None
         with one_blas_thread():
             return self._basis_of(stacked_differences(Ps, self.coupled, self._rest_coupled, order="F"))
+
+    def uses_basis(self, k: int) -> bool:
+        """Whether a stacked solve of ``k`` arrays goes through a column basis (:func:`_use_basis`)."""
+        return (self.interior is not None and self.interior_precision == "single"
+                and _use_basis(self.free_interior.size, k))
 
     def _basis_of(self, D: np.ndarray) -> InteriorBasis | None:
         assert self.interior is not None and self.Mfb is not None and self.r0 is not None

@@ -84,6 +84,8 @@ def solve_positions_many(data: DeformData, moves: list[Move], basis: InteriorBas
 
 def interior_basis(data: DeformData, moves: list[Move]) -> InteriorBasis | None:
     """The interior column basis of the boundary displacements of ``moves`` (None where stacked solves use none)."""
+    if not data.positions.uses_basis(len(moves)):
+        return None  # nothing solved
     rhss = [data.rhs(mv) for mv in moves]
     return data.positions.interior_basis(data.positions.boundary_many(data.mesh.V, data.constraints.constrained, rhss))
 

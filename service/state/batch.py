@@ -205,8 +205,9 @@ def solve_block(deformer: Deformer, shapes: Shapes, plan: Plan, start: int, bloc
     def output(row: int, res: DeformResult) -> str:
         return out(row + start, res)
 
-    basis: Any = "first"
-    if bases is not None:
+    if bases is None:  # no cache: the basis of the whole plan's first block all the same
+        basis = doe_basis(deformer, shapes, plan, block)
+    else:
         if id(deformer) not in bases or bases[id(deformer)][0] is not deformer:
             bases.clear()
             bases[id(deformer)] = (deformer, doe_basis(deformer, shapes, plan, block))

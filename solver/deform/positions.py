@@ -36,6 +36,7 @@ from ..constraints.spec import Spec
 from ..linalg import factorization as fz
 from ..linalg.column_basis import column_basis
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
+from ..linalg.pardiso import PardisoFactor
 from ..linalg.products import combination, offset_product, product, shifted_product, stacked_differences
 from ..linalg.residual import block_residual, corrected, coupled_residual_norms
 from ..linalg.threads import one_blas_thread
@@ -86,11 +87,16 @@ class InteriorBasis:
     Q : (c, r) float64 array
         Orthonormal directions over the coupled vertices (``SplitPositions.coupled``).
     W : (f, r + 3) float array
-        ``M_ff^{-1} [M_fb Q, r0]`` in the interior factor's precision.
+        ``M_ff^{-1} [M_fb Q, r0]`` as the interior factor returns it (float32 from
+        a single-precision PARDISO factor).
+    owner : int
+        ``id`` of the :class:`SplitPositions` that built it: a basis is only
+        used by the precompute it belongs to.
     """
 
     Q: np.ndarray
     W: np.ndarray
+    owner: int = 0
 
     @property
     def rank(self) -> int:
@@ -302,6 +308,8 @@ class SplitPositions(Positions):
             dx = self.interior.solve(R)  # float32 from a single-precision PARDISO factor: kept, it widens exactly
         else:
             D = stacked_differences(Ps, cols, self._rest_coupled)
+            if basis is not None and basis.owner != id(self):
+                raise ValueError("interior_solve_many: the interior basis was built by another precompute")
             via = None
             if self.uses_basis(k):
                 with one_blas_thread():  # small products: no spinning helper against the kernels after them
@@ -360,14 +368,39 @@ class SplitPositions(Positions):
         return (self.interior is not None and self.interior_precision == "single"
                 and _use_basis(self.free_interior.size, k))
 
+    def _scales(self, D: np.ndarray) -> np.ndarray | None:
+        """Per-column norms of ``D`` floored at round-off of the coordinates; None when ``D`` is not finite.
+
+        A plan row at or next to rest (a DOE's centre point) has columns of
+        round-off; measured against their own size they would count as new
+        directions. Below ``1e-6 |extent| sqrt(c)`` the accuracy asked is the
+        coordinates' round-off instead.
+        """
+        norms = np.sqrt(np.einsum("ij,ij->j", D, D))
+        if not np.isfinite(norms).all():
+            return None  # the direct solve carries the NaN to the REPORT, as before
+        rest = self._rest_coupled
+        extent = float(np.linalg.norm(rest.max(axis=0) - rest.min(axis=0))) if rest.size else 0.0
+        return np.maximum(norms, 1e-6 * extent * np.sqrt(D.shape[0]))
+
     def _basis_of(self, D: np.ndarray) -> InteriorBasis | None:
         assert self.interior is not None and self.Mfb is not None and self.r0 is not None
-        cb = column_basis(D, BASIS_TOL)
+        scale = self._scales(D)
+        if scale is None:
+            return None
+        cb = column_basis(D, BASIS_TOL, scale=scale)
         if cb.rank + 3 >= BASIS_GAIN * D.shape[1]:
             return None
         Q = np.linalg.qr(cb.basis)[0] if cb.rank else np.zeros((D.shape[0], 0))  # orthonormal, the same span
-        W = self.interior.solve(np.hstack([product(self.Mfb, Q), self.r0]))
-        return InteriorBasis(np.ascontiguousarray(Q), W)
+        W = self._stacked_solve(np.hstack([product(self.Mfb, Q), self.r0]))
+        return InteriorBasis(np.ascontiguousarray(Q), W, id(self))
+
+    def _stacked_solve(self, B: np.ndarray) -> np.ndarray:
+        """A back-substitution scheduled as stacked whatever its width (PARDISO's thread count, threads.py)."""
+        assert self.interior is not None
+        if isinstance(self.interior, PardisoFactor):
+            return self.interior.solve(B, stacked=True)
+        return self.interior.solve(B)
 
     def _through_basis(self, Ps: list[np.ndarray], basis: InteriorBasis | None) -> np.ndarray | None:
         """The stacked solve ``M_ff^{-1} (r0 + M_fb D)`` through a column basis, or None when it does not pay.
@@ -393,7 +426,9 @@ class SplitPositions(Positions):
         C2 = Q.T @ E  # twice is enough: the remainder orthogonal to Q to round-off
         E -= (C2.T @ Q.T).T
         C += C2
-        norms = np.sqrt(np.einsum("ij,ij->j", D, D))
+        norms = self._scales(D)
+        if norms is None:
+            return None
         parts = [basis.W]
         coef = [C, np.tile(np.eye(3), (1, m // 3))]
         # every column within BASIS_TOL of its norm already: nothing left to solve (no QR of the remainder)
@@ -402,7 +437,7 @@ class SplitPositions(Positions):
         if left is not None and left.rank:
             if left.rank >= BASIS_GAIN * m:  # the basis does not fit this block: solve it directly
                 return None
-            parts.append(self.interior.solve(product(self.Mfb, left.basis)))
+            parts.append(self._stacked_solve(product(self.Mfb, left.basis)))
             coef.append(left.coefficients)
         W = parts[0] if len(parts) == 1 else np.hstack(parts)
         return combination(W, np.vstack(coef), np.float32)

@@ -58,7 +58,7 @@ def column_basis(D: np.ndarray, tol: float, scale: np.ndarray | None = None) -> 
     directions are ``D_s V_r`` for the singular values above ``tol``, and
     ``D[:, j] ~= D_s V_r (V_r^T e_j) |D[:, j]|``. Dropping the rest moves
     column ``j`` by at most ``S[r] |D[:, j]|``: the reported ``error``.
-    A column-major ``D`` is factored without a copy.
+    A column-major ``D`` spares the transposing copy before LAPACK's.
 
     Parameters
     ----------

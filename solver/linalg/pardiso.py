@@ -178,12 +178,15 @@ class PardisoFactor:
                           b.ctypes.data, x.ctypes.data, ctypes.byref(err))
         return int(err.value)
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
+    def solve(self, b: np.ndarray, stacked: bool = False) -> np.ndarray:
         """Solve ``A x = b`` for ``b`` of shape (n,) or (n, k).
 
         Parameters
         ----------
         b : (n,) or (n, k) array
+        stacked : bool
+            Schedule as a stacked solve whatever the width (a DOE's basis and
+            left-over columns, which may be few: :mod:`solver.linalg.threads`).
 
         Returns
         -------
@@ -195,6 +198,7 @@ class PardisoFactor:
         B = fortran_copy(np.reshape(b, (shape[0], -1)), self.dtype)
         X = np.empty_like(B, order="F")
         with self._lock:
+            self._stacked = self._stacked or stacked
             n_threads = solve_threads(B.shape[1], self._stacked)  # see solver.linalg.threads
             self._stacked = self._stacked or B.shape[1] > WIDE_COLUMNS  # a scheduling hint, not a result
             prev = mkl_local_threads(self._lib, n_threads)

@@ -261,7 +261,7 @@ def offset_product(M: sp.csr_matrix, D: np.ndarray, r0: np.ndarray) -> np.ndarra
 def stacked_differences(Ps: list[np.ndarray], cols: np.ndarray, rest: np.ndarray, order: str = "C") -> np.ndarray:
     """``[P_1[cols] - rest, P_2[cols] - rest, ...]`` side by side: (c, w k) for k arrays ``P_j`` (n, w).
 
-    ``order="F"`` writes the block column-major (for LAPACK, without a transposing copy).
+    ``order="F"`` writes the block column-major (LAPACK's layout: a QR then copies it without transposing).
 
     Examples
     --------

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -89,33 +90,52 @@ def update_threads(n: int | None = None) -> Iterator[None]:
         numba.set_num_threads(prev)
 
 
-_OPENBLAS: list | None = None  # numpy's and scipy's OpenBLAS controllers, found once
+_OPENBLAS: list | None = None  # numpy's and scipy's own OpenBLAS controllers, found once
+_BLAS_LOCK = threading.Lock()
+_BLAS_USERS = 0
+_BLAS_SAVED: list[int] = []
+
+
+def _own_openblas() -> list:
+    """The OpenBLAS libraries inside this Python's prefix (numpy's and scipy's wheels; not CHOLMOD's system one)."""
+    try:
+        import sys
+
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - a dependency; only speed is at stake
+        return []
+    prefix = os.path.realpath(sys.prefix)
+    return [c for c in ThreadpoolController().lib_controllers
+            if c.internal_api == "openblas" and os.path.realpath(c.filepath).startswith(prefix)]
 
 
 @contextmanager
 def one_blas_thread() -> Iterator[None]:
-    """NumPy's and SciPy's OpenBLAS on one thread inside the block (process-wide while it lasts).
+    """NumPy's and SciPy's OpenBLAS on one thread inside the block (process-wide while any thread is inside).
 
     OpenBLAS's helper threads keep spinning for a while after each call. On two
     cores a spinning helper takes a core from the numba kernel that follows: in a
     DOE block at 1M tets the residual check after the column basis's small
     products took 3.8-6.3 ms per variant instead of 3.0 (a throw-away script
     timing the stages), and the products themselves ran no faster on two
-    threads. For short runs of small dense products.
+    threads. For short runs of small dense products. Nested and concurrent
+    blocks count their users: the first entry saves the thread counts, the last
+    exit restores them.
     """
-    global _OPENBLAS
-    if _OPENBLAS is None:
-        try:
-            from threadpoolctl import ThreadpoolController
-
-            _OPENBLAS = [c for c in ThreadpoolController().lib_controllers if c.internal_api == "openblas"]
-        except ImportError:  # pragma: no cover - a dependency; only speed is at stake
-            _OPENBLAS = []
-    prev = [c.get_num_threads() for c in _OPENBLAS]
-    for c in _OPENBLAS:
-        c.set_num_threads(1)
+    global _OPENBLAS, _BLAS_USERS, _BLAS_SAVED
+    with _BLAS_LOCK:
+        if _OPENBLAS is None:
+            _OPENBLAS = _own_openblas()
+        if _BLAS_USERS == 0:
+            _BLAS_SAVED = [c.get_num_threads() for c in _OPENBLAS]
+            for c in _OPENBLAS:
+                c.set_num_threads(1)
+        _BLAS_USERS += 1
     try:
         yield
     finally:
-        for c, n in zip(_OPENBLAS, prev, strict=True):
-            c.set_num_threads(n)
+        with _BLAS_LOCK:
+            _BLAS_USERS -= 1
+            if _BLAS_USERS == 0:
+                for c, n in zip(_OPENBLAS, _BLAS_SAVED, strict=True):
+                    c.set_num_threads(n)

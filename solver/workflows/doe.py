@@ -104,8 +104,10 @@ class DoeResult:
         Whether ``cancelled()`` stopped the run (``variants`` has the rows done).
     block : int
     timings : dict
-        ``solve_ms`` (parse, solves, checks, REPORTs), ``output_ms`` (the
-        callback: writing decks), ``total_ms``, ``per_variant_ms`` (solve only).
+        ``solve_ms`` (parse, the interior basis, solves, checks, REPORTs),
+        ``output_ms`` (the callback: writing decks), ``total_ms``,
+        ``per_variant_ms`` (solve only), ``interior_basis_columns`` (directions
+        of the first block's interior basis; 0 when stacked solves use none).
     """
 
     shapes: tuple[str, ...]

@@ -124,7 +124,7 @@ class DoeWorker:
 
     def basis(self, plan: Plan, block: int) -> InteriorBasis | None:
         """The interior column basis of the plan's first block (:func:`~solver.workflows.doe.doe_basis`), built once."""
-        key = (plan.rows, block, hashlib.sha256(plan.values.tobytes()).digest())
+        key = (plan.rows, block, hashlib.sha256(repr(plan.columns).encode() + plan.values.tobytes()).digest())
         if self._basis is None or self._basis[0] != key:
             self._basis = (key, doe_basis(self.deformer, self.shapes, plan, block))
         return self._basis[1]

@@ -91,20 +91,27 @@ def test_a_refinement_step_brings_the_interior_closer_to_the_exact_solve(monkeyp
         assert np.abs(r.V - ref).max() < np.abs(p.V - ref).max()
 
 
-def test_stacked_solves_through_the_column_basis_match_separate_solves(monkeypatch):
-    """A block of MOVEs solved through its column basis: each as its own solve, within the stated accuracy."""
+@pytest.mark.parametrize("backend", ["supernodal", "pardiso"])
+def test_stacked_solves_through_the_column_basis_match_separate_solves(backend, monkeypatch):
+    """A block of MOVEs solved through its column basis: each as its own solve, within the stated accuracy.
+
+    ``pardiso``: the interior factor of systems above 40,000 unknowns (float32 solutions), here forced.
+    """
     from solver.deform import positions
 
+    if backend == "pardiso":
+        monkeypatch.setenv("TETMORPH_SUPERNODAL", "0")
     mesh = load("tet/cube_big_tetra.mesh")
     d = precompute(mesh, bend_spec(mesh))
-    moves = [bend_move(mesh, angle=a, frac=f) for a, f in
-             [(20, 0.03), (-10, 0.01), (5, -0.02), (15, 0.0), (0, 0.02), (-20, -0.03), (8, 0.015), (-3, 0.0)]]
+    assert d.data.positions.lu_backend == backend
+    moves = [bend_move(mesh, angle=a, frac=f) for a, f in  # (0, 0): a row at rest, columns of round-off
+             [(20, 0.03), (-10, 0.01), (5, -0.02), (15, 0.0), (0, 0.02), (-20, -0.03), (8, 0.015), (0, 0.0)]]
     singles = [d.solve(m) for m in moves]
     ranks: list[int] = []
     basis = positions.column_basis
 
-    def spy(D, tol):
-        b = basis(D, tol)
+    def spy(D, tol, scale=None):
+        b = basis(D, tol, scale)
         ranks.append(b.rank)
         return b
 
@@ -113,12 +120,16 @@ def test_stacked_solves_through_the_column_basis_match_separate_solves(monkeypat
     assert ranks == []
     monkeypatch.setattr(positions, "BASIS_MIN", 0)
     through = d.solve_many(moves)
-    assert len(ranks) == 1 and ranks[0] + 3 < positions.BASIS_GAIN * 3 * len(moves)  # fewer columns solved
+    assert ranks and ranks[0] + 3 < positions.BASIS_GAIN * 3 * len(moves)  # fewer columns solved
+    calls = len(ranks)
     fi = d.data.positions.free_interior
     W, _ = mvc_matrix(mesh.V, mesh.T, mesh.interior)
     fixed = d.data.constraints.fixed
-    for one, direct, r in zip(singles, many, through, strict=True):
+    for i, (one, direct, r) in enumerate(zip(singles, many, through, strict=True)):
         disp = np.linalg.norm(one.V[fi] - mesh.V[fi], axis=1).max()
+        if i == len(moves) - 1:  # the row at rest: the rest shape to round-off of the coordinates
+            assert np.abs(r.V - mesh.V).max() <= 1e-12 * d.data.constraints.diag
+            continue
         for other in (direct, r):
             assert np.linalg.norm(other.V - one.V, axis=1).max() <= 10 * MIXED_TOL * disp
         res = float(np.linalg.norm(r.V[fi] - (W @ r.V)[fi], axis=1).max() / disp)  # independent residual
@@ -128,4 +139,4 @@ def test_stacked_solves_through_the_column_basis_match_separate_solves(monkeypat
         assert r.report["inverted_elements"] == one.report["inverted_elements"]
     monkeypatch.setenv("TETMORPH_COLUMN_BASIS", "0")
     d.solve_many(moves)
-    assert len(ranks) == 1  # switched off
+    assert len(ranks) == calls  # switched off

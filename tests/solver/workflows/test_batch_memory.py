@@ -23,12 +23,13 @@ base = rss_mb()
 a = np.ones(8 << 20)  # 64 MB, above glibc's largest default mmap threshold (32 MB)
 held = rss_mb() - base
 del a
-print(applied, round(held), round(rss_mb() - base), np._core.multiarray._get_madvise_hugepage())
+core = getattr(np, "_core", None) or np.core
+print(applied, round(held), round(rss_mb() - base), core.multiarray._get_madvise_hugepage())
 """
 
 
 def _probe(env_value: str | None) -> tuple[bool, float, float, bool]:
-    env = {k: v for k, v in os.environ.items() if k != "TETMORPH_BATCH_MALLOC"}
+    env = {k: v for k, v in os.environ.items() if k not in ("TETMORPH_BATCH_MALLOC", "NUMPY_MADVISE_HUGEPAGE")}
     if env_value is not None:
         env["TETMORPH_BATCH_MALLOC"] = env_value
     out = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, check=True, env=env,

@@ -197,6 +197,7 @@ def test_blocks_solved_through_the_first_blocks_basis_are_the_same_wherever_they
         part = Plan(plan.columns, plan.values[start:start + 8], None)
         alone: dict[int, np.ndarray] = {}
         run_doe(d, shapes, part, block=8, basis=basis, output=lambda row, r, alone=alone: alone.setdefault(row, r.V))
+        assert len(alone) == 8
         for row, V in alone.items():
             assert np.array_equal(V, got[row + start])
     W, _ = mvc_matrix(mesh.V, mesh.T, mesh.interior)

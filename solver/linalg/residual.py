@@ -18,70 +18,60 @@ import scipy.sparse as sp
 __all__ = ["block_residual", "coupled_residual_norms", "corrected"]
 
 
+@numba.njit(inline="always", cache=True, nogil=True)
+def _axpy_row(indptr, indices, data, X, i, sign, acc):  # pragma: no cover - compiled
+    """``acc += sign * A[i] X``: one sparse row times the dense block."""
+    m = acc.shape[0]
+    for p in range(indptr[i], indptr[i + 1]):
+        a = sign * data[p]
+        k = indices[p]
+        for j in range(m):
+            acc[j] += a * X[k, j]
+
+
+@numba.njit(inline="always", cache=True, nogil=True)
+def _tally_row(acc, X, i, width, c, store, R, rmax, xmax):  # pragma: no cover - compiled
+    """Row ``i``'s residual ``acc`` (stored in ``R`` if asked): the largest squared norms per block so far."""
+    for b in range(acc.shape[0] // width):
+        r2 = 0.0
+        x2 = 0.0
+        for q in range(b * width, (b + 1) * width):
+            if store:
+                R[i, q] = acc[q]
+            r2 += acc[q] * acc[q]
+            x2 += X[i, q] * X[i, q]
+        if not r2 <= rmax[c, b]:  # NaN propagates: a NaN row is the largest
+            rmax[c, b] = r2
+        if not x2 <= xmax[c, b]:
+            xmax[c, b] = x2
+
+
 @numba.njit(parallel=True, cache=True, nogil=True)
 def _residual_kernel(indptr, indices, data, B, X, width, store, R, rmax, xmax):  # pragma: no cover - compiled
     n, m = B.shape
-    nb = m // width
     nch = rmax.shape[0]
     for c in numba.prange(nch):
-        lo = c * n // nch
-        hi = (c + 1) * n // nch
         acc = np.empty(m)
-        for i in range(lo, hi):
+        for i in range(c * n // nch, (c + 1) * n // nch):
             for j in range(m):
                 acc[j] = B[i, j]
-            for p in range(indptr[i], indptr[i + 1]):
-                a = data[p]
-                k = indices[p]
-                for j in range(m):
-                    acc[j] -= a * X[k, j]
-            for b in range(nb):
-                r2 = 0.0
-                x2 = 0.0
-                for q in range(b * width, (b + 1) * width):
-                    if store:
-                        R[i, q] = acc[q]
-                    r2 += acc[q] * acc[q]
-                    x2 += X[i, q] * X[i, q]
-                if not r2 <= rmax[c, b]:  # NaN propagates: a NaN row is the largest
-                    rmax[c, b] = r2
-                if not x2 <= xmax[c, b]:
-                    xmax[c, b] = x2
+            _axpy_row(indptr, indices, data, X, i, -1.0, acc)
+            _tally_row(acc, X, i, width, c, store, R, rmax, xmax)
 
 
 @numba.njit(parallel=True, cache=True, nogil=True)
-def _coupled_residual_kernel(ai, aj, ax, mi, mj, mx, r0, D, X, width, rmax, xmax):  # pragma: no cover - compiled
+def _coupled_residual_kernel(ai, aj, ax, mi, mj, mx, r0, D, X, width, R, rmax, xmax):  # pragma: no cover - compiled
     """:func:`_residual_kernel` norms for ``B = r0 + M D`` (``r0`` in every block), ``B`` never stored."""
     n, m = X.shape[0], D.shape[1]
-    nb = m // width
     nch = rmax.shape[0]
     for c in numba.prange(nch):
-        lo = c * n // nch
-        hi = (c + 1) * n // nch
         acc = np.empty(m)
-        for i in range(lo, hi):
+        for i in range(c * n // nch, (c + 1) * n // nch):
             for j in range(m):
                 acc[j] = r0[i, j % width]
-            for p in range(mi[i], mi[i + 1]):
-                a = mx[p]
-                k = mj[p]
-                for j in range(m):
-                    acc[j] += a * D[k, j]
-            for p in range(ai[i], ai[i + 1]):
-                a = ax[p]
-                k = aj[p]
-                for j in range(m):
-                    acc[j] -= a * X[k, j]
-            for b in range(nb):
-                r2 = 0.0
-                x2 = 0.0
-                for q in range(b * width, (b + 1) * width):
-                    r2 += acc[q] * acc[q]
-                    x2 += X[i, q] * X[i, q]
-                if not r2 <= rmax[c, b]:  # NaN propagates: a NaN row is the largest
-                    rmax[c, b] = r2
-                if not x2 <= xmax[c, b]:
-                    xmax[c, b] = x2
+            _axpy_row(mi, mj, mx, D, i, 1.0, acc)
+            _axpy_row(ai, aj, ax, X, i, -1.0, acc)
+            _tally_row(acc, X, i, width, c, False, R, rmax, xmax)
 
 
 @numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
@@ -262,5 +252,6 @@ def coupled_residual_norms(A: sp.csr_matrix, M: sp.csr_matrix, r0: np.ndarray, D
     xmax = np.zeros((nch, m // width))
     _coupled_residual_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), M.indptr, M.indices,
                              np.asarray(M.data, np.float64), np.ascontiguousarray(r0, dtype=np.float64),
-                             np.ascontiguousarray(D, dtype=np.float64), _values(X), width, rmax, xmax)
+                             np.ascontiguousarray(D, dtype=np.float64), _values(X), width, np.empty((0, 0)), rmax,
+                             xmax)
     return np.sqrt(rmax.max(axis=0)), np.sqrt(xmax.max(axis=0))

@@ -114,11 +114,10 @@ def one_blas_thread() -> Iterator[None]:
     """NumPy's and SciPy's OpenBLAS on one thread inside the block (process-wide while any thread is inside).
 
     OpenBLAS's helper threads keep spinning for a while after each call. On two
-    cores a spinning helper takes a core from the numba kernel that follows: in a
-    DOE block at 1M tets the residual check after the column basis's small
-    products took 3.8-6.3 ms per variant instead of 3.0 (a throw-away script
-    timing the stages), and the products themselves ran no faster on two
-    threads. For short runs of small dense products. Nested and concurrent
+    cores a spinning helper takes a core from the numba kernel that follows (in a
+    DOE block at 1M tets, the residual check after the column basis's small
+    products, seen in a throw-away script timing the stages), and the products
+    themselves ran no faster on two threads. For short runs of small dense products. Nested and concurrent
     blocks count their users: the first entry saves the thread counts, the last
     exit restores them.
     """

@@ -12,13 +12,11 @@ then the working set's high-water mark, a few percent above the default's
 (``benchmarks/bench_doe.py`` prints peak RSS).
 
 NumPy advises the kernel to back every large array with transparent huge
-pages (``madvise(MADV_HUGEPAGE)`` on the array's range). On the mmap'd
-chunks of glibc's defaults that makes first touches cheaper, but on the heap
-that the raised thresholds keep using, the advice on one array's range after
-another makes first touches several times dearer than plain pages: on this
-machine 68 ms against 10 ms for a fresh 28 MB array (a throw-away script
-timing ``np.empty`` and one write per page). The first block of a run is
-made of such touches (at 1M tets about 0.8 s of a 32-row block), so a batch
+pages (``madvise(MADV_HUGEPAGE)`` on the array's range). When the kernel has
+to compact memory to find huge pages, first touches of advised memory become
+several times dearer than plain pages (seen on this VM in a throw-away script
+timing ``np.empty`` and one write per page; which memory was hit changed
+between runs). The first block of a run is made of such touches, so a batch
 process also turns NumPy's advice off; later blocks reuse the memory either way.
 
 The service does not call this: it holds many sessions and must give the

@@ -16,9 +16,7 @@ leaves no file behind.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import os
 import shutil
 import tempfile
@@ -33,7 +31,7 @@ from solver.errors import SpecError
 from solver.io import write_mesh
 from solver.mesh import Mesh
 from solver.workflows.doe import DoeResult, Variant, doe_basis, run_doe, write_summary
-from solver.workflows.plan import Plan, parse_plan, plan_values
+from solver.workflows.plan import Plan, parse_plan, plan_table, plan_values
 from solver.workflows.shapes import Shapes, parse_shapes, variant_move
 
 from ..errors import ServiceError
@@ -50,14 +48,11 @@ def plan_of(plan: Any, max_rows: int) -> Plan:
     ServiceError
         422 ``too_many_rows`` above ``max_rows``.
     SpecError
-        ``empty_plan``, ``invalid_plan`` naming the row, its line and the column.
+        ``empty_plan``, ``invalid_plan`` naming the row, its line and the column (or the line the
+        CSV reader could not split).
     """
     if isinstance(plan, str):
-        text = plan.lstrip("\ufeff")
-        first = next((ln for ln in text.splitlines() if ln.strip()), "")
-        delim = "," if "," in first or not any(d in first for d in ";\t") else (";" if ";" in first else "\t")
-        table = [(k + 1, row) for k, row in enumerate(csv.reader(io.StringIO(text), delimiter=delim))]
-        table = [(k, row) for k, row in table if any(c.strip() for c in row)]
+        table = plan_table(plan.lstrip("\ufeff"))
         if len(table) < 2:
             raise SpecError("the plan needs a header of shape names and one row per variant", code="empty_plan",
                             field="plan")

@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import SolverError, SpecError
 from .shapes import Shapes
 
-__all__ = ["Plan", "parse_plan", "read_plan", "plan_values", "MAX_ROWS"]
+__all__ = ["plan_table", "Plan", "parse_plan", "read_plan", "plan_values", "MAX_ROWS"]
 
 #: Rows a plan may hold.
 MAX_ROWS = 1_000_000
@@ -174,6 +174,27 @@ def parse_plan(rows: Sequence[Mapping[str, Any] | Sequence[Any]], columns: Seque
     return Plan(cols, values, ln)
 
 
+def plan_table(text: str) -> list[tuple[int, list[str]]]:
+    """The non-blank rows of CSV plan text with their row numbers (1-based), the delimiter sniffed.
+
+    The delimiter is ``,`` unless the first non-blank line has ``;`` or a tab and no comma.
+
+    Raises
+    ------
+    SpecError
+        ``invalid_plan`` for text the CSV reader cannot split (naming the line).
+    """
+    first = next((ln for ln in text.splitlines() if ln.strip()), "")
+    delim = "," if "," in first or not any(d in first for d in ";\t") else (";" if ";" in first else "\t")
+    reader = csv.reader(io.StringIO(text), delimiter=delim)
+    try:
+        table = [(k + 1, row) for k, row in enumerate(reader)]
+    except csv.Error as e:
+        raise SpecError(f"the plan is not CSV text the reader can split at line {reader.line_num}: {e}",
+                        code="invalid_plan", field="plan") from None
+    return [(k, row) for k, row in table if any(c.strip() for c in row)]
+
+
 def read_plan(path: str | os.PathLike[str]) -> Plan:
     """Read a CSV plan file.
 
@@ -193,10 +214,7 @@ def read_plan(path: str | os.PathLike[str]) -> Plan:
         raise SolverError(f"PLAN file not found: {os.fspath(path)}", code="file_not_found") from None
     except UnicodeDecodeError as e:
         raise SpecError(f"PLAN file {os.fspath(path)} is not UTF-8 text: {e}", code="invalid_plan") from None
-    first = next((ln for ln in text.splitlines() if ln.strip()), "")
-    delim = "," if "," in first or not any(d in first for d in ";\t") else (";" if ";" in first else "\t")
-    table = [(k + 1, row) for k, row in enumerate(csv.reader(io.StringIO(text), delimiter=delim))]
-    table = [(k, row) for k, row in table if any(c.strip() for c in row)]
+    table = plan_table(text)
     if not table:
         raise SpecError(f"PLAN file {os.fspath(path)} is empty: it needs a header of shape names and one row "
                         "per variant", code="empty_plan")

@@ -99,6 +99,9 @@ def test_bad_plans_name_the_row_and_column_and_store_nothing(tmp_path):
         e = err(tc.post(f"/v1/sessions/{sid}/batch", json={"shapes": shapes, "plan": bad}))
         assert e["status"] == 422 and e["code"] == "invalid_plan" and "row 2 (line 3)" in e["message"]
         assert e["details"]["column"] == "hole1_x"
+        # a bare carriage return inside a field: CSV the reader cannot split, a 422 naming the line (was a 500)
+        e = err(tc.post(f"/v1/sessions/{sid}/batch", json={"shapes": shapes, "plan": "bend,hole1_x\n0\r1,0\n"}))
+        assert e["status"] == 422 and e["code"] == "invalid_plan" and "line 2" in e["message"]
         e = err(tc.post(f"/v1/sessions/{sid}/batch", json={"shapes": shapes, "plan": {"columns": ["bend"],
                                                                                        "rows": [[0], [1, 2]]}}))
         assert e["code"] == "invalid_plan" and "row 2" in e["message"]

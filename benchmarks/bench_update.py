@@ -70,40 +70,56 @@ def bandwidth_gbs() -> float:
     return best
 
 
-def run_harmonic(deck: Path, k: int) -> dict:
-    os.environ["TETMORPH_SUPERNODAL"] = "0"  # the peer's solve is CHOLMOD's own, not tetmorph's sweeps
-    import igl
+class Harmonic:
+    """The peer: one CHOLMOD factor of the harmonic system, three right-hand sides per update."""
 
-    from solver import read_mesh
-    from solver.constraints.move import parse_move
-    from solver.linalg import factorization as fz
+    def __init__(self, deck: Path) -> None:
+        os.environ["TETMORPH_SUPERNODAL"] = "0"  # the peer's solve is CHOLMOD's own, not tetmorph's sweeps
+        import igl
 
-    mesh = read_mesh(deck)
-    V, T = mesh.V, mesh.T
-    fixed, top = mesh.sets["FIXED"], mesh.sets["LOAD"]
-    t0 = time.perf_counter()
-    L = igl.cotmatrix(V, T)
-    Q = (-L).tocsr()
-    known = np.zeros(len(V), bool)
-    known[fixed] = known[top] = True
-    b = np.flatnonzero(known)
-    u = np.flatnonzero(~known & mesh.referenced)
-    Quu = Q[u][:, u].tocsc()
-    Qub = Q[u][:, b].tocsr()
-    f = fz.cholesky(Quu, "harmonic")
-    setup = time.perf_counter() - t0
-    c = V[top].mean(axis=0)
-    times = []
-    for doc in _moves(k) * 3:
-        hm = parse_move(doc, ["top"]).handles["top"]
-        t = time.perf_counter()
+        from solver import read_mesh
+        from solver.constraints.move import parse_move
+        from solver.linalg import factorization as fz
+
+        self._parse = parse_move
+        mesh = read_mesh(deck)
+        V, T = mesh.V, mesh.T
+        fixed, top = mesh.sets["FIXED"], mesh.sets["LOAD"]
+        t0 = time.perf_counter()
+        L = igl.cotmatrix(V, T)
+        Q = (-L).tocsr()
+        known = np.zeros(len(V), bool)
+        known[fixed] = known[top] = True
+        self.b = np.flatnonzero(known)
+        self.u = np.flatnonzero(~known & mesh.referenced)
+        Quu = Q[self.u][:, self.u].tocsc()
+        self.Qub = Q[self.u][:, self.b].tocsr()
+        self.f = fz.cholesky(Quu, "harmonic")
+        self.setup_s = time.perf_counter() - t0
+        self.V, self.top = V, top
+        self.c = V[top].mean(axis=0)
+
+    def update(self, doc: dict) -> np.ndarray:
+        """Positions for one MOVE document."""
+        V, top, b, u = self.V, self.top, self.b, self.u
+        hm = self._parse(doc, ["top"]).handles["top"]
         D = np.zeros((len(V), 3))
-        D[top] = hm.apply(V[top], c) - V[top]
+        D[top] = hm.apply(V[top], self.c) - V[top]
         X = V.copy()
         X[b] += D[b]
-        X[u] += f.solve(-(Qub @ D[b]))
+        X[u] += self.f.solve(-(self.Qub @ D[b]))
+        return X
+
+
+def run_harmonic(deck: Path, k: int) -> dict:
+    h = Harmonic(deck)
+    times = []
+    for doc in _moves(k) * 3:
+        t = time.perf_counter()
+        h.update(doc)
         times.append(1e3 * (time.perf_counter() - t))
-    return {"setup_s": setup, "update_ms": float(np.median(times[k:])), "factor_nnz": int(f.nbytes // 12),
+    f = h.f
+    return {"setup_s": h.setup_s, "update_ms": float(np.median(times[k:])), "factor_nnz": int(f.nbytes // 12),
             "factor_bytes": int(f.nbytes), "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20}
 
 

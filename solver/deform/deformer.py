@@ -18,6 +18,7 @@ from typing import Any
 
 from ..constraints.move import Move, parse_move, scaled_move
 from ..constraints.spec import Spec, parse_spec
+from ..linalg.threads import solving
 from ..mesh import Mesh
 from ..validity.quality import element_quality, summarize_quality
 from ..validity.safe_fraction import SAFE_TOL
@@ -84,10 +85,12 @@ class Deformer:
             return move
         return parse_move(move, self.handle_names, self.spec.names, self.data.constraints.bounds)
 
+    @solving()
     def solve_positions(self, move: Move | dict[str, Any]) -> Solved:
         """Positions of a MOVE, without check or policy (:func:`~solver.deform.solve.solve_positions`)."""
         return solve_positions(self.data, self.parse_move(move))
 
+    @solving()
     def solve_boundary(self, move: Move | dict[str, Any]) -> BoundaryStage:
         """The boundary positions of a MOVE first (:func:`~solver.deform.solve.solve_boundary`).
 
@@ -99,6 +102,7 @@ class Deformer:
         """The MOVE scaled by ``f`` in [0, 1] (:func:`~solver.constraints.move.scaled_move`)."""
         return scaled_move(self.parse_move(move), f, self.data.constraints.rest)
 
+    @solving()
     def safe_fraction(self, move: Move | dict[str, Any], tol: float = SAFE_TOL,
                       inverts: bool | None = None) -> tuple[float, int]:
         """Largest fraction of a MOVE that inverts no element, and the solves used (bisection)."""
@@ -108,6 +112,7 @@ class Deformer:
         """Summary of every quality metric of the rest mesh."""
         return summarize_quality(element_quality(self.mesh.V, self.mesh.T, self.mesh.cells))
 
+    @solving()  # threads chosen per solve from the cores free now (solver.linalg.threads)
     def solve(self, move: Move | dict[str, Any] | BoundaryStage, inversion: str | None = None,
               quality: str = "basic", repair: bool | None = None) -> DeformResult:
         """Deform for one MOVE (or complete a :meth:`solve_boundary` stage) by back-substitution only.
@@ -150,6 +155,7 @@ class Deformer:
         return update(self.data, mv, solved, policy, quality, self.spec.repair if repair is None else repair,
                       (t0, t1, t2))
 
+    @solving()
     def solve_many(self, moves: list[Move | dict[str, Any]], inversion: str | None = None,
                    quality: str = "basic", repair: bool | None = None,
                    basis: InteriorBasis | None = None) -> list[DeformResult]:
@@ -172,6 +178,7 @@ class Deformer:
         rep = self.spec.repair if repair is None else repair
         return [update(self.data, mv, s, policy, quality, rep, share) for mv, s in zip(mvs, solved, strict=True)]
 
+    @solving()
     def interior_basis(self, moves: Sequence[Move | dict[str, Any]]) -> InteriorBasis | None:
         """The interior column basis of ``moves``' boundary displacements, for :meth:`solve_many` of their family.
 

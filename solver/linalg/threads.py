@@ -1,35 +1,28 @@
-"""How many threads a per-update back-substitution uses.
+"""How many threads a solve uses: chosen per solve from the cores that are free.
 
-An update reads factors and arrays once: it is bound by memory bandwidth,
-not by arithmetic, so a second thread gains little, and when the cores are
-shared (other sessions, other processes) OpenMP threads that wait for a
-descheduled partner at every barrier make it several times slower. Measured
-on the 107k-tet bracket while this 2-core machine ran other work: the
-interior PARDISO solve 5.0-13.3 ms with one thread against 4.9-12.7 ms with
-two, and the whole update 14.6-34.1 ms against 35.5-99.0 ms (a script timing
-``Deformer.solve`` under ``threadpool_limits``; ``benchmarks/bench_update.py``
-gives the tables). So PARDISO back-substitutions run on ``SOLVE_THREADS``
-threads (default 1, ``TETMORPH_SOLVE_THREADS`` to change), set per calling
-thread; factorizations keep every thread. The element check is arithmetic,
-not bandwidth: it keeps numba's threads (1M tets: 16 ms on one, 8.5 ms on two).
-A back-substitution of many right-hand sides at once (a DOE block: more than
-``WIDE_COLUMNS`` columns) reads the factor once for all of them and is
-arithmetic-bound too, so it runs on every MKL thread. But once a factor has made one
-single-threaded back-substitution, PARDISO's stacked solves on it stay slow
-whatever the thread count, also after further narrow solves on two threads
-(``iparm[24]`` and OpenMP's thread count change nothing). ``python
-benchmarks/bench_doe.py --fresh`` shows it: on the 1M bracket, block 16,
-65.0 ms per variant on a precompute that has made only stacked solves
-against 84.6 on one that made single updates first. So a factor that has
-made a stacked solve makes all its later solves on the stacked thread count (:func:`solve_threads`), and the
-stacked solves of a ``tetmorph doe`` process or a Ray actor, whose first
-solve is stacked, keep both threads through refinement steps and short last
-blocks; a service session that has served MOVEs runs its batch as on one
-thread. With ``TETMORPH_SOLVE_THREADS=2`` every solve uses two threads, which
-suits a machine that runs one job (``TETMORPH_SOLVE_THREADS=2 python
-benchmarks/bench_doe.py --sizes 0.44``: DOE block 16 at 0.49 of a single
-update, single updates 148.8 ms).
-:func:`update_threads` limits numba for callers that want one thread.
+An update reads factors and arrays once; it is bound by memory bandwidth and
+by the barriers of its parallel kernels. On idle cores a second thread helps
+the kernels (numba's ``prange`` loops, the two-subtree supernodal sweeps).
+When the cores are shared, by another process or by other solves of this
+one, a thread that waits at a barrier for a descheduled partner costs far
+more than the second thread saved. So every solve asks :func:`solving` for
+its threads when it starts:
+
+* the cores this process may run on (its CPU affinity), capped by
+  :func:`configure`'s ``max_threads``;
+* less the tasks that run on the machine right now and are not this
+  process's solves (the kernel's count of runnable tasks, ``/proc/loadavg``);
+* shared among this process's solves in flight.
+
+Numba's kernels of the calling thread get that count
+(``numba.set_num_threads`` is per calling thread), and so do MKL's stacked
+back-substitutions (``MKL_Set_Num_Threads_Local``). A narrow PARDISO
+back-substitution (a single update) stays on one thread, as before.
+
+Spinning waits are bounded at import of :mod:`solver` (:mod:`solver.runtime`):
+OpenMP's (libgomp, shared by numba and MKL) and OpenBLAS's helper threads
+would otherwise spin on cores that other work needs.
+``benchmarks/bench_contention.py`` measures all of it against the harmonic peer.
 """
 
 from __future__ import annotations
@@ -42,30 +35,129 @@ from contextlib import contextmanager
 
 import numba
 
-__all__ = ["SOLVE_THREADS", "STACKED_THREADS", "WIDE_COLUMNS", "solve_threads", "update_threads", "mkl_local_threads",
-           "one_blas_thread"]
+__all__ = ["WIDE_COLUMNS", "solve_threads", "solving", "configure", "current_threads", "in_flight",
+           "in_flight_peak", "in_flight_reset", "free_threads", "cores", "mkl_local_threads", "one_blas_thread"]
 
-#: Threads of a per-update solve (MKL and numba, this thread only).
-SOLVE_THREADS = max(1, int(os.environ.get("TETMORPH_SOLVE_THREADS", "1") or 1))
-
-#: Right-hand-side columns above which a back-substitution counts as stacked (every thread).
+#: Right-hand-side columns above which a back-substitution counts as stacked.
 WIDE_COLUMNS = 6
 
+_CONFIG = {"max_threads": 0}  # 0: every core of the affinity mask
+_FLIGHT = threading.Lock()
+_IN_FLIGHT = 0
+_PEAK = 0
+_LOCAL = threading.local()
 
-#: Threads of a stacked back-substitution (``TETMORPH_STACKED_THREADS``, default every core).
-STACKED_THREADS = max(1, int(os.environ.get("TETMORPH_STACKED_THREADS", "0") or 0)
-                      or min(len(os.sched_getaffinity(0)), int(os.environ.get("MKL_NUM_THREADS", "") or 1 << 16)))
+
+def cores() -> int:
+    """Cores this process may run on (its CPU affinity)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def configure(max_threads: int | None = None) -> None:
+    """Cap the threads of any one solve (None or 0: every core; 1: serial solves).
+
+    Raises
+    ------
+    ValueError
+        ``max_threads`` negative.
+    """
+    n = int(max_threads or 0)
+    if n < 0:
+        raise ValueError(f"max_threads must be >= 0 (0: every core), got {max_threads}")
+    _CONFIG["max_threads"] = n
+
+
+def _running_tasks() -> int | None:
+    """Tasks runnable on the machine right now (the kernel's count, the reader included), or None."""
+    try:
+        with open("/proc/loadavg", "rb") as f:
+            return int(f.read().split()[3].split(b"/")[0])
+    except (OSError, ValueError, IndexError):  # pragma: no cover - not Linux
+        return None
+
+
+def free_threads(solves: int = 1) -> int:
+    """Threads for one of ``solves`` concurrent solves of this process, from the cores free now (at least 1)."""
+    n = cores()
+    cap = _CONFIG["max_threads"]
+    if cap:
+        n = min(n, cap)
+    running = _running_tasks()
+    if running is not None and running > solves:  # a second look: a passing kernel thread is not load
+        running = min(running, _running_tasks() or running)
+    others = 0 if running is None else max(0, running - solves)  # the solving threads are running themselves
+    free = max(1, min(n, cores() - others))
+    return max(1, free // max(1, solves))
+
+
+def in_flight() -> int:
+    """Solves of this process running now."""
+    return _IN_FLIGHT
+
+
+def in_flight_peak() -> int:
+    """Most solves that ran at once since :func:`in_flight_reset`."""
+    return _PEAK
+
+
+def in_flight_reset() -> None:
+    """Restart :func:`in_flight_peak` from the solves running now."""
+    global _PEAK
+    with _FLIGHT:
+        _PEAK = _IN_FLIGHT
+
+
+def current_threads() -> int:
+    """Threads of the calling thread's solve (:func:`solving`), or of one solve now when outside one."""
+    n = getattr(_LOCAL, "threads", 0)
+    return n or free_threads(max(1, _IN_FLIGHT))
+
+
+@contextmanager
+def solving() -> Iterator[int]:
+    """One solve: counted in flight, its numba kernels on the threads free now; yields the count.
+
+    NumPy's and SciPy's OpenBLAS run on one thread while any solve is in flight
+    (:func:`one_blas_thread`).
+
+    Nested blocks (a solve inside a solve of the same thread) keep the outer count.
+    """
+    global _IN_FLIGHT, _PEAK
+    if getattr(_LOCAL, "threads", 0):
+        yield _LOCAL.threads
+        return
+    with _FLIGHT:
+        _IN_FLIGHT += 1
+        _PEAK = max(_PEAK, _IN_FLIGHT)
+        share = _IN_FLIGHT
+    k = min(free_threads(share), numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    prev = numba.get_num_threads()
+    numba.set_num_threads(k)
+    _LOCAL.threads = k
+    try:
+        with one_blas_thread():  # an update's dense products are small; no helper left spinning after them
+            yield k
+    finally:
+        _LOCAL.threads = 0
+        numba.set_num_threads(prev)
+        with _FLIGHT:
+            _IN_FLIGHT -= 1
 
 
 def solve_threads(columns: int, stacked_before: bool = False) -> int:
     """MKL threads for a back-substitution of ``columns`` right-hand sides.
 
-    ``stacked_before``: the factor has made a stacked solve; its later solves,
-    narrow ones too, keep the stacked thread count, so that a refinement step
-    or a short last block does not slow every stacked solve after it (PARDISO
-    keeps a factor's earlier thread count, above).
+    A narrow one (a single update) runs on one thread: it is bound by memory
+    traffic. A stacked one (more than :data:`WIDE_COLUMNS` columns) reads the
+    factor once for all its columns and gets :func:`current_threads`.
+    ``stacked_before``: the factor has made a stacked solve; PARDISO keeps a
+    factor's earlier thread count for its later solves, so a refinement step
+    or a short last block keeps the stacked count too.
     """
-    return STACKED_THREADS if stacked_before or columns > WIDE_COLUMNS else SOLVE_THREADS
+    return current_threads() if stacked_before or columns > WIDE_COLUMNS else 1
 
 
 def mkl_local_threads(lib: ctypes.CDLL, n: int) -> int:
@@ -76,18 +168,6 @@ def mkl_local_threads(lib: ctypes.CDLL, n: int) -> int:
     f.restype = ctypes.c_int
     f.argtypes = [ctypes.c_int]
     return int(f(int(n)))
-
-
-@contextmanager
-def update_threads(n: int | None = None) -> Iterator[None]:
-    """Numba kernels of this thread run on ``n`` (default ``SOLVE_THREADS``) threads inside the block."""
-    k = min(max(1, n or SOLVE_THREADS), numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
-    prev = numba.get_num_threads()
-    numba.set_num_threads(k)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(prev)
 
 
 _OPENBLAS: list | None = None  # numpy's and scipy's own OpenBLAS controllers, found once

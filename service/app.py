@@ -20,6 +20,8 @@ from fastapi import FastAPI
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 
+from solver.linalg import threads
+
 from .api import batch, health, meshes, sessions, stream, tetrahedralize
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
@@ -78,6 +80,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     removed = reg.store.remove_orphans()
     if removed:
         log.info("removed %d leftovers of interrupted uploads: %s", len(removed), removed[:10])
+    threads.configure(max_threads=settings.solver_threads)  # the solve pool and the solver's threads together
     metrics = Metrics()
     reg.observe_solve = metrics.solve_seconds.observe
     reg.builder.observe_build = metrics.build_seconds.observe

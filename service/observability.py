@@ -92,6 +92,9 @@ class Metrics:
                                        registry=r, buckets=(0.1, 0.3, 1, 3, 10, 30, 100, 300))
         self.solve_seconds = Histogram("tetmorph_solve_seconds", "one MOVE solved (back-substitution, check)",
                                        registry=r, buckets=(0.005, 0.01, 0.03, 0.1, 0.3, 1, 3, 10))
+        self.solves_in_flight = Gauge("tetmorph_solves_in_flight", "solves running now in this process (they "
+                                      "share the free cores, solver.linalg.threads)", registry=r)
+        self.solve_threads = Gauge("tetmorph_solve_threads", "threads one solve would get now", registry=r)
         self.queue = Gauge("tetmorph_queue_depth", "work waiting or running per pool", ["pool"], registry=r)
         self.cache_bytes = Gauge("tetmorph_cache_bytes", "bytes of cached factorizations", registry=r)
         self.sessions = Gauge("tetmorph_sessions", "sessions by status", ["status"], registry=r)

@@ -52,7 +52,11 @@ class Settings(BaseSettings):
     build_wait_s: float = Field(1.0, ge=0,
                                 description="How long session creation waits before answering 202.")
     build_workers: int = Field(1, gt=0, description="Threads that assemble and factor.")
-    solve_workers: int = Field(2, gt=0, description="Threads that back-substitute.")
+    solve_workers: int = Field(0, ge=0, description="Threads that solve MOVEs at once (0: one per core). "
+                               "Each solve shares the cores free when it starts with the solves in flight, so "
+                               "more workers mean fewer threads per solve, never more threads than cores.")
+    solver_threads: int = Field(0, ge=0, description="Most threads one solve uses (0: every free core; 1: "
+                                "serial solves, for hosts that run other work on every core).")
     demo: bool = Field(False, description="Load the demo beam and session at start-up.")
     sweep_interval_s: float = Field(60.0, gt=0, description="How often idle sessions are swept.")
     expired_memory_s: float = Field(7 * 24 * 3600.0, ge=0,
@@ -90,6 +94,11 @@ class Settings(BaseSettings):
         if isinstance(v, str):
             return [k.strip() for k in v.split(",") if k.strip()]
         return v
+
+    @property
+    def solve_pool_size(self) -> int:
+        """Threads of the solve pool: :attr:`solve_workers`, or the cores this process may run on."""
+        return self.solve_workers or len(os.sched_getaffinity(0))
 
     @property
     def max_upload_bytes(self) -> int:

@@ -7,6 +7,8 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
+from solver.linalg import threads
+
 from ..formats import capabilities
 from ..models.error import error_responses
 from ..models.service import FormatInfo, Health, Ready
@@ -52,6 +54,8 @@ def metrics(request: Request, reg: RegistryDep) -> Response:
     m.queue.labels("build").set(reg.builder.queued("build"))
     m.queue.labels("solve").set(reg.builder.queued("solve"))
     m.queue.labels("tetrahedralize").set(request.app.state.jobs.queued)
+    m.solves_in_flight.set(threads.in_flight())
+    m.solve_threads.set(threads.free_threads(threads.in_flight() + 1))
     return Response(generate_latest(m.registry), media_type=CONTENT_TYPE_LATEST)
 
 

@@ -74,3 +74,36 @@ def test_every_offered_format_downloads(client, tc):
         for text in (r.text, strict.text):
             assert "/tmp" not in text and str(tc.app.state.settings.data_dir) not in text
     assert failed == {}
+
+
+def test_metrics_show_the_solves_in_flight_and_the_threads_one_would_get(tc):
+    from solver.linalg import threads
+
+    def value(text: str, name: str) -> float:
+        return float(next(ln.split()[1] for ln in text.splitlines() if ln.startswith(name + " ")))
+
+    assert value(tc.get("/metrics").text, "tetmorph_solves_in_flight") == 0
+    with threads.solving():  # a solve of this process under way, as a solve pool thread holds it
+        text = tc.get("/metrics").text
+    assert value(text, "tetmorph_solves_in_flight") == 1
+    assert 1 <= value(text, "tetmorph_solve_threads") <= threads.cores()
+    assert value(tc.get("/metrics").text, "tetmorph_solves_in_flight") == 0
+
+
+def test_solve_pool_defaults_to_one_thread_per_core_and_solver_threads_cap_each_solve():
+    from service.app import create_app
+    from service.settings import Settings
+    from solver.linalg import threads
+
+    assert Settings().solve_pool_size == threads.cores()
+    assert Settings(solve_workers=3).solve_pool_size == 3
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        try:
+            app = create_app(Settings(data_dir=d, solver_threads=1))
+            assert app.state.registry.builder.solve_workers == threads.cores()
+            with threads.solving() as k:
+                assert k == 1
+        finally:
+            threads.configure(None)

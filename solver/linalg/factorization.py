@@ -11,12 +11,14 @@ Backends, in order of preference:
     ordering: 10x faster than SuperLU there), and for symmetric systems too when
     CHOLMOD is missing.
 ``supernodal``
-    Systems of medium size (``SUPERNODAL_MAX``) that are solved on every
-    update: the square mean-value system (SuperLU without pivoting on a METIS
-    ordering) and the boundary position system (CHOLMOD's factor exported),
-    back-substituted by tetmorph's own two-thread dense supernode sweeps
-    (:mod:`solver.linalg.supernodal`), which cost less than PARDISO's and
-    CHOLMOD's solves there. Systems that need pivoting stay with PARDISO.
+    Systems solved on every update, back-substituted by tetmorph's own
+    two-thread dense supernode sweeps (:mod:`solver.linalg.supernodal`),
+    which cost less than PARDISO's and CHOLMOD's solves: the square
+    mean-value system above ``LU_SMALL`` unknowns (tetmorph's multifrontal LU
+    without pivoting on PARDISO's nested-dissection ordering,
+    :mod:`solver.linalg.multifrontal`) and the boundary position system up to
+    ``SUPERNODAL_MAX`` (CHOLMOD's factor exported). Systems that need pivoting
+    stay with PARDISO.
 ``scipy``
     SuperLU through :func:`scipy.sparse.linalg.splu`. Always available but one
     to two orders of magnitude slower on large meshes.
@@ -46,8 +48,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import FactorizationError
+from .multifrontal import lu_multifrontal
 from .pardiso import PardisoFactor, mkl_runtime
-from .supernodal import Unsuitable, cholmod_supernodal, lu_supernodal
+from .supernodal import Unsuitable, cholmod_supernodal
 
 __all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
@@ -129,29 +132,29 @@ def backend() -> str:
 
 _LU_BACKEND: str | None = None
 #: Square systems up to this size use SuperLU even when PARDISO is there: on small
-#: systems PARDISO's solve costs more (255 unknowns: 0.22 vs 0.03 ms; 2,588: 1.24 vs
-#: 0.32 ms), while SuperLU's factorization grows much faster with size (12,892
-#: unknowns of the 107k-tet bracket: 290 vs 97 ms, for about the same solve, 8.8 vs
-#: 8.2 ms). Measured on interior mean-value systems: benchmarks/measure_choices.py
-#: --only small-lu.
+#: systems PARDISO's solve costs more, while SuperLU's factorization grows much faster
+#: with size than the others'. Measured on interior mean-value systems:
+#: ``benchmarks/measure_choices.py --only small-lu``.
 LU_SMALL = 5_000
 
 
-#: Systems from ``LU_SMALL`` up to this size are back-substituted by tetmorph's own dense
-#: supernode sweeps (:mod:`solver.linalg.supernodal`): square mean-value systems factored by
-#: SuperLU without pivoting on a METIS ordering, and the boundary position system (CHOLMOD's
-#: ``L`` exported). Interior solves of 3 columns: 12,892 unknowns (107k-tet bracket) 1.2 ms against
-#: PARDISO's 5.0, 33,643 (259k tets) 4.5 against 14.6; their factorization costs more (0.27-0.29
-#: against 0.07 s, and 0.9-1.5 against 0.2-0.24 s), which set-up hides on a second thread at 107k.
-#: The 1M meshes' interior (144k unknowns) stays with PARDISO, whose solve is near its
-#: memory-traffic floor there (benchmarks/measure_choices.py --only supernodal).
+#: Symmetric systems up to this size are back-substituted by tetmorph's own dense supernode
+#: sweeps (:mod:`solver.linalg.supernodal`, CHOLMOD's ``L`` exported); larger ones keep CHOLMOD's
+#: solve, whose cost is near the factor's memory traffic there. Square mean-value systems above
+#: ``LU_SMALL`` get the sweeps at every size, factored by :mod:`solver.linalg.multifrontal`.
+#: ``benchmarks/measure_choices.py --only supernodal`` measures both sides.
 #: ``TETMORPH_SUPERNODAL=0`` keeps PARDISO and CHOLMOD at every size.
 SUPERNODAL_MAX = 40_000
 
 
+def _sweeps_on() -> bool:
+    """Whether the supernodal sweeps are on (``TETMORPH_SUPERNODAL=0`` turns them off)."""
+    return os.environ.get("TETMORPH_SUPERNODAL", "1").strip() != "0"
+
+
 def _supernodal(n: int) -> bool:
     """Whether an ``n``-unknown system gets the supernodal sweeps (``SUPERNODAL_MAX``, ``TETMORPH_SUPERNODAL``)."""
-    return LU_SMALL < n <= SUPERNODAL_MAX and os.environ.get("TETMORPH_SUPERNODAL", "1").strip() != "0"
+    return LU_SMALL < n <= SUPERNODAL_MAX and _sweeps_on()
 
 
 def lu_backend() -> str:
@@ -318,8 +321,8 @@ def lu(A: sp.spmatrix, what: str = "system", single: bool = False) -> Factor:
         Name of the system, used in error messages.
     single : bool
         Factor in single precision where the backend can (above ``LU_SMALL``
-        unknowns: the supernodal solve up to ``SUPERNODAL_MAX``, then MKL
-        PARDISO): half the bytes per back-substitution; the solution carries
+        unknowns: the multifrontal factor and its supernodal sweeps, or MKL
+        PARDISO where a pivot is needed): half the bytes per back-substitution; the solution carries
         single-precision rounding (the caller refines or states the accuracy).
 
     Returns
@@ -340,10 +343,10 @@ def lu(A: sp.spmatrix, what: str = "system", single: bool = False) -> Factor:
     """
     A = _prepared(A, what)
     if lu_backend() == "pardiso" and A.shape[0] > LU_SMALL:
-        if _supernodal(A.shape[0]):
+        if _sweeps_on():
             try:
-                return lu_supernodal(A, single)
-            except Unsuitable:  # not structurally symmetric, or needs pivoting: PARDISO pivots
+                return lu_multifrontal(A, single)
+            except Unsuitable:  # needs pivoting: PARDISO pivots
                 pass
         return PardisoFactor(A, what, mtype=11, single=single)
     return _SuperLUFactor(A, what, symmetric=False)

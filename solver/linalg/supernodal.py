@@ -656,6 +656,30 @@ class SupernodalFactor:
         held = self.nnz - (bstart[-1] if U is None else 0) + (n if U is None else 2 * n)
         self.nbytes = int(held * np.dtype(self.dtype).itemsize + R.nbytes + 3 * starts.nbytes + self._perm.nbytes)
 
+    @classmethod
+    def from_blocks(cls, perm: np.ndarray, starts: np.ndarray, rstart: np.ndarray, R: np.ndarray, bstart: np.ndarray,
+                    LB: np.ndarray, UB: np.ndarray, dstart: np.ndarray, LD: np.ndarray, UD: np.ndarray,
+                    ldinv: np.ndarray, udinv: np.ndarray, split: np.ndarray, single: bool) -> SupernodalFactor:
+        """A factor from blocks already laid out (:func:`~solver.linalg.multifrontal.lu_multifrontal`).
+
+        The arrays are those the constructor builds (same names, same layout), in
+        the factor's precision; no double-precision copy is kept.
+        """
+        f = cls.__new__(cls)
+        n = int(starts[-1])
+        f.shape = (n, n)
+        f.single = single
+        f.dtype = np.float32 if single else np.float64
+        f._perm = np.ascontiguousarray(perm, dtype=np.int64)
+        f._split = np.asarray(split, np.int64)
+        f.threads = 2 if f._split[0] > 0 else 1
+        f._arrays = (starts, rstart, R, bstart, LB, UB, dstart, LD, UD, ldinv, udinv)
+        f._double = () if single else f._arrays
+        f.supernodes = int(starts.size - 1)
+        f.nnz = int(2 * bstart[-1] + 2 * dstart[-1])
+        f.nbytes = int((f.nnz + 2 * n) * np.dtype(f.dtype).itemsize + R.nbytes + 3 * starts.nbytes + f._perm.nbytes)
+        return f
+
     def _sweep(self, b: np.ndarray, arrays: tuple[np.ndarray, ...], dtype: type) -> np.ndarray:
         shape = np.shape(b)
         B = np.reshape(np.asarray(b, dtype=np.float64), (shape[0], -1))

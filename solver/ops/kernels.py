@@ -66,14 +66,15 @@ def _supernodal_kernels() -> None:
     import scipy.sparse as sp
 
     from ..errors import FactorizationError
+    from ..linalg.multifrontal import lu_multifrontal
     from ..linalg.products import combination, gradient, offset_product, product, shifted_product, stacked_differences
-    from ..linalg.supernodal import SupernodalFactor, lu_supernodal
+    from ..linalg.supernodal import SupernodalFactor
 
     n = 40
     A = sp.csc_matrix(sp.diags([-1.0, 4.0, -1.0], [-1, 0, 1], shape=(n, n)))
     for single in (False, True):
         try:
-            f = lu_supernodal(A, single)
+            f = lu_multifrontal(A, single)
         except FactorizationError:  # no MKL for the ordering: the LU path is not used either
             break
         f.solve(np.ones((n, 3)))

@@ -98,11 +98,9 @@ def test_concurrent_solves_on_one_factor_agree(mean_value_system):
 
 
 def _zero_pivot_system(A: sp.csc_matrix) -> sp.csc_matrix:
-    """Two copies of ``A`` (above ``LU_SMALL`` unknowns) with the first diagonal entry zero: needs pivoting."""
-    B = sp.lil_matrix(sp.block_diag([A, A]))
-    B[0, 0] = 0.0
-    B[0, 1] = 1.0  # keeps the matrix non-singular; the pattern stays symmetric only if A[1, 0] exists
-    return sp.csc_matrix(B)
+    """Two copies of ``A`` (above ``LU_SMALL`` unknowns) around a 2x2 swap: a zero pivot in any order."""
+    swap = sp.csc_matrix([[0.0, 1.0], [1.0, 0.0]])
+    return sp.csc_matrix(sp.block_diag([A, swap, A]))
 
 
 def test_a_system_that_needs_pivoting_is_refused_and_goes_to_pardiso(mean_value_system):

@@ -253,24 +253,29 @@ def _fill(starts, Lp, Li, Lx, lower, rstart, R, bstart, dstart, B, D, dinv):  # 
 
 
 @numba.njit(cache=True, nogil=True, inline="always", fastmath=True, boundscheck=False)
-def _diag_row3(D, base, lo, hi, g, c0, a, y):  # pragma: no cover - compiled
-    """Row ``a`` of a diagonal block: ``y[:, c0 + a] = (y[:, c0 + a] - D[a, lo:hi] y[:, c0 + lo:c0 + hi]) g``.
+def _diag_row3(D, base, lo, hi, g, c0, a, y0, y1, y2):  # pragma: no cover - compiled
+    """Row ``a`` of a diagonal block: ``y_q[c0 + a] = (y_q[c0 + a] - D[a, lo:hi] y_q[c0 + lo:c0 + hi]) g``.
 
-    ``y`` of shape (3, n); the forward sweep takes ``[0, a)`` of the lower block, the backward
-    ``(a, w)`` of the upper one.
+    ``y0, y1, y2``: the three right-hand sides, each a contiguous vector (one-dimensional
+    views vectorize where a two-dimensional index does not). The forward sweep takes
+    ``[0, a)`` of the lower block, the backward ``(a, w)`` of the upper one.
     """
-    z = y.dtype.type(0.0)
+    z = y0.dtype.type(0.0)
     a0 = z
     a1 = z
     a2 = z
-    for e in range(lo, hi):
-        v = D[base + e]
-        a0 += v * y[0, c0 + e]
-        a1 += v * y[1, c0 + e]
-        a2 += v * y[2, c0 + e]
-    y[0, c0 + a] = (y[0, c0 + a] - a0) * g
-    y[1, c0 + a] = (y[1, c0 + a] - a1) * g
-    y[2, c0 + a] = (y[2, c0 + a] - a2) * g
+    d = D[base + lo:base + hi]
+    x0 = y0[c0 + lo:c0 + hi]
+    x1 = y1[c0 + lo:c0 + hi]
+    x2 = y2[c0 + lo:c0 + hi]
+    for e in range(hi - lo):
+        v = d[e]
+        a0 += v * x0[e]
+        a1 += v * x1[e]
+        a2 += v * x2[e]
+    y0[c0 + a] = (y0[c0 + a] - a0) * g
+    y1[c0 + a] = (y1[c0 + a] - a1) * g
+    y2[c0 + a] = (y2[c0 + a] - a2) * g
 
 
 @numba.njit(cache=True, nogil=True, inline="always", fastmath=True, boundscheck=False)
@@ -287,136 +292,167 @@ def _diag_row(D, base, lo, hi, g, c0, a, y):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True, fastmath=True, boundscheck=False)
 def _forward(starts, rstart, R, bstart, LB, dstart, LD, ldinv, s_lo, s_hi, y, acc, top):  # pragma: no cover
-    """``y <- L^{-1} y`` over supernodes ``s_lo..s_hi-1``; updates of columns ``>= top`` go to ``acc`` instead."""
+    """``y <- L^{-1} y`` over supernodes ``s_lo..s_hi-1``; updates of columns ``>= top`` go to ``acc`` instead.
+
+    ``y`` (3, n) and ``acc`` (3, n - top) are read through one-dimensional row views and
+    the block columns through slices, so the inner loops vectorize.
+    """
     maxr = 0
     for s in range(s_lo, s_hi):
         maxr = max(maxr, rstart[s + 1] - rstart[s])
-    t = np.empty((3, maxr), y.dtype)
     z = y.dtype.type(0.0)
+    t0 = np.empty(maxr, y.dtype)
+    t1 = np.empty(maxr, y.dtype)
+    t2 = np.empty(maxr, y.dtype)
+    y0, y1, y2 = y[0], y[1], y[2]
+    c0_, c1_, c2_ = acc[0], acc[1], acc[2]
     for s in range(s_lo, s_hi):
         c0 = starts[s]
         w = starts[s + 1] - c0
         r0 = rstart[s]
         r = rstart[s + 1] - r0
         for a in range(w):
-            _diag_row3(LD, dstart[s] + a * w, 0, a, ldinv[c0 + a], c0, a, y)
+            _diag_row3(LD, dstart[s] + a * w, 0, a, ldinv[c0 + a], c0, a, y0, y1, y2)
         if r == 0:
             continue
         for i in range(r):
-            t[0, i] = z
-            t[1, i] = z
-            t[2, i] = z
+            t0[i] = z
+            t1[i] = z
+            t2[i] = z
         a = 0
+        b = bstart[s]
         while a + 4 <= w:  # four block columns per pass over t: a quarter of its loads and stores
             c = c0 + a
-            p0, p1, p2, p3 = y[0, c], y[0, c + 1], y[0, c + 2], y[0, c + 3]
-            q0, q1, q2, q3 = y[1, c], y[1, c + 1], y[1, c + 2], y[1, c + 3]
-            u0, u1, u2, u3 = y[2, c], y[2, c + 1], y[2, c + 2], y[2, c + 3]
-            b0 = bstart[s] + a * r
+            p0, p1, p2, p3 = y0[c], y0[c + 1], y0[c + 2], y0[c + 3]
+            q0, q1, q2, q3 = y1[c], y1[c + 1], y1[c + 2], y1[c + 3]
+            u0, u1, u2, u3 = y2[c], y2[c + 1], y2[c + 2], y2[c + 3]
+            L0 = LB[b:b + r]
+            L1 = LB[b + r:b + 2 * r]
+            L2 = LB[b + 2 * r:b + 3 * r]
+            L3 = LB[b + 3 * r:b + 4 * r]
             for i in range(r):
-                v0 = LB[b0 + i]
-                v1 = LB[b0 + r + i]
-                v2 = LB[b0 + 2 * r + i]
-                v3 = LB[b0 + 3 * r + i]
-                t[0, i] += p0 * v0 + p1 * v1 + p2 * v2 + p3 * v3
-                t[1, i] += q0 * v0 + q1 * v1 + q2 * v2 + q3 * v3
-                t[2, i] += u0 * v0 + u1 * v1 + u2 * v2 + u3 * v3
+                v0 = L0[i]
+                v1 = L1[i]
+                v2 = L2[i]
+                v3 = L3[i]
+                t0[i] += p0 * v0 + p1 * v1 + p2 * v2 + p3 * v3
+                t1[i] += q0 * v0 + q1 * v1 + q2 * v2 + q3 * v3
+                t2[i] += u0 * v0 + u1 * v1 + u2 * v2 + u3 * v3
             a += 4
-        for j in range(a, w):  # the last one to three columns
-            y0 = y[0, c0 + j]
-            y1 = y[1, c0 + j]
-            y2 = y[2, c0 + j]
-            base = bstart[s] + j * r
+            b += 4 * r
+        while a < w:  # the last one to three columns
+            p0 = y0[c0 + a]
+            q0 = y1[c0 + a]
+            u0 = y2[c0 + a]
+            L0 = LB[b:b + r]
             for i in range(r):
-                v = LB[base + i]
-                t[0, i] += y0 * v
-                t[1, i] += y1 * v
-                t[2, i] += y2 * v
+                v0 = L0[i]
+                t0[i] += p0 * v0
+                t1[i] += q0 * v0
+                t2[i] += u0 * v0
+            a += 1
+            b += r
+        rows = R[r0:r0 + r]
         for i in range(r):
-            k = R[r0 + i]
+            k = rows[i]
             if k < top:
-                y[0, k] -= t[0, i]
-                y[1, k] -= t[1, i]
-                y[2, k] -= t[2, i]
+                y0[k] -= t0[i]
+                y1[k] -= t1[i]
+                y2[k] -= t2[i]
             else:
-                acc[0, k - top] += t[0, i]
-                acc[1, k - top] += t[1, i]
-                acc[2, k - top] += t[2, i]
+                c0_[k - top] += t0[i]
+                c1_[k - top] += t1[i]
+                c2_[k - top] += t2[i]
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True, boundscheck=False)
 def _backward(starts, rstart, R, bstart, UB, dstart, UD, udinv, s_lo, s_hi, y):  # pragma: no cover - compiled
-    """``y <- U^{-1} y`` over supernodes ``s_hi-1`` down to ``s_lo`` (later columns already solved)."""
+    """``y <- U^{-1} y`` over supernodes ``s_hi-1`` down to ``s_lo`` (later columns already solved).
+
+    One-dimensional views as in :func:`_forward`: the values below a supernode are
+    gathered once into three vectors, and each block row is a dot product with them.
+    """
     maxr = 0
     for s in range(s_lo, s_hi):
         maxr = max(maxr, rstart[s + 1] - rstart[s])
-    t = np.empty((3, maxr), y.dtype)
     z = y.dtype.type(0.0)
+    g0 = np.empty(maxr, y.dtype)
+    g1 = np.empty(maxr, y.dtype)
+    g2 = np.empty(maxr, y.dtype)
+    y0, y1, y2 = y[0], y[1], y[2]
     for s in range(s_hi - 1, s_lo - 1, -1):
         c0 = starts[s]
         w = starts[s + 1] - c0
         r0 = rstart[s]
         r = rstart[s + 1] - r0
         if r:
+            rows = R[r0:r0 + r]
             for i in range(r):
-                k = R[r0 + i]
-                t[0, i] = y[0, k]
-                t[1, i] = y[1, k]
-                t[2, i] = y[2, k]
+                k = rows[i]
+                g0[i] = y0[k]
+                g1[i] = y1[k]
+                g2[i] = y2[k]
             a = 0
+            b = bstart[s]
             while a + 4 <= w:  # four block rows per pass over the gathered values
-                b0 = bstart[s] + a * r
+                U0 = UB[b:b + r]
+                U1 = UB[b + r:b + 2 * r]
+                U2 = UB[b + 2 * r:b + 3 * r]
+                U3 = UB[b + 3 * r:b + 4 * r]
                 s00 = s01 = s02 = s10 = s11 = s12 = z
                 s20 = s21 = s22 = s30 = s31 = s32 = z
                 for i in range(r):
-                    g0 = t[0, i]
-                    g1 = t[1, i]
-                    g2 = t[2, i]
-                    u0 = UB[b0 + i]
-                    u1 = UB[b0 + r + i]
-                    u2 = UB[b0 + 2 * r + i]
-                    u3 = UB[b0 + 3 * r + i]
-                    s00 += u0 * g0
-                    s01 += u0 * g1
-                    s02 += u0 * g2
-                    s10 += u1 * g0
-                    s11 += u1 * g1
-                    s12 += u1 * g2
-                    s20 += u2 * g0
-                    s21 += u2 * g1
-                    s22 += u2 * g2
-                    s30 += u3 * g0
-                    s31 += u3 * g1
-                    s32 += u3 * g2
+                    e0 = g0[i]
+                    e1 = g1[i]
+                    e2 = g2[i]
+                    u0 = U0[i]
+                    u1 = U1[i]
+                    u2 = U2[i]
+                    u3 = U3[i]
+                    s00 += u0 * e0
+                    s01 += u0 * e1
+                    s02 += u0 * e2
+                    s10 += u1 * e0
+                    s11 += u1 * e1
+                    s12 += u1 * e2
+                    s20 += u2 * e0
+                    s21 += u2 * e1
+                    s22 += u2 * e2
+                    s30 += u3 * e0
+                    s31 += u3 * e1
+                    s32 += u3 * e2
                 c = c0 + a
-                y[0, c] -= s00
-                y[1, c] -= s01
-                y[2, c] -= s02
-                y[0, c + 1] -= s10
-                y[1, c + 1] -= s11
-                y[2, c + 1] -= s12
-                y[0, c + 2] -= s20
-                y[1, c + 2] -= s21
-                y[2, c + 2] -= s22
-                y[0, c + 3] -= s30
-                y[1, c + 3] -= s31
-                y[2, c + 3] -= s32
+                y0[c] -= s00
+                y1[c] -= s01
+                y2[c] -= s02
+                y0[c + 1] -= s10
+                y1[c + 1] -= s11
+                y2[c + 1] -= s12
+                y0[c + 2] -= s20
+                y1[c + 2] -= s21
+                y2[c + 2] -= s22
+                y0[c + 3] -= s30
+                y1[c + 3] -= s31
+                y2[c + 3] -= s32
                 a += 4
-            for j in range(a, w):  # the last one to three rows
-                base = bstart[s] + j * r
+                b += 4 * r
+            while a < w:  # the last one to three rows
+                U0 = UB[b:b + r]
                 a0 = z
                 a1 = z
                 a2 = z
                 for i in range(r):
-                    u = UB[base + i]
-                    a0 += u * t[0, i]
-                    a1 += u * t[1, i]
-                    a2 += u * t[2, i]
-                y[0, c0 + j] -= a0
-                y[1, c0 + j] -= a1
-                y[2, c0 + j] -= a2
+                    u = U0[i]
+                    a0 += u * g0[i]
+                    a1 += u * g1[i]
+                    a2 += u * g2[i]
+                y0[c0 + a] -= a0
+                y1[c0 + a] -= a1
+                y2[c0 + a] -= a2
+                a += 1
+                b += r
         for a in range(w - 1, -1, -1):
-            _diag_row3(UD, dstart[s] + a * w, a + 1, w, udinv[c0 + a], c0, a, y)
+            _diag_row3(UD, dstart[s] + a * w, a + 1, w, udinv[c0 + a], c0, a, y0, y1, y2)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

@@ -14,8 +14,8 @@ from .matching import Matching, match, reflection, rotation
 from .selection import midside_mask
 from .spec import CyclicEntry, Spec, SymmetryEntry, TargetEntry
 
-__all__ = ["Correspondences", "correspondences", "MatchedEntry", "TargetPoints", "read_surface",
-           "SYMMETRY_TOL", "SURFACE_TIE_TOL"]
+__all__ = ["Correspondences", "correspondences", "MatchedEntry", "InteriorMirror", "TargetPoints", "read_surface",
+           "interior_pairs", "SYMMETRY_TOL", "SURFACE_TIE_TOL"]
 
 #: Default matching tolerance of symmetry and cyclic constraints, relative to the mesh diagonal.
 SYMMETRY_TOL = 1e-6
@@ -42,6 +42,12 @@ class MatchedEntry:
         A point of the plane or axis.
     midside : Matching or None
         Mid-side slave nodes, set from the master side after placement.
+    inner : (k, 2) int array
+        Mirror symmetry: interior corner node pairs ``(negative side, positive side)``
+        that are each other's image within the tolerance (empty for cyclic entries
+        and for meshes not mirror-matched inside).
+    inner_on : (j,) int array
+        Interior corner nodes on the plane.
     """
 
     kind: str
@@ -52,6 +58,81 @@ class MatchedEntry:
     N: np.ndarray
     c: np.ndarray
     midside: Matching | None = None
+    inner: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
+    inner_on: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+
+
+@dataclass(frozen=True, eq=False)
+class InteriorMirror:
+    """Interior nodes of one mirror symmetry held as images: ``p_dst = A p_src + t``, and nodes on the plane.
+
+    Built by :func:`~solver.deform.constraint_set.constraint_set` from
+    :attr:`MatchedEntry.inner`, once it knows which nodes are fixed or in a
+    handle: a constrained node is the source of its free partner, else the
+    positive side is. ``derived`` pairs have a constrained source and a free
+    destination (the split solve holds the destination like a handle node);
+    every pair and on-plane node is set exactly after the solve (:meth:`apply`).
+
+    Attributes
+    ----------
+    name : str
+    A : (3, 3) float array
+    t : (3,) float array
+    src, dst : (k,) int arrays
+    derived : (k,) bool array
+    on : (j,) int array
+        Free interior nodes on the plane (their normal coordinate is the plane's).
+    n, c : (3,) float arrays
+        The plane's unit normal and a point of it.
+    """
+
+    name: str
+    A: np.ndarray
+    t: np.ndarray
+    src: np.ndarray
+    dst: np.ndarray
+    derived: np.ndarray
+    on: np.ndarray
+    n: np.ndarray
+    c: np.ndarray
+
+    def apply(self, P: np.ndarray) -> None:
+        """Set the destinations to the images of their sources and the on-plane nodes onto the plane, in place."""
+        if self.dst.size:
+            P[self.dst] = P[self.src] @ self.A.T + self.t
+        if self.on.size:
+            P[self.on] -= np.outer((P[self.on] - self.c) @ self.n, self.n)
+
+
+def interior_pairs(mesh: Mesh, M: np.ndarray, t: np.ndarray, h: np.ndarray, tol: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Interior corner nodes that are each other's mirror image, and those on the plane.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    M, t : the reflection ``p -> M p + t``
+    h : (n,) float array
+        Signed distance of every node to the plane.
+    tol : float
+
+    Returns
+    -------
+    pairs : (k, 2) int array
+        ``(negative side, positive side)`` nodes within ``tol`` of each other's image.
+    on : (j,) int array
+    """
+    from scipy.spatial import cKDTree
+
+    inner = ~mesh.boundary & mesh.referenced
+    neg = np.flatnonzero(inner & (h < -tol))
+    pos = np.flatnonzero(inner & (h > tol))
+    on = np.flatnonzero(inner & (np.abs(h) <= tol))
+    if not neg.size or not pos.size:
+        return np.zeros((0, 2), np.int64), on
+    d, j = cKDTree(mesh.V[pos]).query(mesh.V[neg] @ M.T + t, distance_upper_bound=tol)
+    hit = np.isfinite(d)
+    return np.c_[neg[hit], pos[j[hit]]].astype(np.int64), on
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,7 +244,8 @@ def _symmetry(mesh: Mesh, k: int, e: SymmetryEntry, tol: float, mid: np.ndarray)
         hm = (V - c) @ n
         mm = match(V, np.flatnonzero(bm & (hm < -tol)), np.flatnonzero((pos | on | bm) & (hm >= -tol)), faces, M, t,
                    tol, f"SPEC.symmetry[{k}] ({e.name!r}) mid-side nodes", require_all=False)
-    return MatchedEntry("symmetry", k, e.name, m, np.flatnonzero(on), n[None, :], c, mm)
+    inner, inner_on = interior_pairs(mesh, M, t, h, tol)
+    return MatchedEntry("symmetry", k, e.name, m, np.flatnonzero(on), n[None, :], c, mm, inner, inner_on)
 
 
 def _cyclic(mesh: Mesh, k: int, e: CyclicEntry, tol: float, sel_ids: dict[str, np.ndarray],

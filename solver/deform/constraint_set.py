@@ -17,9 +17,18 @@ from typing import Any
 import numpy as np
 
 from ..constraints.assembly import Assembly, assemble, block_targets, describe
-from ..constraints.correspondence import Correspondences, correspondences
+from ..constraints.correspondence import Correspondences, InteriorMirror, correspondences
+from ..constraints.matching import Matching
 from ..constraints.move import Move, MoveBounds, RestTargets
-from ..constraints.rows import REPORT_IDS, Block, point_weights, position_blocks, rotation_blocks
+from ..constraints.rows import (
+    REPORT_IDS,
+    Block,
+    mapped_rows,
+    point_weights,
+    position_blocks,
+    projected_rows,
+    rotation_blocks,
+)
 from ..constraints.selection import select
 from ..constraints.spec import Spec
 from ..constraints.ties import tie_pairs
@@ -94,6 +103,8 @@ class ConstraintSet:
         Rest values of MOVE-addressable targets (for scaled moves).
     bounds : MoveBounds
         The mesh's extent, bounding MOVE translations and points.
+    mirrors : tuple of InteriorMirror
+        Interior nodes of every mirror symmetry, held as images of their partners.
     """
 
     sel_ids: dict[str, np.ndarray]
@@ -131,6 +142,7 @@ class ConstraintSet:
     movable: np.ndarray
     rest: RestTargets
     bounds: MoveBounds
+    mirrors: tuple[InteriorMirror, ...] = ()
 
     @property
     def pinned_mid(self) -> np.ndarray:
@@ -221,6 +233,12 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
         else ([], [])
     vector = any(b.vector for b in blocks)
     mode = _solve_mode(mesh, spec, blocks, free_shell)
+    mirrors = _interior_mirrors(corr, constrained_mask)
+    if mode == "split":  # a free partner of a fixed or handle node is held like one (its target: the image)
+        for mi in mirrors:
+            constrained_mask[mi.dst[mi.derived]] = True
+    else:  # the joint system holds every interior pair as rows, as it does the boundary's
+        blocks += _interior_rows(corr, mirrors)
     conflict_tol = CONFLICT_TOL * max(diag, 1e-300)
     bidx = np.flatnonzero(mesh.boundary)
     unknowns = bidx if mode == "split" else np.flatnonzero(mesh.referenced)
@@ -263,7 +281,42 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
         rblocks=rblocks, rbasis=rbasis, rvector=rvector, sblocks=sblocks, sbasis=sbasis, sasm=sasm, sra=sra,
         corr=corr, vector=vector, mode=mode, diag=diag, conflict_tol=conflict_tol, bidx=bidx,
         unknowns=unknowns, pasm=pasm, pra=pra, rbidx=rbidx, rasm=rasm, rra=rra, rest_constraints=rest_constraints,
-        movable=movable, rest=rest, bounds=MoveBounds(center, diag))
+        movable=movable, rest=rest, bounds=MoveBounds(center, diag), mirrors=mirrors)
+
+
+def _interior_mirrors(corr: Correspondences, constrained: np.ndarray) -> tuple[InteriorMirror, ...]:
+    """Each mirror symmetry's interior pairs with their roles: a constrained node is its free partner's source."""
+    out = []
+    for e in corr.mapped:
+        if e.kind != "symmetry" or not (len(e.inner) or e.inner_on.size):
+            continue
+        neg, pos = e.inner[:, 0], e.inner[:, 1]
+        cn, cp = constrained[neg], constrained[pos]
+        keep = ~(cn & cp)  # both held: their own targets decide (a MOVE that breaks the symmetry conflicts there)
+        from_neg = cn & ~cp
+        src = np.where(from_neg, neg, pos)[keep]
+        dst = np.where(from_neg, pos, neg)[keep]
+        derived = (cn ^ cp)[keep]
+        on = e.inner_on[~constrained[e.inner_on]]
+        n = e.N[0]
+        out.append(InteriorMirror(e.name, e.matching.A, e.matching.t, src, dst, derived, on, n, e.c))
+    return tuple(out)
+
+
+def _interior_rows(corr: Correspondences, mirrors: tuple[InteriorMirror, ...]) -> list[Block]:
+    """Rows ``p_dst = A p_src + t`` and on-plane rows of the interior pairs, for the joint system."""
+    named = {e.name: e for e in corr.mapped if e.kind == "symmetry"}
+    blocks = []
+    for mi in mirrors:
+        e = named[mi.name]
+        if mi.dst.size:
+            k = mi.dst.size
+            m = Matching(mi.dst, np.repeat(mi.src[:, None], 3, axis=1), np.tile([1.0, 0.0, 0.0], (k, 1)), mi.A, mi.t,
+                         np.zeros(k))
+            blocks.append(mapped_rows("symmetry", e.index, e.name, m))
+        if mi.on.size:
+            blocks.append(projected_rows("symmetry", e.index, e.name, mi.on, e.N, e.c))
+    return blocks
 
 
 def _point_at(mesh: Mesh, sel_ids: dict[str, np.ndarray], p: Any) -> np.ndarray:

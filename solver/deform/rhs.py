@@ -75,6 +75,11 @@ def right_hand_sides(mesh: Mesh, cs: ConstraintSet, rotation: RotationField, del
     RightHandSides
     """
     U = handle_targets(mesh, cs, move, cs.constrained)
+    for mi in cs.mirrors:  # split solve: free interior partners of held nodes are held at their images
+        dst = mi.dst[mi.derived]
+        if dst.size and cs.mode == "split":
+            src = np.searchsorted(cs.constrained, mi.src[mi.derived])
+            U[np.searchsorted(cs.constrained, dst)] = U[src] @ mi.A.T + mi.t
     r, sigma = rotation.solve(move)
     bpos = np.full(mesh.n, -1, np.int64)
     bpos[cs.bidx] = np.arange(cs.bidx.size)

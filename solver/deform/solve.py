@@ -130,6 +130,10 @@ def complete(data: DeformData, stage: BoundaryStage) -> Solved:
 def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move) -> Solved:
     """Mid-side placement (quadratic meshes) after the corner positions of a solve."""
     P = ps.P
+    if data.constraints.mirrors:  # interior mirror pairs exactly each other's image, whatever the precision
+        P = P.copy()
+        for mi in data.constraints.mirrors:
+            mi.apply(P)
     pinned_at = data.pinned_targets(move)
     placement = None
     if data.midside is not None and data.check is not None:

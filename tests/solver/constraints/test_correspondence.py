@@ -55,6 +55,53 @@ def test_a_handle_on_one_side_drives_its_mirror_image_exactly(bar, method):
     assert r.report["conflicting_constraints"] == [] and r.report["inverted_elements"] == 0
 
 
+@pytest.fixture(scope="module")
+def fine_bar():
+    return mesh_from_arrays(*symmetric_bar(2.5))
+
+
+def _all_pairs_error(m, P):
+    """Largest |p_j - M p_i| over every node and its mirror image (found here by coordinates), per diagonal."""
+    i, j = _mirror_pairs(m)
+    assert i.size == m.n
+    diag = float(np.linalg.norm(m.V.max(0) - m.V.min(0)))
+    err = np.linalg.norm(P[j] - (P[i] * [-1, 1, 1] + [100, 0, 0]), axis=1) / diag
+    return float(err[m.boundary[i]].max()), float(err[~m.boundary[i]].max())
+
+
+@pytest.mark.parametrize("method", ["null_space", "kkt", "penalty"])
+@pytest.mark.parametrize("precision", ["exact", "mixed"])
+def test_every_node_inside_the_part_is_mirrored_too(fine_bar, method, precision):
+    # fixed at one end only, through the thickness (interior nodes held), a handle box on one side only
+    m = fine_bar
+    spec = {"selections": {"end": {"box": {"min": [-1, -1, -1], "max": [3, 21, 11]}},
+                           "block": {"box": {"min": [25, -1, -1], "max": [35, 21, 11]}}},
+            "fixed": ["end"], "handles": {"h": "block"}, "precision": precision,
+            "symmetry": [{"name": "mid", "plane": {"point": [50, 0, 0], "normal": [1, 0, 0]}}],
+            "constraints": {"method": method}}
+    assert (~m.boundary & (m.V[:, 0] < 3)).any()  # the fixed end holds interior nodes
+    d = precompute(m, spec)
+    r = d.solve({"handles": {"h": {"translation": [0, 0, 3], "rotation": {"axis": [1, 0, 0], "angle_deg": 10}}}})
+    on_boundary, inside = _all_pairs_error(m, r.V)
+    assert on_boundary <= 1e-9 and inside <= 1e-9
+    far = m.V[:, 0] > 97
+    assert np.abs(r.V[far] - m.V[far]).max() <= 1e-9 * 100  # the mirror image of the fixed end stays fixed
+    assert r.report["inverted_elements"] == 0
+
+
+def test_the_single_precision_interior_is_mirrored_exactly():
+    m = mesh_from_arrays(*symmetric_bar(1.15))
+    assert (~m.boundary).sum() > 5_000  # above LU_SMALL: the interior factor is single precision
+    spec = {"selections": {"end": {"box": {"min": [-1, -1, -1], "max": [3, 21, 11]}},
+                           "hole": {"sphere": {"center": [30, 10, 5], "radius": 8}, "boundary_only": True}},
+            "fixed": ["end"], "handles": {"h": "hole"}, "precision": "mixed",
+            "symmetry": [{"name": "mid", "plane": {"point": [50, 0, 0], "normal": [1, 0, 0]}}]}
+    r = precompute(m, spec).solve({"handles": {"h": {"translation": [0, 0, 2]}}})
+    assert r.report["interior_precision"] == "single"
+    on_boundary, inside = _all_pairs_error(m, r.V)
+    assert on_boundary <= 1e-9 and inside <= 1e-9
+
+
 def test_a_move_that_breaks_the_symmetry_is_a_conflict(bar):
     spec = _bar_spec()
     spec["selections"]["hole2"] = {"sphere": {"center": [70, 10, 5], "radius": 8}, "boundary_only": True}

@@ -10,7 +10,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test bench compare sysdeps install web browser lint clean cluster cluster-down clusterdeps
+.PHONY: run morph-demo test bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -25,7 +25,7 @@ morph-demo: install
 	  --output out/beam_{i}.vtu --report out/report.json
 	@echo "deformed meshes in out/, reports in out/report.json"
 
-test: install web browser clusterdeps
+test: install web browser calculix clusterdeps
 	$(BIN)/python -m pytest -q
 
 # The local cluster (README, "Cluster"): Debian's PostgreSQL (initdb under CLUSTER_DIR, run as an
@@ -88,6 +88,14 @@ browser:
 	    echo "installing chromium (apt)"; apt-get update -qq && \
 	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
 	  else echo "ERROR: the browser tests need chromium (apt install chromium)"; exit 1; fi; }
+
+# CalculiX (Debian's calculix-ccx 2.20): the FE solver the tests hand morphed decks to.
+calculix:
+	@command -v ccx >/dev/null || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing calculix-ccx (apt)"; apt-get update -qq && \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null; \
+	  else echo "ERROR: the solver-in-the-loop tests need ccx (apt install calculix-ccx)"; exit 1; fi; }
 
 # System libraries for the CHOLMOD backend. Installed with apt when we are
 # root on a Debian-like machine; elsewhere tetmorph falls back to a pip-only

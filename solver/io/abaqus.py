@@ -13,6 +13,7 @@ import meshio
 import numpy as np
 
 from .conversion import ABAQUS_TYPES
+from .patch_inp import coordinate_text
 
 __all__ = ["write_abaqus"]
 
@@ -23,7 +24,7 @@ def _id_lines(ids: np.ndarray, per_line: int = 16) -> str:
 
 
 def write_abaqus(path: str | os.PathLike[str], m: meshio.Mesh, heading: str = "written by tetmorph") -> None:
-    """Write ``m`` as an Abaqus deck (17 significant digits, 1-based numbers).
+    """Write ``m`` as an Abaqus deck (coordinates exact within CalculiX's 20-character fields, 1-based numbers).
 
     Parameters
     ----------
@@ -37,7 +38,7 @@ def write_abaqus(path: str | os.PathLike[str], m: meshio.Mesh, heading: str = "w
     with open(path, "w", encoding="ascii") as fh:
         fh.write(f"*HEADING\n{heading}\n*NODE\n")
         for k, x in enumerate(P):
-            fh.write(f"{k + 1}, {x[0]:.17g}, {x[1]:.17g}, {x[2]:.17g}\n")
+            fh.write(f"{k + 1}, " + ", ".join(coordinate_text(v).decode() for v in x) + "\n")
         start, first = 1, []
         for block in m.cells:
             first.append(start)

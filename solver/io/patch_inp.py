@@ -13,7 +13,11 @@ import re
 
 import numpy as np
 
-__all__ = ["patch_inp", "node_line_count"]
+__all__ = ["patch_inp", "node_line_count", "coordinate_text", "FIELD_WIDTH"]
+
+#: Widest coordinate field written: CalculiX reads at most 20 characters per field of a data line
+#: (a longer one is a fatal "*ERROR reading *NODE").
+FIELD_WIDTH = 20
 
 _KEYWORD = re.compile(rb"^\s*\*")
 _NODE = re.compile(rb"^\s*\*\s*node\s*(,|$)", re.IGNORECASE)
@@ -38,6 +42,26 @@ def node_line_count(data: bytes) -> int:
     return len(_node_lines(data.splitlines(keepends=True)))
 
 
+def coordinate_text(x: float) -> bytes:
+    """A coordinate as at most :data:`FIELD_WIDTH` characters: the shortest text that reads back exactly, if it fits.
+
+    Where it does not (a negative value with an exponent, such as
+    ``-1.2381831191533588e-16``), the most significant digits that fit: 14 or
+    more, a relative rounding below 1e-13.
+
+    Examples
+    --------
+    >>> coordinate_text(0.1), coordinate_text(-1.2381831191533588e-16)
+    (b'0.1', b'-1.2381831191534e-16')
+    """
+    text = repr(float(x))
+    digits = 16
+    while len(text) > FIELD_WIDTH:
+        text = format(float(x), f".{digits}g")
+        digits -= 1
+    return text.encode()
+
+
 def patch_inp(data: bytes, V: np.ndarray) -> bytes:
     r"""The deck ``data`` with the coordinates of its nodes replaced by ``V``.
 
@@ -51,9 +75,10 @@ def patch_inp(data: bytes, V: np.ndarray) -> bytes:
     Returns
     -------
     bytes
-        Identical to ``data`` except for the coordinate fields of the node lines
-        whose node moved (written with 17 significant digits, so they read back
-        exactly); the lines of unmoved nodes keep their text.
+        Identical to ``data`` except for the coordinates that changed
+        (:func:`coordinate_text`: exact where 20 characters hold the value, as
+        CalculiX needs); unchanged coordinates, and the lines of unmoved nodes,
+        keep their text.
 
     Raises
     ------
@@ -68,7 +93,7 @@ def patch_inp(data: bytes, V: np.ndarray) -> bytes:
     *Heading
     *NODE
     1, 0.0, 0.0, 0.0
-    2, 2.5, 0, 0
+    2, 2.5, 0.0, 0.0
     *ELEMENT, TYPE=T3D2
     1, 1, 2
     <BLANKLINE>
@@ -88,10 +113,12 @@ def patch_inp(data: bytes, V: np.ndarray) -> bytes:
             old = [float(f.replace(b"d", b"e").replace(b"D", b"e")) for f in fields[1:4]]
         except ValueError:
             old = None
-        if old is not None and all(o == float(x) for o, x in zip(old, V[row], strict=True)):
+        same = [o == float(x) for o, x in zip(old, V[row], strict=True)] if old is not None else [False] * 3
+        if all(same):
             continue  # unmoved: the line keeps its text
-        coords = [format(float(x), ".17g").encode() for x in V[row]]
-        lead = [f[: len(f) - len(f.lstrip())] for f in fields[1:4]]  # keep each field's leading blanks
-        fields[1:4] = [sp + c for sp, c in zip(lead, coords, strict=True)]
+        for j, x in enumerate(V[row]):
+            if not same[j]:
+                f = fields[1 + j]
+                fields[1 + j] = f[: len(f) - len(f.lstrip())] + coordinate_text(x)  # its leading blanks kept
         lines[k] = b",".join(fields) + end
     return b"".join(lines)

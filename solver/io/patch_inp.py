@@ -13,7 +13,7 @@ import re
 
 import numpy as np
 
-__all__ = ["patch_inp", "node_line_count", "coordinate_text", "FIELD_WIDTH"]
+__all__ = ["patch_inp", "node_line_count", "node_block_sets", "coordinate_text", "FIELD_WIDTH"]
 
 #: Widest coordinate field written: CalculiX reads at most 20 characters per field of a data line
 #: (a longer one is a fatal "*ERROR reading *NODE").
@@ -35,6 +35,40 @@ def _node_lines(lines: list[bytes]) -> list[int]:
         if inside and line.strip():
             out.append(k)
     return out
+
+
+_NSET_PARAM = re.compile(rb",\s*nset\s*=\s*([^,\s]+)", re.IGNORECASE)
+
+
+def node_block_sets(data: bytes) -> dict[str, np.ndarray]:
+    r"""Node sets named on ``*NODE, NSET=NAME`` lines: the points of each such block.
+
+    Points are numbered as meshio numbers them (node data lines in order of
+    appearance); a name on several blocks gets all of their points.
+
+    Examples
+    --------
+    >>> deck = b"*NODE, NSET=A\n1, 0, 0, 0\n2, 1, 0, 0\n*NODE\n3, 0, 1, 0\n*NODE,nset=B\n4, 0, 0, 1\n"
+    >>> {k: v.tolist() for k, v in node_block_sets(deck).items()}
+    {'A': [0, 1], 'B': [3]}
+    """
+    out: dict[str, list[int]] = {}
+    name: str | None = None
+    inside = False
+    row = 0
+    for line in data.splitlines():
+        if line.lstrip().startswith(b"**"):
+            continue
+        if _KEYWORD.match(line):
+            inside = bool(_NODE.match(line))
+            m = _NSET_PARAM.search(line) if inside else None
+            name = m.group(1).decode("ascii", "replace") if m else None
+            continue
+        if inside and line.strip():
+            if name is not None:
+                out.setdefault(name, []).append(row)
+            row += 1
+    return {k: np.asarray(v, np.int64) for k, v in out.items()}
 
 
 def node_line_count(data: bytes) -> int:

@@ -16,6 +16,7 @@ from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
 from .diagnose import check_complete, check_file, diagnose
 from .formats import SURFACE_FORMATS, format_of
+from .patch_inp import node_block_sets
 from .patchers import patcher_for
 from .tetgen import read_tetgen, tetgen_paths
 
@@ -231,9 +232,15 @@ def _read(path: str, fmt: str) -> meshio.Mesh:
     try:
         with warnings.catch_warnings(), _gmsh22_cell_data():
             warnings.simplefilter("ignore")
-            return reader(path)
+            m = reader(path)
     except (Exception, SystemExit) as e:  # meshio raises many types, and sys.exit()s: never end the process
         raise diagnose(path, fmt, e) from e
+    if fmt == "abaqus":  # meshio drops the sets named on *NODE lines; they are sets like any *NSET
+        with open(path, "rb") as fh:
+            for name, ids in node_block_sets(fh.read()).items():
+                if ids.size and ids.max() < len(m.points):
+                    m.point_sets.setdefault(name, ids)
+    return m
 
 
 @contextlib.contextmanager

@@ -13,7 +13,7 @@ from solver.validity.quality import METRICS, element_quality, summarize_quality
 
 from ..binary import MEDIA_TYPE, encode_frame
 from ..errors import ServiceError
-from ..formats import export_mesh
+from ..formats import export_mesh, resolve_format
 from ..models.error import error_responses
 from ..models.move import Move
 from ..models.report import Report
@@ -156,9 +156,11 @@ async def deform(
     accept: Annotated[str | None, Header()] = None,
 ) -> Response:
     """Back-substitute for the MOVE and answer the REPORT and the result."""
+    mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
+    if mode == "mesh":
+        resolve_format(format)  # the whole request is valid before anything is solved or committed
     r = await reg.deform(s, move.dump(), inversion, quality, repair)
     version = str(s.version)  # read before the next await: the version this MOVE committed
-    mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
     if mode == "mesh":
         resp = await _mesh_response(reg, s, r.V, format, r.report, quality == "full")
     else:

@@ -118,6 +118,19 @@ def test_bad_move_is_422_and_keeps_state(client, tc):
     assert client.session(s["id"])["last_move"] == MOVES[0]
 
 
+def test_a_move_refused_for_its_query_is_not_committed(client, tc):
+    mesh = upload_bracket(client)
+    s = client.create_session(mesh["id"], BRACKET_SPEC)
+    client.deform(s["id"], MOVES[0])
+    before = client.session(s["id"])
+    for fmt in ("zzz", "stl"):  # no such format; a surface format for a tet mesh
+        r = tc.post(f"/v1/sessions/{s['id']}/deform", json=MOVES[1], params={"result": "mesh", "format": fmt})
+        assert r.status_code == 422 and err(r)["code"] == "unknown_format"
+    after = client.session(s["id"])
+    assert after["last_move"] == MOVES[0] and after["updates"] == before["updates"]
+    assert after["version"] == before["version"]
+
+
 def test_arrays_upload_deform_reset_delete(client, tc):
     V, T = cube_mesh(4)
     top = np.flatnonzero(V[:, 2] == 1).tolist()

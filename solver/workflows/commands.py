@@ -1,10 +1,12 @@
-"""The ``doe``, ``bounds`` and ``sensitivities`` commands.
+"""The ``doe``, ``bounds``, ``sensitivities`` and ``study`` commands.
 
 ::
 
     tetmorph doe MESH --spec SPEC --shapes SHAPES --plan PLAN --output 'out_{i}.inp' --summary SUMMARY.csv
     tetmorph bounds MESH --spec SPEC --shapes SHAPES [--range LO HI]
     tetmorph sensitivities MESH --spec SPEC --shapes SHAPES [--plan PLAN --at ROW] --output SENS.vtu
+    tetmorph study MESH --spec SPEC --shapes SHAPES --plan PLAN --solver 'ccx -i {stem}' --response ccx
+      --output 'out/{i}/deck.inp' --table study.csv
 
 :func:`add_commands` registers them on an ``argparse`` subparsers object;
 :func:`main` runs them alone (``python -m solver.workflows``). Exit codes as
@@ -31,6 +33,7 @@ from .doe import BLOCK, deck_writer, run_doe, write_summary
 from .plan import plan_values, read_plan
 from .sensitivities import shape_sensitivities, write_sensitivities
 from .shapes import Shapes, parse_shapes
+from .study import DEFAULT_TIMEOUT_S, StudyRow, check_solver, load_response, run_study, write_table
 
 __all__ = ["add_commands", "build_parser", "main"]
 
@@ -109,6 +112,31 @@ def cmd_sensitivities(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_study(args: argparse.Namespace) -> int:
+    """``tetmorph study``: every plan row morphed, solved by the FE solver, its responses in one table."""
+    plan = read_plan(args.plan)
+    if plan.rows > 1 and "{i}" not in args.output:
+        raise SolverError("with several plan rows, --output needs '{i}' (the plan row, from 1), "
+                          "e.g. out/{i}/deck.inp", code="usage")
+    if args.timeout <= 0:
+        raise SolverError(f"--timeout must be > 0 seconds, got {args.timeout:g}", code="usage")
+    check_solver(args.solver)  # before any cost: a missing program, a missing reader
+    response = load_response(args.response)
+    mesh, deformer, shapes = _setup(args)
+
+    def progress(r: StudyRow) -> None:
+        note = f"  ({r.message})" if r.message else ""
+        print(f"row {r.row}: {r.status}" + (f" in {r.solver_s:.1f} s" if r.solver_s is not None else "") + note,
+              file=sys.stderr)
+
+    rows = run_study(mesh, deformer, shapes, plan, output=args.output, solver=args.solver, response=response,
+                     timeout=args.timeout, block=args.block, inversion=args.inversion, progress=progress)
+    write_table(rows, shapes.names, args.table)
+    ok = sum(r.status == "ok" for r in rows)
+    print(f"{ok} of {len(rows)} rows solved; table {args.table}", file=sys.stderr)
+    return 0 if ok == len(rows) else 1
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("mesh")
     p.add_argument("--spec", required=True, help="SPEC.json: selections, fixed, handles, options")
@@ -152,6 +180,23 @@ def add_commands(subparsers: Any) -> None:
     ps.add_argument("--output", required=True, help="output mesh with point data (VTU: .vtu)")
     ps.add_argument("--output-format", help="output meshio format name")
     ps.set_defaults(func=cmd_sensitivities)
+    pt = subparsers.add_parser("study", help="every row of a PLAN morphed, written, run through an FE solver "
+                               "command and its responses read into one table (CSV)")
+    _common(pt)
+    pt.add_argument("--plan", required=True, help="PLAN.csv: header of shape names, one variant per row")
+    pt.add_argument("--output", required=True, help="deck per row; '{i}' is the plan row (from 1)")
+    pt.add_argument("--solver", required=True, help="solver command run in the deck's folder; {stem}, {deck}, "
+                    "{dir} and {i} are substituted (e.g. 'ccx -i {stem}')")
+    pt.add_argument("--response", default="ccx", help="'ccx' (CalculiX .dat: max_displacement, max_mises, "
+                    "mass, freq_k) or a Python file defining response(deck) -> dict of floats")
+    pt.add_argument("--table", required=True, help="STUDY.csv: row, parameters, status, mesh figures, "
+                    "solver time, responses, deck, message")
+    pt.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S,
+                    help=f"seconds per solver run (default {DEFAULT_TIMEOUT_S:g}); a run past it is recorded")
+    pt.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")
+    pt.add_argument("--inversion", choices=["warn", "reject", "clamp"], default="reject",
+                    help="the morph's inversion policy (default reject: an inverting row is recorded, not solved)")
+    pt.set_defaults(func=cmd_study)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -302,7 +302,11 @@ def write_summary(result: DoeResult, path: str | os.PathLike[str]) -> None:
     Numbers are written with 17 significant digits (they read back exactly);
     a missing value is an empty cell.
     """
-    fields = ["row", *result.shapes, *SUMMARY_FIELDS]
+    write_rows(path, ["row", *result.shapes, *SUMMARY_FIELDS], summary_rows(result))
+
+
+def write_rows(path: str | os.PathLike[str], fields: list[str], rows: list[dict[str, Any]]) -> None:
+    """A CSV of ``rows`` under the header ``fields``: floats to 17 significant digits, None as an empty cell."""
 
     def cell(v: Any) -> str:
         if v is None:
@@ -315,6 +319,6 @@ def write_summary(result: DoeResult, path: str | os.PathLike[str]) -> None:
     with open(path, "w", encoding="utf-8", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(fields)
-        for s in summary_rows(result):
-            w.writerow([cell(s[f]) for f in fields])
+        for r in rows:
+            w.writerow([cell(r.get(f)) for f in fields])
 

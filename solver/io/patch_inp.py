@@ -79,19 +79,23 @@ def node_line_count(data: bytes) -> int:
 def coordinate_text(x: float) -> bytes:
     """A coordinate as at most :data:`FIELD_WIDTH` characters: the shortest text that reads back exactly, if it fits.
 
-    Where it does not (a negative value with an exponent, such as
-    ``-1.2381831191533588e-16``), the most significant digits that fit: 14 or
-    more, a relative rounding below 1e-13.
+    Where it does not, the same digits in scientific form with a one-digit
+    exponent (``3.041346788211739e-4``); where even that is too long (a
+    negative value with 17 digits and an exponent), the most significant
+    digits that fit: 14 or more, a relative rounding below 1e-13.
 
     Examples
     --------
     >>> coordinate_text(0.1), coordinate_text(-1.2381831191533588e-16)
     (b'0.1', b'-1.2381831191534e-16')
     """
-    text = repr(float(x))
+    x = float(x)
+    text = repr(x)
+    if len(text) > FIELD_WIDTH:  # the same digits with a one-digit exponent: 3.041346788211739e-4
+        text = np.format_float_scientific(x, unique=True, exp_digits=1)
     digits = 16
     while len(text) > FIELD_WIDTH:
-        text = format(float(x), f".{digits}g")
+        text = np.format_float_scientific(x, precision=digits, unique=False, exp_digits=1)
         digits -= 1
     return text.encode()
 

@@ -174,7 +174,7 @@ def test_gmsh_reads_the_physical_groups_written_from_a_deck(tmp_path):
     finally:
         gmsh.finalize()
     assert groups == {"Nleft": (0, len(deck.point_sets["Nleft"])), "Nright": (0, len(deck.point_sets["Nright"])),
-                      "Eall": (3, len(deck.points))}
+                      "Eall": (3, len(deck.points)), "Nall": (0, len(deck.points))}  # *Node,NSET=Nall
 
 
 def test_msh_to_vtu_keeps_group_names_not_physical_numbers(tmp_path):
@@ -215,6 +215,7 @@ def test_lossy_write_lists_what_was_dropped(tmp_path):
         assert words in msg, words
     w = write_mesh(mesh, mesh.V, tmp_path / "s.mesh", lossy=True)
     assert {(d["kind"], d["name"]) for d in w.dropped} == {
-        ("quadratic_nodes", "tetra10"), ("set_names", "Nleft"), ("set_names", "Nright"), ("set_names", "Eall")}
+        ("quadratic_nodes", "tetra10"), ("set_names", "Eall"),  # overlapping node sets (Nall holds every node
+        ("node_set", "Nleft"), ("node_set", "Nright"), ("node_set", "Nall")}  # since *Node,NSET= is read): no refs
     back = meshio.read(tmp_path / "s.mesh")
     assert _counts(back) == {"tetra": 1489}  # the corners of every element, not an empty file

@@ -113,9 +113,9 @@ def test_lossy_write_refused_then_listed(tmp_path, capsys):
     assert json.loads(rep.read_text())["error"]["code"] == "lossy_write"
     assert main([*args, "--lossy"]) == 0
     err = capsys.readouterr().err
-    assert "dropped set names 'Nleft'" in err and "dropped quadratic nodes 'tetra10'" in err
+    assert "dropped node set 'Nleft'" in err and "dropped quadratic nodes 'tetra10'" in err
     dropped = {d["name"] for d in json.loads(rep.read_text())["written"]["dropped"]}
-    assert dropped == {"tetra10", "Nleft", "Nright", "Eall"}
+    assert dropped == {"tetra10", "Nleft", "Nright", "Eall", "Nall"}  # Nall: *Node,NSET=Nall
     assert len(meshio.read(out).cells_dict["tetra"]) == 1489
 
 

@@ -12,25 +12,22 @@ once per supernode: forward, ``y[R] -= L[R, c] y[c]`` as three axpys into a
 dense buffer scattered once; backward, ``y[c] -= U[c, R] y[R]`` as dot
 products over a buffer gathered once.
 
-Why not PARDISO's or CHOLMOD's own solve: at the 107k-tet bracket's interior
-(12,892 unknowns, three right-hand sides) PARDISO's phase 33 takes 5.0 ms in
-single precision whatever its solve settings, the sweeps here 1.2 ms on two
-threads (2.2 on one); at its boundary system (8,160 unknowns) CHOLMOD takes
-1.3 ms, the sweeps 0.7 (``benchmarks/measure_choices.py --only supernodal``).
-The two-thread split is the elimination tree's: the two subtrees under the
-top separator are swept at once and their updates of the top summed after.
-The 1M meshes' interior (144k unknowns) stays with PARDISO: SuperLU's
-factorization grows much faster than PARDISO's (33,643 unknowns: 0.9-1.5 s
-against 0.2 s) (:data:`~solver.linalg.factorization.SUPERNODAL_MAX`).
+Why not PARDISO's or CHOLMOD's own solve: their solve phases cost more per
+call than these sweeps at every size measured (``benchmarks/bench_update.py``,
+``benchmarks/measure_choices.py --only supernodal``). The two-thread split is
+the elimination tree's: the two subtrees under the top separator are swept at
+once and their updates of the top summed after.
 
-An LU factor comes from SuperLU without pivoting on PARDISO's METIS
-ordering (:func:`lu_supernodal`): the mean-value systems are diagonally
-dominant (every row is ``1`` on the diagonal and minus convex weights
-elsewhere). A Cholesky factor is CHOLMOD's ``L`` (:func:`cholmod_supernodal`;
-``U = L^T`` shares its off-diagonal blocks). A factor that needed a row
-exchange, that holds an entry of ``U`` outside the pattern of ``L^T`` or lacks
-a diagonal entry, or whose probe solve misses a backward error of
-:data:`PROBE_TOL` is refused with
+An LU factor comes from :func:`~solver.linalg.multifrontal.lu_multifrontal`
+(tetmorph's multifrontal LU without pivoting, written straight into these
+blocks), or from SuperLU without pivoting on PARDISO's METIS ordering
+(:func:`lu_supernodal`, kept as an independent second factorization for the
+tests); the mean-value systems are diagonally dominant (every row is ``1`` on
+the diagonal and minus convex weights elsewhere). A Cholesky factor is
+CHOLMOD's ``L`` (:func:`cholmod_supernodal`; ``U = L^T`` shares its
+off-diagonal blocks). A factor that needed a row exchange, that holds an entry
+of ``U`` outside the pattern of ``L^T`` or lacks a diagonal entry, or whose
+probe solve misses a backward error of :data:`PROBE_TOL` is refused with
 :class:`Unsuitable`, and the caller keeps PARDISO (which pivots) or CHOLMOD.
 
 Many right-hand sides (a DOE block) are swept together, each factor entry

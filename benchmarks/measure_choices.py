@@ -39,6 +39,14 @@ Sections (all by default, or pick with --only):
                1st percentile, ids) against ``tet_quality`` alone (the volume and scaled Jacobian
                of every tet, nothing else), median and range of 15 calls each, alternated.
 
+``interior-1m`` the options for the 1M bracket's interior mean-value system (gmsh size 0.44), 3
+               right-hand sides: tetmorph's multifrontal LU with the supernodal sweeps, PARDISO,
+               and SuperLU, each in single and double precision, and CHOLMOD on the pattern
+               symmetrised as the floor of a direct solve: factor time, factor entries, solve
+               time, residual.
+``distinct``   sorted distinct ids of the bracket's edges (107k and 1M tets): numpy's ``np.unique``
+               (a hash table since numpy 2.3) against one sort (``solver/ops/unique.py``).
+
     python benchmarks/measure_choices.py [--only orderings,small-lu,...]
 """
 
@@ -555,9 +563,75 @@ def check() -> None:
         print(f"| {name} | {np.median(v):.1f} [{min(v):.1f}-{max(v):.1f}] |")
 
 
+def interior_1m() -> None:
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from solver import precompute, read_mesh
+    from solver.linalg import pardiso as pm
+    from solver.linalg.factorization import cholesky
+    from solver.linalg.multifrontal import lu_multifrontal
+
+    mesh = read_mesh(deck("bracket", 0.44))
+    d = precompute(mesh, end_spec(mesh))
+    M = d.data.positions.Mff.tocsc()
+    del d, mesh
+    B = np.random.default_rng(0).standard_normal((M.shape[0], 3))
+    print(f"bracket 0.44: {M.shape[0]:,} interior unknowns, {M.nnz:,} nonzeros; 3 right-hand sides, "
+          "solve median [min-max] of 9")
+    print("| factor | precision | factor s | factor entries | solve ms | relative residual |")
+    print("|---|---|---:|---:|---:|---:|")
+
+    def row(name, single, build, entries, solve, release=None):
+        t = time.perf_counter()
+        F = build()
+        tf = time.perf_counter() - t
+        res = float(np.abs(M @ np.asarray(solve(F), np.float64) - B).max() / np.abs(B).max())
+        print(f"| {name} | {'single' if single else 'double'} | {tf:.2f} | {entries(F):,} | "
+              f"{_median_ms(lambda: solve(F), 9)} | {res:.1e} |", flush=True)
+        if release is not None:
+            release(F)
+
+    for single in (True, False):
+        row("multifrontal + sweeps (tetmorph)", single, lambda s=single: lu_multifrontal(M, s),
+            lambda F: int(F.nnz), lambda F: F.solve(B))
+    for single in (True, False):
+        row("PARDISO", single, lambda s=single: pm.PardisoFactor(M, "interior", mtype=11, single=s),
+            lambda F: int(F.nnz), lambda F: F.solve(B), lambda F: F.release())
+    for single in (True, False):
+        dt = np.float32 if single else np.float64
+        row("SuperLU (MMD on A^T+A)", single,
+            lambda dt=dt: spla.splu(M.astype(dt), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                    options={"SymmetricMode": True}),
+            lambda F: int(F.L.nnz + F.U.nnz), lambda F, dt=dt: F.solve(B.astype(dt)))
+    S = ((M + M.T) * 0.5).tocsc()
+    S = S + sp.diags(np.abs(S).sum(axis=1).A1)  # positive definite on the same pattern: a floor, not a solve of M
+    t = time.perf_counter()
+    C = cholesky(S, "symmetrised")
+    tf = time.perf_counter() - t
+    print(f"| CHOLMOD on the symmetrised pattern (floor) | double | {tf:.2f} | {int(C.nbytes // 12):,} | "
+          f"{_median_ms(lambda: C.solve(B), 9)} | (another matrix) |")
+
+
+def distinct() -> None:
+    from solver import read_mesh
+    from solver.ops.unique import unique
+
+    print("| mesh | edges (with repeats) | distinct | np.unique ms | one sort ms |")
+    print("|---|---:|---:|---:|---:|")
+    for size in (0.95, 0.44):
+        T = read_mesh(deck("bracket", size)).T
+        E = np.sort(np.concatenate([T[:, [a, b]] for a in range(4) for b in range(a + 1, 4)]), axis=1)
+        key = E[:, 0] * (int(E.max()) + 1) + E[:, 1]
+        assert np.array_equal(np.unique(key), unique(key))
+        print(f"| bracket {len(T):,} tets | {key.size:,} | {unique(key).size:,} | "
+              f"{_median_ms(lambda k=key: np.unique(k), 5)} | {_median_ms(lambda k=key: unique(k), 5)} |", flush=True)
+
+
 SECTIONS = {"orderings": orderings, "small-lu": small_lu, "penalty": penalty, "refine": refine, "midside": midside,
             "constraints": constraints, "pardiso": pardiso, "interior": interior, "layout": layout, "kernels": kernels,
-            "check": check, "supernodal": supernodal}
+            "check": check, "supernodal": supernodal,
+            "interior-1m": interior_1m, "distinct": distinct}
 
 
 def main() -> None:

@@ -31,6 +31,7 @@ import numpy as np
 from .documents import dump_json, load_json
 from .errors import InversionError, SolverError
 from .io import read_mesh, write_mesh
+from .ops.unique import unique
 
 __all__ = ["main", "EXIT_OK", "EXIT_ERROR", "EXIT_USAGE", "EXIT_REJECTED"]
 
@@ -165,7 +166,7 @@ def cmd_features(args: argparse.Namespace) -> int:
                 raise SolverError(f"--band #{k + 1} is not valid JSON: {e}", code="invalid_json") from None
             parse_spec({"selections": {"band": band_sel}, "fixed": ["band"]})  # validates the selection
             band.append(select(mesh, band_sel, f"band {k + 1}"))
-        region = feature_region(mesh, np.unique(np.concatenate(band)))
+        region = feature_region(mesh, unique(np.concatenate(band)))
         out["region"] = {"vertices": int(region["ids"].size), "faces": int(region["faces"].size),
                          "area": region["area"], "cut_edges": int(region["cut_edges"].shape[0]),
                          "selection": {"ids": region["ids"].tolist()}}

@@ -16,6 +16,7 @@ from solver.constraints.spec import parse_spec
 from solver.errors import InvalidMeshError
 from solver.mesh import mesh_from_arrays
 from solver.ops.elements import check_tets
+from solver.ops.unique import unique
 
 from ..binary import encode_bundle
 from ..errors import ServiceError
@@ -213,7 +214,7 @@ async def mesh_feature_region(meta: MeshDep, body: Band, reg: RegistryDep) -> di
         check_selection_ids(sel, mesh.n, f"band[{name[4:]}]")
 
     def region() -> dict[str, Any]:
-        band = np.unique(np.concatenate([select(mesh, sel, name) for name, sel in sels.items()]))
+        band = unique(np.concatenate([select(mesh, sel, name) for name, sel in sels.items()]))
         r = feature_region(mesh, band)
         return {"vertices": int(r["ids"].size), "faces": int(r["faces"].size), "area": r["area"],
                 "cut_edges": int(r["cut_edges"].shape[0]), "selection": {"ids": r["ids"].tolist()}}

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..ops.unique import unique
 from .move import Move
 from .rows import Block, block_target
 
@@ -110,7 +111,7 @@ def block_targets(blocks: list[Block], asm: Assembly, move: Move,
                   rot_at: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
     """Targets ``d`` of the assembled rows: (m, 3) replicated, (m, 1) vector layout."""
     per = {}
-    for b_i in np.unique(asm.block):
+    for b_i in unique(asm.block):
         per[int(b_i)] = np.asarray(block_target(blocks[b_i], move, rot_at), np.float64)
     if not asm.vector:
         d = np.zeros((asm.C.shape[0], 3))

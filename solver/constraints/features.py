@@ -28,6 +28,7 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, maxi
 
 from ..errors import SpecError, format_ids
 from ..mesh import Mesh
+from ..ops.unique import unique
 
 __all__ = ["FeatureCandidate", "feature_region", "feature_candidates", "face_adjacency"]
 
@@ -111,7 +112,7 @@ def feature_region(mesh: Mesh, band: np.ndarray) -> dict[str, Any]:
     keep = ~fband[pairs].any(axis=1)
     G = sp.coo_matrix((np.ones(int(keep.sum())), (pairs[keep, 0], pairs[keep, 1])), shape=(nf, nf))
     ncomp, lab = connected_components(G, directed=False)
-    parts = np.unique(lab[out])
+    parts = unique(lab[out])
     if parts.size != 2:
         raise SpecError(f"the band must separate the surface into exactly two parts; it leaves "
                         f"{parts.size}", code="band_not_separating", parts=int(parts.size))
@@ -145,7 +146,7 @@ def feature_region(mesh: Mesh, band: np.ndarray) -> dict[str, Any]:
     feat = face_side if A_area <= B_area else ~face_side
     fids = np.flatnonzero(feat)
     cut = feat[pairs[:, 0]] != feat[pairs[:, 1]]
-    return {"ids": np.unique(F[fids]), "faces": fids, "cut_edges": edges[cut],
+    return {"ids": unique(F[fids]), "faces": fids, "cut_edges": edges[cut],
             "cut_capacity": int(res.flow_value), "area": float(area[fids].sum())}
 
 
@@ -284,7 +285,7 @@ def feature_candidates(mesh: Mesh, angle_deg: float = 30.0, tol: float = 1e-3,
         fids = np.flatnonzero(lab == p)
         if fids.size < min_faces:
             continue
-        ids = np.unique(F[fids])
+        ids = unique(F[fids])
         P = V[ids]
         size = float(np.linalg.norm(P.max(0) - P.min(0)))
         w = area[fids]

@@ -35,6 +35,7 @@ from ..errors import MAX_IDS, SpecError, format_ids
 from ..mesh import Mesh
 from ..ops.boundary_facets import simplex_edges
 from ..ops.rotation import log_to_matrix, rotate_by_log
+from ..ops.unique import unique
 from .correspondence import Correspondences
 from .matching import Matching
 from .move import Move
@@ -269,7 +270,7 @@ def tie_rows(ties: np.ndarray) -> Block:
     """``p_i - p_j = 0`` for tied node pairs."""
     m = len(ties)
     r, c = _pairs(m)
-    return Block("tie", 0, "ties", m, r, ties.ravel(), c, rest=np.zeros((m, 3)), vertices=np.unique(ties))
+    return Block("tie", 0, "ties", m, r, ties.ravel(), c, rest=np.zeros((m, 3)), vertices=unique(ties))
 
 
 def point_rows(mesh: Mesh, k: int, e: PointEntry, sel_ids: dict[str, np.ndarray]) -> Block:
@@ -296,7 +297,7 @@ def relative_rows(mesh: Mesh, k: int, e: RelativeEntry, sel_ids: dict[str, np.nd
         rv = on_b[0]
     verts = np.r_[ia, ib]
     return Block("relative", k, e.name, 1, np.zeros(verts.size, np.int64), verts, np.r_[wa, -wb], rest=d0,
-                 rot_vertex=rv, vertices=np.unique(verts))
+                 rot_vertex=rv, vertices=unique(verts))
 
 
 def feature_rows(mesh: Mesh, k: int, e: FeatureEntry, ids: np.ndarray) -> Block | None:
@@ -358,7 +359,7 @@ def mapped_rows(kind: str, index: int, name: str, m: Matching, system: str = "po
             nrm.append(np.repeat(m.A[e][None, :], int(on.sum()), axis=0))
     rest = np.tile(m.t, s) if system == "positions" else np.zeros(3 * s)
     return Block(kind, index, name, 3 * s, np.concatenate(rows), np.concatenate(verts), np.concatenate(coef),
-                 rest=rest, entry_normal=np.concatenate(nrm), vertices=np.unique(np.r_[m.slaves, m.masters.ravel()]))
+                 rest=rest, entry_normal=np.concatenate(nrm), vertices=unique(np.r_[m.slaves, m.masters.ravel()]))
 
 
 def projected_rows(kind: str, index: int, name: str, ids: np.ndarray, N: np.ndarray, c: np.ndarray,
@@ -386,7 +387,7 @@ def tied_rows(name: str, index: int, m: Matching) -> Block:
         verts.append(m.masters[on, k])
         coef.append(-w[on])
     return Block("tie", index, name, m.slaves.size, np.concatenate(rows), np.concatenate(verts), np.concatenate(coef),
-                 rest=np.zeros((m.slaves.size, 3)), vertices=np.unique(np.r_[m.slaves, m.masters.ravel()]))
+                 rest=np.zeros((m.slaves.size, 3)), vertices=unique(np.r_[m.slaves, m.masters.ravel()]))
 
 
 def target_rows(index: int, name: str, V0: np.ndarray, ids: np.ndarray, q: np.ndarray) -> Block:
@@ -500,7 +501,7 @@ def rotation_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
         tb = ties[B[ties].all(axis=1)]
         if len(tb):
             r, c = _pairs(len(tb))
-            blocks.append(Block("tie", 0, "ties", len(tb), r, tb.ravel(), c, vertices=np.unique(tb)))
+            blocks.append(Block("tie", 0, "ties", len(tb), r, tb.ravel(), c, vertices=unique(tb)))
             basis.append(np.zeros((len(tb), H)))
     for k, e in enumerate(spec.features):
         ids = _corners(mesh, sel_ids[e.selection])

@@ -10,6 +10,7 @@ from ..errors import MAX_IDS, SpecError, format_ids
 from ..mesh import Mesh
 from ..ops.boundary_facets import simplex_edges
 from ..ops.elements import midside_edges
+from ..ops.unique import unique
 
 __all__ = ["select", "node_masks", "midside_mask"]
 
@@ -82,7 +83,7 @@ def select(mesh: Mesh, sel: dict[str, Any], name: str = "selection") -> np.ndarr
     V = mesh.V
     used, on_boundary = node_masks(mesh)
     if kind == "ids":
-        ids = np.unique(np.asarray(val, dtype=np.int64))
+        ids = unique(np.asarray(val, dtype=np.int64))
         if ids.size == 0:
             raise SpecError(f"selection {name!r} (ids) selects no vertex", code="empty_selection",
                             selection=name)

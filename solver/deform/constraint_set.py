@@ -35,6 +35,7 @@ from ..constraints.ties import tie_pairs
 from ..errors import ConstraintError, SpecError, format_ids
 from ..linalg.rank import RankAnalysis, rank_analysis
 from ..mesh import Mesh
+from ..ops.unique import unique
 from .determinacy import free_shells
 
 __all__ = ["ConstraintSet", "constraint_set", "entry_text", "CONFLICT_TOL"]
@@ -159,7 +160,7 @@ def entry_text(e: dict[str, Any]) -> str:
 
 
 def _union(parts: list[np.ndarray]) -> np.ndarray:
-    return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+    return unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 
 
 def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:

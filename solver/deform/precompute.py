@@ -19,6 +19,7 @@ import numpy as np
 from ..constraints.move import Move
 from ..constraints.spec import Spec
 from ..mesh import Mesh
+from ..ops.unique import unique
 from ..validity.check import ElementCheck, SurfaceCheck
 from ..validity.midside import MidsideNodes
 from .constraint_set import ConstraintSet, constraint_set
@@ -111,7 +112,7 @@ def _surface_check(mesh: Mesh) -> SurfaceCheck:
     _, inv, cnt = np.unique(E[:, 0] * mesh.n + E[:, 1], return_inverse=True, return_counts=True)
     open_face = (cnt[inv] == 1).reshape(3, -1).any(axis=0)
     closed = np.ones(ns, bool)
-    closed[np.unique(shell[open_face])] = False
+    closed[unique(shell[open_face])] = False
     return SurfaceCheck(mesh.V, F, shell, closed)
 
 

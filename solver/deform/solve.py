@@ -14,6 +14,7 @@ from ..constraints.move import Move
 from ..constraints.rows import REPORT_IDS
 from ..linalg import factorization as fz
 from ..ops.displacement import max_displacement
+from ..ops.unique import union
 from ..validity.check import CheckResult, SurfaceCheck
 from ..validity.midside import Placement
 from .positions import InteriorBasis, PositionSolve
@@ -118,7 +119,7 @@ def solve_boundary(data: DeformData, move: Move) -> BoundaryStage:
     """
     rhs = data.rhs(move)
     P = data.positions.boundary(data.mesh.V, data.constraints.constrained, rhs)
-    ids = np.union1d(data.constraints.bidx, data.constraints.constrained)
+    ids = union(data.constraints.bidx, data.constraints.constrained)
     return BoundaryStage(move, rhs, P, ids)
 
 

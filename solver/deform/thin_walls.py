@@ -21,6 +21,7 @@ from ..mesh import Mesh
 from ..ops.boundary_facets import simplex_edges
 from ..ops.elements import element_edges
 from ..ops.rotation import rotate_by_log
+from ..ops.unique import unique_rows
 
 __all__ = ["WallRows", "wall_rows"]
 
@@ -82,7 +83,7 @@ def wall_rows(mesh: Mesh, weight: float, Lb: sp.csr_matrix) -> WallRows | None:
             parts.append(simplex_edges(B) if kind == "tetra" else element_edges(B, kind))
     if not parts:
         return None
-    E = np.unique(np.sort(np.concatenate(parts), axis=1), axis=0)
+    E = unique_rows(np.sort(np.concatenate(parts), axis=1))
     FE = simplex_edges(mesh.F)
     n = mesh.n
     key = E[:, 0] * n + E[:, 1]

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..mesh.mesh import Mesh
+from ..ops.unique import union, unique
 from .read import REGION_KEYS, SET_PREFIX, integral
 
 __all__ = ["Content", "content", "BOOKKEEPING"]
@@ -98,13 +99,13 @@ def content(mesh: Mesh, point_sets: dict[str, np.ndarray] | None = None) -> Cont
     def add_set(name: str, full: list[np.ndarray]) -> None:
         on_vertices = [np.asarray(m.cells[b].data).ravel()[full[b]] for b in vertex if full[b].size]
         if on_vertices:
-            nodes = np.unique(np.concatenate(on_vertices)).astype(np.int64)
-            out.node_sets[name] = np.union1d(out.node_sets.get(name, np.zeros(0, np.int64)), nodes)
+            nodes = unique(np.concatenate(on_vertices)).astype(np.int64)
+            out.node_sets[name] = union(out.node_sets.get(name, np.zeros(0, np.int64)), nodes)
         if any(full[b].size for b in keep):
             out.element_sets[name] = [full[b] for b in keep]
 
     for name, ids in (m.point_sets or {}).items():
-        out.node_sets[name] = np.unique(np.asarray(ids, np.int64))
+        out.node_sets[name] = unique(np.asarray(ids, np.int64))
     for name, ix in (m.cell_sets or {}).items():
         if not name.startswith("gmsh:"):
             add_set(name, per_block(ix))
@@ -113,14 +114,14 @@ def content(mesh: Mesh, point_sets: dict[str, np.ndarray] | None = None) -> Cont
         if key.startswith(SET_PREFIX) and a.ndim == 1 and np.isin(a, (0, 1)).all():
             out.node_sets.setdefault(key[len(SET_PREFIX):], np.flatnonzero(a).astype(np.int64))
         elif key in NODE_LABEL_KEYS and a.ndim == 1 and integral(a):
-            if np.unique(a).size > 1:  # one value everywhere labels nothing
+            if unique(a).size > 1:  # one value everywhere labels nothing
                 out.node_labels[key] = a.astype(np.int64)
         elif key not in BOOKKEEPING:
             out.point_data[key] = a
     phys = m.cell_data.get("gmsh:physical")
     if phys is not None:  # physical groups: meshio names them as cell sets; unnamed tags get "physical:k"
         names = {int(v[0]): k for k, v in (m.field_data or {}).items() if np.ndim(v) == 1 and len(v) >= 1}
-        tags = np.unique(np.concatenate([np.asarray(t).ravel() for t in phys]))
+        tags = unique(np.concatenate([np.asarray(t).ravel() for t in phys]))
         for tag in tags:
             if tag == 0 and 0 not in names:
                 continue  # Gmsh's tag 0: in no physical group

@@ -30,6 +30,7 @@ from typing import Any
 import meshio
 import numpy as np
 
+from ..ops.unique import unique
 from .content import VOLUME, Content
 from .nastran import NASTRAN_TYPES
 
@@ -183,8 +184,8 @@ def _merged(c: Content) -> Content:
 
 
 def _label_classes(per: list[np.ndarray]) -> list[int]:
-    vals = [np.unique(v) for v in per if v.size]
-    return np.unique(np.concatenate(vals)).astype(int).tolist() if vals else []
+    vals = [unique(v) for v in per if v.size]
+    return unique(np.concatenate(vals)).astype(int).tolist() if vals else []
 
 
 def _data_losses(c: Content, what: str, losses: list[Loss], labels: bool = True) -> None:
@@ -244,7 +245,7 @@ def _abaqus(c: Content, P: np.ndarray, fmt: str) -> Conversion:
     for k, ids in c.node_sets.items():
         nsets[name(k, node_names)] = ids
     for k, a in c.node_labels.items():
-        for v in np.unique(a):
+        for v in unique(a):
             nsets[name(f"{k}={v}", node_names)] = np.flatnonzero(a == v)
     for k, per in c.element_sets.items():
         elsets[name(k, taken)] = per
@@ -294,9 +295,9 @@ def _gmsh(c: Content, P: np.ndarray, fmt: str) -> Conversion:
     vert_rows, vert_tags = [], []
     for name, ids in c.node_sets.items():
         implied = [(t, bl, x) for (t, bl), x in zip(c.blocks, c.element_sets.get(name, []), strict=False)]
-        nodes_of_elements = (np.unique(np.concatenate([bl[x].ravel() for _, bl, x in implied]))
+        nodes_of_elements = (unique(np.concatenate([bl[x].ravel() for _, bl, x in implied]))
                              if implied else np.zeros(0, np.int64))
-        if name in c.element_sets and np.array_equal(np.unique(ids), nodes_of_elements):
+        if name in c.element_sets and np.array_equal(unique(ids), nodes_of_elements):
             continue  # the element group's nodes are the node set already
         label = name if name not in field_data else f"{name}:nodes"
         if label != name:
@@ -338,7 +339,7 @@ def _vtk(c: Content, P: np.ndarray, fmt: str) -> Conversion:
 
 def _disjoint(sets: list[np.ndarray]) -> bool:
     allv = np.concatenate(sets) if sets else np.zeros(0)
-    return np.unique(allv).size == allv.size
+    return unique(allv).size == allv.size
 
 
 def _refs(c: Content, P: np.ndarray, what: str, losses: list[Loss], prefer: str,

@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import MAX_IDS, InvalidMeshError, UnreadableFileError, UnsupportedElementError
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
+from ..ops.unique import unique
 from .diagnose import check_complete, check_file, diagnose
 from .formats import SURFACE_FORMATS, format_of
 from .patch_inp import node_block_sets
@@ -52,7 +53,7 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
     """Node sets, element sets (their nodes), physical groups and material regions of a meshio mesh."""
     sets: dict[str, np.ndarray] = {}
     for name, ids in (m.point_sets or {}).items():
-        sets[name] = np.unique(np.asarray(ids, dtype=np.int64))
+        sets[name] = unique(np.asarray(ids, dtype=np.int64))
     for name, per_block in (m.cell_sets or {}).items():
         if name.startswith("gmsh:"):  # meshio's entity bookkeeping (bounding entities), not a set
             continue
@@ -60,7 +61,7 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
                  for b, ix in enumerate(per_block)
                  if ix is not None and np.ndim(ix) == 1 and len(ix) and b < len(m.cells)]
         if nodes and name not in sets:
-            sets[name] = np.unique(np.concatenate(nodes))
+            sets[name] = unique(np.concatenate(nodes))
     for key, vals in m.point_data.items():  # sets kept as 0/1 arrays (VTU, VTK)
         v = np.asarray(vals)
         if key.startswith(SET_PREFIX) and v.ndim == 1 and v.size == len(m.points) and np.isin(v, (0, 1)).all():
@@ -71,7 +72,7 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
         parts = [np.asarray(c.data)[np.asarray(v).ravel() == 1].ravel()
                  for c, v in zip(m.cells, per_block, strict=False) if np.asarray(v).ravel().size == len(c.data)]
         if parts and np.concatenate(parts).size:
-            sets.setdefault(key[len(SET_PREFIX):], np.unique(np.concatenate(parts)).astype(np.int64))
+            sets.setdefault(key[len(SET_PREFIX):], unique(np.concatenate(parts)).astype(np.int64))
     # gmsh physical groups: cell data "gmsh:physical", names in field_data as [tag, dim]
     phys = m.cell_data.get("gmsh:physical")
     if phys is not None:
@@ -82,13 +83,13 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
         for block, tags in zip(m.cells, phys, strict=False):
             dim = CELL_DIM.get(block.type, 3)
             tags = np.asarray(tags).ravel()
-            for tag in np.unique(tags):
+            for tag in unique(tags):
                 if tag == 0 and (0, dim) not in named:
                     continue  # Gmsh's tag 0: in no physical group
                 label = named.get((int(tag), dim), by_tag.get(int(tag), f"physical:{int(tag)}"))
                 groups.setdefault(label, []).append(np.asarray(block.data)[tags == tag].ravel())
         for label, parts in groups.items():
-            sets.setdefault(label, np.unique(np.concatenate(parts)))
+            sets.setdefault(label, unique(np.concatenate(parts)))
     # material regions: a node set per value, e.g. "medit:ref=2"
     for key in REGION_KEYS:
         data = m.cell_data.get(key)
@@ -100,11 +101,11 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
             if block.type not in VOLUME_CELLS or vals.shape[0] != len(block.data) or not integral(vals):
                 continue
             vals = vals.astype(np.int64)
-            for value in np.unique(vals):
+            for value in unique(vals):
                 regions.setdefault(int(value), []).append(np.asarray(block.data)[vals == value].ravel())
         if len(regions) > 1:  # one value everywhere is no region
             for label, parts in regions.items():
-                sets.setdefault(f"{key}={label}", np.unique(np.concatenate(parts)))
+                sets.setdefault(f"{key}={label}", unique(np.concatenate(parts)))
     return sets
 
 
@@ -360,8 +361,8 @@ def _quadratic_from_meshio(m: meshio.Mesh) -> Mesh:
     V = _points(m)
     T = np.ascontiguousarray(T10[:, :4])
     mesh = Mesh.validated(V, T, None, sets=_named_sets(m), source=m, T10=T10)
-    mid = np.setdiff1d(np.unique(T10[:, 4:]), np.unique(T))
-    if mid.size != np.unique(T10[:, 4:]).size:
+    mid = np.setdiff1d(unique(T10[:, 4:]), unique(T))
+    if mid.size != unique(T10[:, 4:]).size:
         raise InvalidMeshError("some tetra10 mid-side nodes are also corner nodes", code="bad_connectivity")
     return mesh
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import InvalidMeshError
 from ..mesh import Mesh, mesh_from_arrays
+from ..ops.unique import unique
 from ..validity.quality import signed_volumes
 
 __all__ = ["tetrahedralize", "open_edges"]
@@ -181,7 +182,7 @@ def _checked(Vt: np.ndarray, Tt: np.ndarray) -> tuple[Mesh, int]:
     neg = vol < 0
     Tt = Tt.copy()
     Tt[neg] = Tt[neg][:, [0, 2, 1, 3]]
-    used = np.unique(Tt)
+    used = unique(Tt)
     remap = np.full(len(Vt), -1, np.int64)
     remap[used] = np.arange(used.size)
     return mesh_from_arrays(Vt[used], remap[Tt]), int(neg.sum())

@@ -19,6 +19,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..ops.unique import unique
+
 __all__ = ["RankAnalysis", "rank_analysis", "constraint_components", "RANK_TOL"]
 
 #: Relative distance of a constraint row from the span of earlier rows below
@@ -151,7 +153,7 @@ def rank_analysis(C: sp.csr_matrix, rank_tol: float = RANK_TOL) -> RankAnalysis:
         uo = uo[np.argsort(ulab[uo], kind="stable")]
         ro = np.flatnonzero(nnz_rows)
         ro = ro[np.argsort(rlab[ro], kind="stable")]
-        comps = np.unique(ulab[uo])
+        comps = unique(ulab[uo])
         ustart = np.searchsorted(ulab[uo], comps)
         uend = np.searchsorted(ulab[uo], comps, side="right")
         rstart = np.searchsorted(rlab[ro], comps)

@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import InvalidMeshError
 from ..ops.boundary_facets import boundary_facets, simplex_edges
 from ..ops.elements import LINEAR_TYPES, boundary_faces, element_blocks, element_edges
+from ..ops.unique import unique
 from .validate import component_labels, validate
 
 __all__ = ["Mesh", "mesh_from_arrays", "VOLUME_TYPES", "MIXED_TYPES", "IGNORED_TYPES"]
@@ -283,7 +284,7 @@ def mesh_from_arrays(V: Any, T: Any = None, surface: Any = None,
                 raise InvalidMeshError(f"{name} must hold integer vertex indices", code="bad_shape")
     T = T.astype(np.int64).reshape(-1, 4) if T.size else np.zeros((0, 4), np.int64)
     surface = surface.astype(np.int64).reshape(-1, 3) if surface.size else np.zeros((0, 3), np.int64)
-    ids = {k: np.unique(np.asarray(v, dtype=np.int64)) for k, v in (sets or {}).items()}
+    ids = {k: unique(np.asarray(v, dtype=np.int64)) for k, v in (sets or {}).items()}
     return Mesh.validated(V, T, surface if not T.shape[0] else np.zeros((0, 3), np.int64), sets=ids)
 
 

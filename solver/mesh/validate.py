@@ -17,6 +17,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import MAX_IDS, InvalidMeshError, TopologyError, format_ids
 from ..ops.boundary_facets import boundary_facets
 from ..ops.elements import LINEAR_TYPES, boundary_faces, corner_jacobians, element_blocks
+from ..ops.unique import unique
 from ..validity.quality import degenerate_mask, signed_volumes
 
 __all__ = ["validate", "Validation", "component_labels", "coincident_pairs", "fan_counts", "link_euler"]
@@ -256,7 +257,7 @@ def _check_manifold_edges(F: np.ndarray, n: int) -> None:
             f"{counts[bad][:5].tolist()} faces)", code="non_manifold_boundary", edges=e[:MAX_IDS].tolist(),
             count=int(bad.size))
     directed = He[:, 0] * n + He[:, 1]
-    if np.unique(directed).size != directed.size:
+    if unique(directed).size != directed.size:
         s = np.sort(directed)
         d = s[1:][s[1:] == s[:-1]][0]
         raise TopologyError(
@@ -300,7 +301,7 @@ def fan_counts(F: np.ndarray, n: int) -> np.ndarray:
     same = ks[1:] == ks[:-1]
     G = sp.coo_matrix((np.ones(int(same.sum())), (io[:-1][same], io[1:][same])), shape=(3 * k, 3 * k))
     _, comp = connected_components(G, directed=False)
-    pairs = np.unique(v * (3 * k) + comp)
+    pairs = unique(v * (3 * k) + comp)
     np.add.at(out, pairs // (3 * k), 1)
     return out
 
@@ -337,7 +338,7 @@ def link_euler(T: np.ndarray, n: int, F: np.ndarray | None = None) -> np.ndarray
         F = boundary_facets(T, n)[0]
     a = np.concatenate([T[:, i] for i in (0, 0, 0, 1, 1, 2)])
     b = np.concatenate([T[:, j] for j in (1, 2, 3, 2, 3, 3)])
-    e = np.unique(np.minimum(a, b) * n + np.maximum(a, b))
+    e = unique(np.minimum(a, b) * n + np.maximum(a, b))
     edges = np.bincount(e // n, minlength=n) + np.bincount(e % n, minlength=n)
     tets = np.bincount(T.ravel(), minlength=n)
     bf = np.bincount(np.asarray(F, np.int64).ravel(), minlength=n)

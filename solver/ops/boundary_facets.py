@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MAX_IDS, InvalidMeshError, format_ids
+from .unique import unique_rows
 
 __all__ = ["TET_FACES", "boundary_facets", "face_keys", "simplex_edges"]
 
@@ -39,7 +40,7 @@ def simplex_edges(S: np.ndarray, unique: bool = True) -> np.ndarray:
     E = np.concatenate([S[:, [a, b]] for a in range(d) for b in range(a + 1, d)])
     if not unique:
         return E
-    return np.unique(np.sort(E, axis=1), axis=0)
+    return unique_rows(np.sort(E, axis=1))
 
 
 def face_keys(S: np.ndarray, n: int) -> np.ndarray:

@@ -17,6 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from .unique import unique
+
 __all__ = ["TriangleSurface", "ClosestPoints", "closest_points"]
 
 
@@ -150,7 +152,7 @@ class TriangleSurface:
     def __init__(self, V: np.ndarray, F: np.ndarray) -> None:
         self.V = np.ascontiguousarray(V, dtype=np.float64)
         self.F = np.ascontiguousarray(F, dtype=np.int64)
-        used = np.unique(self.F)
+        used = unique(self.F)
         self._used = used
         self._tree = cKDTree(self.V[used])
         k = self.F.shape[0]

@@ -32,6 +32,7 @@ import numba
 import numpy as np
 
 from ..errors import MAX_IDS
+from .unique import unique
 
 __all__ = ["LINEAR_TYPES", "FACES", "CORNERS", "EDGES", "SJ_SCALE", "opposite_triangles",
            "triangulate", "element_tables", "corner_jacobians", "element_volumes", "element_edges",
@@ -287,7 +288,7 @@ def boundary_faces(blocks: list[tuple[str, np.ndarray]], n: int) -> tuple[np.nda
         key = np.sort(faces, axis=1)
         _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
         if np.any(counts > 2):
-            bad = np.unique(owner[counts[inv] > 2])
+            bad = unique(owner[counts[inv] > 2])
             raise InvalidMeshError(
                 f"{int(np.sum(counts > 2))} faces are shared by more than two elements "
                 f"(non-manifold volume); first elements: {format_ids(bad)}",

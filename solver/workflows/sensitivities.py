@@ -51,6 +51,7 @@ from ..deform.rhs import RightHandSides
 from ..errors import InvalidMeshError
 from ..mesh import Mesh
 from ..ops.rotation import rotate_by_log
+from ..ops.unique import unique
 from .shapes import Shapes, variant_move
 
 __all__ = ["Sensitivities", "shape_sensitivities", "write_sensitivities", "left_jacobian", "rotation_derivative",
@@ -311,7 +312,7 @@ def shape_sensitivities(deformer: Deformer, shapes: Shapes, theta: Any = None,
         dd = None
         if asm is not None and rest.d is not None:
             along = _Along(k, shapes, mv, r, dr, bpos)
-            per = {int(b_i): _block_derivative(cs.blocks[int(b_i)], along, shifted(k)) for b_i in np.unique(asm.block)}
+            per = {int(b_i): _block_derivative(cs.blocks[int(b_i)], along, shifted(k)) for b_i in unique(asm.block)}
             dd = rest.d + _layout(cs.blocks, asm, per)
         rhss.append(RightHandSides(rest.U + dU, rest.c + dc, dd))
     solves = data.positions.solve_many(mesh.V, cs.constrained, rhss)

@@ -79,9 +79,13 @@ class HandleMove:
         return axis_angle_matrix(r / np.linalg.norm(r), th)
 
     def apply(self, P0: np.ndarray, centroid: np.ndarray) -> np.ndarray:
-        """Targets of rest positions ``P0`` (k, 3) under this move."""
+        """Targets of rest positions ``P0`` (k, 3) under this move.
+
+        Summed as ``P0 + t + (P0 - pivot) (s R - I)^T``, so that the identity
+        (zero translation and angle, unit scale) returns ``P0`` bit for bit.
+        """
         c = centroid if self.pivot is None else self.pivot
-        return c + self.translation + self.scale * (P0 - c) @ self.matrix.T
+        return P0 + (self.translation + (P0 - c) @ (self.scale * self.matrix - np.eye(3)).T)
 
     def interpolate(self, f: float) -> HandleMove:
         """The move scaled by ``f``: translation f, angle f, scale**f."""

@@ -110,6 +110,9 @@ MIXED_TOL = 1e-5
 #: The refinement step is skipped when, for a probe move at set-up, it moves no
 #: vertex by more than this fraction of the diagonal (:func:`refinement_probe`).
 REFINE_TOL = 1e-11
+#: The rest positions solve the position system when its solution for a zero MOVE
+#: lies within this fraction of the diagonal of them (:func:`rest_right_hand_sides`).
+REST_TOL = 1e-11
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,6 +135,12 @@ class Positions:
     refine_probe : float
         Size of the refinement step for the probe move at set-up.
     factorizations : int
+    rest_c, rest_d : arrays or None
+        The system's right-hand sides for a zero MOVE (``c`` laid out as the
+        system reads it) when the rest positions solve the system; then each
+        MOVE is solved for its change from them (:meth:`boundary_many`). None:
+        the rest does not solve it (a tie the rest misses, for instance), and
+        the positions are solved for directly.
     """
 
     system: ConstrainedSolver | None
@@ -141,6 +150,8 @@ class Positions:
     refine_steps: int
     refine_probe: float
     factorizations: int
+    rest_c: np.ndarray | None = None
+    rest_d: np.ndarray | None = None
 
     mode = "joint"
 
@@ -179,7 +190,13 @@ class Positions:
         return self.boundary_many(V0, constrained, [rhs])[0]
 
     def boundary_many(self, V0: np.ndarray, constrained: np.ndarray, rhss: list[RightHandSides]) -> list[np.ndarray]:
-        """:meth:`boundary` for several MOVEs: one stacked solve of the system."""
+        """:meth:`boundary` for several MOVEs: one stacked solve of the system.
+
+        Where the rest solves the system (:attr:`rest_c`), the unknowns are
+        ``V0 + x`` with ``x`` solved from the change of the right-hand sides: a
+        zero MOVE changes nothing, solves zeros, and returns the rest positions
+        bit for bit (a direct solve would return them to round-off).
+        """
         k = len(rhss)
         Ps = [V0.copy() for _ in range(k)]
         for P, rhs in zip(Ps, rhss, strict=True):
@@ -187,19 +204,29 @@ class Positions:
         if self.system is None or not k:
             return Ps
         u = self.unknowns
+        change = self.rest_c is not None and self.rest_d is not None
+        rest = self._layout(V0[u])
         if k == 1:
             d = rhss[0].d
             assert d is not None
-            c, x0 = self._layout(rhss[0].c), self._layout(V0[u])
+            c = self._layout(rhss[0].c)
+            if change:
+                c, d = c - self.rest_c, d - self.rest_d
+            x0 = np.zeros_like(rest) if change else rest
         else:
-            d = np.hstack([r.d for r in rhss if r.d is not None])
-            c = np.stack([self._layout(r.c) for r in rhss])  # (k, l, w): one contiguous copy; the gradient
-            # reads the blocks in place (an (l, w k) hstack of 16 narrow blocks took 0.7 ms a MOVE at 1M)
-            x0 = np.tile(self._layout(V0[u]), (1, k))  # a block per MOVE; faster than hstack (measure_choices)
+            d = np.hstack([r.d - self.rest_d if change else r.d for r in rhss if r.d is not None])
+            # (k, l, w): one contiguous copy; the gradient reads the blocks in place (an (l, w k) hstack
+            # of 16 narrow blocks took 0.7 ms a MOVE at 1M)
+            c = np.stack([self._layout(r.c) for r in rhss])
+            if change:
+                c -= self.rest_c
+            # a block per MOVE; faster than hstack (measure_choices)
+            x0 = np.zeros((rest.shape[0], rest.shape[1] * k)) if change else np.tile(rest, (1, k))
         x = self.system.solve(x0, d, c, refine=self.refine_steps)
         w = x.shape[1] // k
         for j, P in enumerate(Ps):
-            P[u] = self._unlayout(x[:, j * w:(j + 1) * w])
+            xj = x[:, j * w:(j + 1) * w]
+            P[u] = self._unlayout(rest + xj if change else xj)
         return Ps
 
     def interior_solve(self, P: np.ndarray) -> PositionSolve:
@@ -246,7 +273,8 @@ class SplitPositions(Positions):
         interior's right-hand side only through them, ``M_f P = r0 + Mfb (P_c - P0_c)``.
     coupled : (c,) int array
     r0 : (f, 3) float array
-        ``Mfi @ V0``, the mean-value residual at rest (round-off).
+        The mean-value rows at rest: zero (mean-value coordinates reproduce the rest
+        positions; ``Mfi @ V0`` is their round-off, not solved for).
     """
 
     free_interior: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -574,8 +602,10 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
     steps = 0 if probe <= REFINE_TOL * cs.diag else REFINE_STEPS
     nf = system.factorizations if system is not None else 0
     rows = np.flatnonzero(mesh.referenced) if cs.mode == "joint" else cs.bidx
+    rest_c, rest_d = rest_right_hand_sides(system, cs.vector, mesh.V[cs.unknowns], rhs_for(Move({}), rows),
+                                           cs.diag, steps)
     common: dict[str, Any] = dict(system=system, unknowns=cs.unknowns, rows=rows, vector=cs.vector,
-                                  refine_steps=steps, refine_probe=probe)
+                                  refine_steps=steps, refine_probe=probe, rest_c=rest_c, rest_d=rest_d)
     if cs.mode == "joint":
         return JointPositions(factorizations=nf, **common)
     fi = np.zeros(0, np.int64)
@@ -591,7 +621,9 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
         used[Mfi.indices] = True
         coupled = np.flatnonzero(used & ~is_free)
         Mfb = csr(Mfi[:, coupled])
-        r0 = Mfi @ mesh.V
+        # Mean-value coordinates reproduce linear functions, so the rest solves the interior rows and
+        # Mfi @ V0 is round-off: taken as zero, a boundary at rest leaves every interior node at rest exactly.
+        r0 = np.zeros((fi.size, 3))
         rest_coupled = np.ascontiguousarray(mesh.V[coupled])
     return SplitPositions(factorizations=nf, free_interior=fi, Mfi=Mfi, interior=interior, Mff=Mff, Mfb=Mfb,
                           coupled=coupled, r0=r0, rest_coupled=rest_coupled, **common)
@@ -621,3 +653,23 @@ def _boundary_system(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators, 
     if system is not None and cs.handle_names:
         probe = refinement_probe(system, cs.vector, mesh.V[cs.unknowns], rhs_for(probe_move(cs), rows))
     return system, probe
+
+
+def rest_right_hand_sides(system: ConstrainedSolver | None, vector: bool, x0: np.ndarray, rhs: RightHandSides,
+                          diag: float, refine: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The system's right-hand sides of a zero MOVE ``rhs``, when the rest positions ``x0`` solve it.
+
+    The rest solves the system in exact arithmetic when its hard rows hold at
+    rest (the cotangent rows reproduce the rest normals). Solved here, it is
+    ``x0`` to round-off; a row the rest misses (a tie within its tolerance
+    only) moves it further, by more than :data:`REST_TOL` of the diagonal, and
+    then None: those MOVEs are solved for positions, not for changes.
+    """
+    if system is None or rhs.d is None:
+        return None, None
+    c = rhs.c.reshape(-1, 1) if vector else rhs.c
+    x0 = x0.reshape(-1, 1) if vector else x0
+    x = system.solve(x0, rhs.d, c, refine=refine)
+    if not np.isfinite(x).all() or float(np.abs(x - x0).max(initial=0.0)) > REST_TOL * diag:
+        return None, None
+    return np.array(c), np.array(rhs.d)

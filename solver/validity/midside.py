@@ -30,6 +30,7 @@ import scipy.sparse as sp
 
 from ..ops.elements import TET10_EDGES as EDGES
 from ..ops.elements import midside_edges
+from ..ops.unique import unique
 from .quality import tet_quality
 
 __all__ = ["EDGES", "MidsideNodes", "Placement", "node_jacobians"]
@@ -142,6 +143,8 @@ class MidsideNodes:
         D0 = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0], P[:, 3] - P[:, 0]], axis=2)  # columns
         self._D0inv = np.linalg.inv(D0)
         self._off0 = V0[self.ids] - 0.5 * (V0[self.a] + V0[self.b])
+        self._V0 = V0
+        self._rest_mid = V0[self.ids]
 
     @property
     def rest_offsets(self) -> np.ndarray:
@@ -149,7 +152,10 @@ class MidsideNodes:
         return self._off0
 
     def gradients(self, P: np.ndarray) -> np.ndarray:
-        """(k, 3, 3) deformation gradient around each mid-side node: the mean of its tets' ``F_t``."""
+        """(k, 3, 3) deformation gradient around each mid-side node: the mean of its tets' ``F_t``.
+
+        Linear in ``P``: of displacements ``P - V0`` it is ``F - I``.
+        """
         Q = P[self.T]
         D = np.stack([Q[:, 1] - Q[:, 0], Q[:, 2] - Q[:, 0], Q[:, 3] - Q[:, 0]], axis=2)
         F = D @ self._D0inv  # (m, 3, 3) deformation gradients
@@ -187,10 +193,11 @@ class MidsideNodes:
         Placement
         """
         out = P.copy()
-        G = self.gradients(P)
-        mid = 0.5 * (P[self.a] + P[self.b])
-        curv = np.einsum("kab,kb->ka", G, self._off0)
-        out[self.ids] = mid + curv
+        # summed as changes from rest (F - I from the displacements): corners at rest leave every
+        # mid-side node at rest bit for bit
+        U = P - self._V0
+        bend = np.einsum("kab,kb->ka", self.gradients(U), self._off0)
+        out[self.ids] = self._rest_mid + (0.5 * (U[self.a] + U[self.b]) + bend)
         free = np.ones(self.ids.size, bool)
         if pinned is not None and pinned.size:
             out[pinned] = pinned_at
@@ -202,16 +209,18 @@ class MidsideNodes:
         bad = (dj.min(axis=1) <= 0) & valid & corner_ok
         relaxed = None
         if bad.any():
+            mid = 0.5 * (P[self.a] + P[self.b])
+            curv = self._off0 + bend
             alpha = np.ones(self.ids.size)
             touched = np.zeros(len(dj), bool)
             for step in range(6):
-                nodes = np.unique(self._slot[bad])
+                nodes = unique(self._slot[bad])
                 nodes = nodes[free[nodes]]
                 if not nodes.size:
                     break
                 alpha[nodes] = 0.0 if step == 5 else alpha[nodes] / 2
                 out[self.ids[nodes]] = mid[nodes] + alpha[nodes, None] * curv[nodes]
-                elems = np.unique(self._node_tets[nodes].indices)
+                elems = unique(self._node_tets[nodes].indices)
                 touched[elems] = True
                 dj[elems] = node_jacobians(out, self.T10[elems])
                 bad = np.zeros(len(dj), bool)

@@ -58,6 +58,7 @@ def cmd_doe(args: argparse.Namespace) -> int:
     if plan.rows > 1 and "{i}" not in args.output:
         raise SolverError("with several plan rows, --output needs '{i}' (the plan row, from 1), "
                           "e.g. out_{i}.inp", code="usage")
+    _one_stdout(summary=args.summary, report=args.report)
     mesh, deformer, shapes = _setup(args)
     writer = deck_writer(mesh, args.output, args.output_format)
 
@@ -65,7 +66,7 @@ def cmd_doe(args: argparse.Namespace) -> int:
         path = writer(row, res)
         r = res.report
         print(f"row {row}: wrote {path}  inverted={r['inverted_elements']}  min_sj={r['min_scaled_jacobian']}  "
-              f"residual={r['constraint_residual_max']:.3g}")
+              f"residual={r['constraint_residual_max']:.3g}", file=sys.stderr)
         return path
 
     result = run_doe(deformer, shapes, plan, block=args.block, output=output, inversion=args.inversion)
@@ -78,7 +79,7 @@ def cmd_doe(args: argparse.Namespace) -> int:
     print(f"setup {deformer.setup_timings['total_ms']:.0f} ms ({deformer.solve_mode} solve, "
           f"{deformer.factorizations} factorizations); {plan.rows} rows in {nb} blocks of <= {args.block}: "
           f"solve {t['solve_ms']:.0f} ms ({t['per_variant_ms']:.1f} ms per variant), writing "
-          f"{t['output_ms']:.0f} ms; summary {args.summary}")
+          f"{t['output_ms']:.0f} ms; summary {args.summary}", file=sys.stderr)
     if args.report:
         dump_json({**result.to_dict(), "reports": [v.report for v in result.variants]}, args.report)
     return 1 if any(v.status != "ok" for v in result.variants) else 0
@@ -108,7 +109,7 @@ def cmd_sensitivities(args: argparse.Namespace) -> int:
     write_sensitivities(mesh, sens, args.output, args.output_format)
     norms = {n: float(np.sqrt((sens.derivatives[k] ** 2).sum(axis=1)).max()) for k, n in enumerate(shapes.names)}
     print(f"wrote {args.output}: d_<shape> at {where} ({sens.method}); largest |dX/dtheta| per shape: "
-          + ", ".join(f"{n} {v:.4g}" for n, v in norms.items()))
+          + ", ".join(f"{n} {v:.4g}" for n, v in norms.items()), file=sys.stderr)
     return 0
 
 
@@ -137,6 +138,14 @@ def cmd_study(args: argparse.Namespace) -> int:
     return 0 if ok == len(rows) else 1
 
 
+def _one_stdout(**paths: str | None) -> None:
+    """Refuse two outputs sent to standard output (``-``) at once: a pipeline could not tell them apart."""
+    on = [f"--{k}" for k, v in paths.items() if v == "-"]
+    if len(on) > 1:
+        raise SolverError(f"{' and '.join(on)} both write to standard output ('-'); send one to a file",
+                          code="usage")
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("mesh")
     p.add_argument("--spec", required=True, help="SPEC.json: selections, fixed, handles, options")
@@ -156,12 +165,12 @@ def add_commands(subparsers: Any) -> None:
     _common(pd)
     pd.add_argument("--plan", required=True, help="PLAN.csv: header of shape names, one variant per row")
     pd.add_argument("--output", required=True, help="output mesh per row; '{i}' is the plan row (from 1)")
-    pd.add_argument("--summary", required=True, help="SUMMARY.csv: row, parameters, inverted, "
-                    "min_scaled_jacobian, max_displacement, constraint_residual_max, file, status")
+    pd.add_argument("--summary", required=True, help="SUMMARY.csv ('-': standard output): row, parameters, "
+                    "inverted, min_scaled_jacobian, max_displacement, constraint_residual_max, file, status")
     pd.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")
     pd.add_argument("--inversion", choices=["warn", "reject", "clamp"], help="override the SPEC's inversion "
                     "policy; 'reject' writes no deck for an inverting row")
-    pd.add_argument("--report", help="write every row's REPORT as JSON")
+    pd.add_argument("--report", help="write every row's REPORT as JSON ('-': standard output)")
     pd.add_argument("--output-format", help="output meshio format name")
     pd.set_defaults(func=cmd_doe)
     pb = subparsers.add_parser("bounds", help="per shape, the largest positive and negative parameter with 0 "
@@ -189,8 +198,8 @@ def add_commands(subparsers: Any) -> None:
                     "{dir} and {i} are substituted (e.g. 'ccx -i {stem}')")
     pt.add_argument("--response", default="ccx", help="'ccx' (CalculiX .dat: max_displacement, max_mises, "
                     "mass, freq_k) or a Python file defining response(deck) -> dict of floats")
-    pt.add_argument("--table", required=True, help="STUDY.csv: row, parameters, status, mesh figures, "
-                    "solver time, responses, deck, message")
+    pt.add_argument("--table", required=True, help="STUDY.csv ('-': standard output): row, parameters, status, "
+                    "mesh figures, solver time, responses, deck, message")
     pt.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S,
                     help=f"seconds per solver run (default {DEFAULT_TIMEOUT_S:g}); a run past it is recorded")
     pt.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")

@@ -20,10 +20,11 @@ from __future__ import annotations
 import csv
 import dataclasses
 import os
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import IO, Any, Literal
 
 import numpy as np
 
@@ -306,7 +307,10 @@ def write_summary(result: DoeResult, path: str | os.PathLike[str]) -> None:
 
 
 def write_rows(path: str | os.PathLike[str], fields: list[str], rows: list[dict[str, Any]]) -> None:
-    """A CSV of ``rows`` under the header ``fields``: floats to 17 significant digits, None as an empty cell."""
+    """A CSV of ``rows`` under the header ``fields``, to ``path`` or (``-``) to standard output.
+
+    Floats are written to 17 significant digits, None as an empty cell.
+    """
 
     def cell(v: Any) -> str:
         if v is None:
@@ -315,10 +319,17 @@ def write_rows(path: str | os.PathLike[str], fields: list[str], rows: list[dict[
             return format(float(v), ".17g")
         return str(v)
 
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "w", encoding="utf-8", newline="") as fh:
+    def write(fh: IO[str]) -> None:
         w = csv.writer(fh)
         w.writerow(fields)
         for r in rows:
             w.writerow([cell(r.get(f)) for f in fields])
+
+    if str(path) == "-":
+        write(sys.stdout)
+        sys.stdout.flush()
+        return
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        write(fh)
 

@@ -14,6 +14,7 @@ import re
 import secrets
 import time
 from typing import Any
+from urllib.parse import unquote_plus
 
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
@@ -24,27 +25,46 @@ __all__ = ["RequestContext", "Metrics", "JSONFormatter", "RequestIdFilter", "con
 request_id: contextvars.ContextVar[str] = contextvars.ContextVar("request_id", default="-")
 access_log = logging.getLogger("tetmorph.access")
 _SANE_ID = re.compile(r"^[A-Za-z0-9._-]{1,64}$")
-_SECRET_PARAM = re.compile(r"((?:^|[?&])api_key=)[^&\s]*", re.IGNORECASE)
+#: ``name=value`` pairs of a query string, alone or inside a logged line (after ``?``, ``&``, ``;`` or a space).
+_PAIR = re.compile(r"(^|[?&;\s])([^=&;?\s]+)=([^&;\s]*)")
+SECRET_NAMES = frozenset({"api_key"})
+
+
+def _secret(name: str) -> bool:
+    """Whether a query name is a secret's once decoded, as the server decodes it (``api%5Fkey``, ``%61pi_key``)."""
+    decoded = name
+    for _ in range(3):  # names encoded twice or three times decode to the same name
+        step = unquote_plus(decoded)
+        if step == decoded:
+            break
+        decoded = step
+    return decoded.strip().lower() in SECRET_NAMES
 
 
 def redact(query: str) -> str:
-    """A query string with the value of ``api_key`` replaced.
+    """A query string (or a log line holding one) with the value of every ``api_key`` replaced.
+
+    Names are compared decoded, so a percent-encoded spelling of the name is redacted too.
 
     Examples
     --------
     >>> redact("kind=positions&api_key=s3cret&dtype=float32")
     'kind=positions&api_key=[redacted]&dtype=float32'
+    >>> redact("GET /v1/stream?api%5Fkey=s3cret&%61pi_key=s3cret")
+    'GET /v1/stream?api%5Fkey=[redacted]&%61pi_key=[redacted]'
     """
-    return _SECRET_PARAM.sub(r"\1[redacted]", query)
+    if "=" not in query:
+        return query
+    return _PAIR.sub(lambda m: f"{m[1]}{m[2]}=[redacted]" if _secret(m[2]) else m[0], query)
 
 
 class RequestIdFilter(logging.Filter):
     """Put the current request id on every record (``%(request_id)s``)."""
 
     def filter(self, record: logging.LogRecord) -> bool:
-        """Add ``request_id``; also redact ``api_key=`` in the message."""
+        """Add ``request_id``; also redact API keys given as query parameters in the message."""
         record.request_id = request_id.get()
-        if isinstance(record.msg, str) and "api_key=" in record.msg.lower():
+        if isinstance(record.msg, str):
             record.msg = redact(record.msg)
         if record.args and isinstance(record.args, tuple):
             record.args = tuple(redact(a) if isinstance(a, str) else a for a in record.args)

@@ -101,6 +101,17 @@ def test_access_log_redacts_the_query_key(tmp_path, caplog):
     assert "s3cret-key" not in "".join(p.read_text(errors="replace") for p in tmp_path.rglob("*") if p.is_file())
 
 
+def test_access_log_redacts_a_percent_encoded_query_key(tmp_path, caplog):
+    import logging
+
+    with running(tmp_path, api_keys="s3cret-key") as tc, caplog.at_level(logging.INFO, logger="tetmorph.access"):
+        for q in ("api%5Fkey", "%61pi_key", "API%255Fkey"):
+            tc.get(f"/v1/meshes?{q}=s3cret-key&limit=5", headers={"X-API-Key": "s3cret-key"})
+    lines = [r.getMessage() for r in caplog.records if r.name == "tetmorph.access"]
+    assert len(lines) == 3 and all("=[redacted]&limit=5" in ln for ln in lines)
+    assert "s3cret-key" not in caplog.text
+
+
 def _tet():
     import numpy as np
 

@@ -17,6 +17,7 @@ from typing import Any
 from urllib.parse import unquote_plus
 
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
+from starlette.routing import Mount
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 __all__ = ["RequestContext", "Metrics", "JSONFormatter", "RequestIdFilter", "configure_logging",
@@ -130,9 +131,19 @@ class RequestContext:
 
     @staticmethod
     def _template(scope: Scope) -> str:
-        """The matched route's path template (``/v1/sessions/{session_id}``), so ids do not become labels."""
+        """The matched route's path template (``/v1/sessions/{session_id}``), so nothing a client types is a label.
+
+        A mount (the editor's static files) is one label, ``/editor/{path}``; a path no route matched is
+        ``unmatched``. The labels are the app's routes, a bounded set.
+        """
         if scope.get("endpoint") is None:
             return "unmatched"
+        route = scope.get("route")
+        if isinstance(route, Mount):  # static files: what follows the mount is the client's text
+            return f"{route.path}/{{path}}"
+        if route is None and "app_root_path" in scope:  # a mount that left no route: its prefix is in root_path
+            return f"{str(scope.get('root_path', ''))[len(str(scope['app_root_path'])):]}/{{path}}"
+        # the path with each parameter's segment put back as its name: only the route's own literal segments remain
         names = {str(v): k for k, v in (scope.get("path_params") or {}).items()}
         return "/".join(f"{{{names[seg]}}}" if seg in names else seg for seg in str(scope.get("path", "")).split("/"))
 

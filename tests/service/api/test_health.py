@@ -28,6 +28,20 @@ def test_ready_metrics_and_request_ids(client, tc):
     assert tc.get("/v1/nowhere").headers["x-request-id"]
 
 
+def test_metrics_labels_are_route_templates_whatever_the_client_asks(tc):
+    for k in range(40):
+        tc.get(f"/editor/no-such-file-{k}.js")
+        tc.get(f"/v1/sessions/s_{k}")
+        tc.get(f"/v1/unknown/{k}")
+    routes = set()
+    for ln in tc.get("/metrics").text.splitlines():
+        if ln.startswith("tetmorph_requests_total{"):
+            routes.add(ln.split('route="')[1].split('"')[0])
+    assert "no-such-file" not in " ".join(routes) and not any("s_1" in r for r in routes)
+    assert {"/editor/{path}", "/v1/sessions/{session_id}", "unmatched"} <= routes
+    assert len(routes) <= 6, routes
+
+
 def test_ready_says_what_fails(tc):
     import os
     import stat

@@ -105,6 +105,7 @@ def test_each_validation_error_names_the_defect():
     V, T = _tet()
     cases = [
         (np.where(np.arange(12).reshape(4, 3) == 4, np.nan, V), T, "non_finite_coordinates", "vertices"),
+        (np.where(np.arange(12).reshape(4, 3) == 4, 1e308, V), T, "coordinates_out_of_range", "beyond +-1e+15"),
         (V, np.array([[0, 1, 2, 7]]), "index_out_of_range", "outside 0..3"),
         (V, np.array([[0, 1, 1, 3]]), "repeated_index", "repeat"),
         (V, np.array([[0, 2, 1, 3]]), "inverted_input", "inverted"),

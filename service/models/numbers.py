@@ -11,11 +11,11 @@ from typing import Annotated
 
 from pydantic import Field, StrictInt
 
+from solver.limits import COORD_MAX
+
 __all__ = ["Coord", "Vec3", "Quat", "Scale", "Angle", "Weight", "VertexId", "Fraction", "NonNegLength",
            "PenaltyWeight", "COORD_MAX", "SCALE_MIN", "SCALE_MAX", "EXTENT", "PENALTY_MAX", "ID_MAX"]
 
-#: Largest magnitude of any coordinate, direction or target in a document.
-COORD_MAX = 1e15
 #: Range of uniform scale factors (handles, relative constraints, features).
 SCALE_MIN, SCALE_MAX = 1e-3, 1e3
 #: Translations and pivots, point targets and motion points: within this many bounding-box

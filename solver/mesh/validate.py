@@ -15,6 +15,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import MAX_IDS, InvalidMeshError, TopologyError, format_ids
+from ..limits import COORD_MAX
 from ..ops.boundary_facets import boundary_facets
 from ..ops.elements import LINEAR_TYPES, boundary_faces, corner_jacobians, element_blocks
 from ..ops.unique import unique
@@ -184,6 +185,12 @@ def _check_indices(V: np.ndarray, C: np.ndarray, what: str) -> None:
         raise InvalidMeshError(
             f"{nonfinite.size} vertices have non-finite coordinates; first vertices "
             f"{format_ids(nonfinite)}", code="non_finite_coordinates", vertices=nonfinite[:MAX_IDS].tolist())
+    huge = np.flatnonzero(used & (np.abs(V) > COORD_MAX).any(1))
+    if huge.size:
+        raise InvalidMeshError(
+            f"{huge.size} vertices have a coordinate beyond +-{COORD_MAX:g}; first vertices {format_ids(huge)}, "
+            f"e.g. vertex {huge[0]} = {V[huge[0]].tolist()}", code="coordinates_out_of_range",
+            vertices=huge[:MAX_IDS].tolist(), bound=COORD_MAX)
     S = np.sort(C, axis=1)
     rep = np.flatnonzero((S[:, 1:] == S[:, :-1]).any(1))
     if rep.size:

@@ -45,6 +45,7 @@ def test_tetgen_upload_needs_its_ele(tc):
      None),
     ("nan.inp", _inp_bytes(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, float("nan")]]),
                            [[0, 1, 2, 3]]), "non_finite_coordinates"),
+    ("huge.inp", _inp_bytes(TET * 1e308, [[0, 1, 2, 3]]), "coordinates_out_of_range"),
     ("badindex.inp", _inp_bytes(TET, [[0, 1, 2, 7]]), None),
     ("hexahedron20.inp", _inp_bytes(np.random.default_rng(0).random((20, 3)), [list(range(20))], kind="C3D20"),
      "unsupported_element"),

@@ -471,8 +471,10 @@ class Registry:
                 log.info("evicted session %s from the factorization cache", sid)
 
     def _failed(self, s: Session) -> None:
-        if s.id in self.sessions and self.store.mesh_meta(s.mesh_id) is not None and (
-                not self.store.shared or self.store.load_session(s.id) is not None):
+        # only a session the store already holds records its failure: a build that fails while its
+        # POST is still being answered (a SPEC that does not fit the mesh) is refused, and stores nothing
+        if s.id in self.sessions and self.store.mesh_meta(s.mesh_id) is not None and \
+                self.store.load_session(s.id) is not None:
             self.store.save_session(s.record())
 
     async def session_mesh(self, s: Session) -> Mesh:

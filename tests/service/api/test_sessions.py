@@ -105,6 +105,24 @@ def test_spec_errors_come_back_at_create_time(client, tc):
     assert r.status_code == 404 and err(r)["code"] == "mesh_not_found"
 
 
+def test_a_session_refused_at_build_leaves_no_record_even_after_a_restart(tmp_path):
+    from service.client import Client
+
+    from ..conftest import running
+
+    spec = {**BRACKET_SPEC, "selections": {"root": {"set": "FIXED"}, "tip": {"set": "FIXED"}}}
+    with running(tmp_path / "data") as tc:
+        mesh = upload_bracket(Client(http=tc))
+        for _ in range(3):
+            r = tc.post("/v1/sessions", json={"mesh_id": mesh["id"], "spec": spec})
+            assert r.status_code == 422 and err(r)["code"] == "overlapping_constraints", err(r)
+        assert tc.get("/v1/sessions").json() == []
+        folder = tc.app.state.registry.store.sessions_dir
+    assert not list(folder.glob("*.json")), "a refused session was written"
+    with running(tmp_path / "data") as tc:  # a restart lists nothing either
+        assert tc.get("/v1/sessions").json() == []
+
+
 def test_bad_move_is_422_and_keeps_state(client, tc):
     mesh = upload_bracket(client)
     s = client.create_session(mesh["id"], BRACKET_SPEC)

@@ -35,7 +35,8 @@ def test_doe_command_writes_decks_and_summary(tmp_path, capsys, plate_deformer):
     rc = main(["doe", *COMMON, "--plan", str(PLAN), "--output", str(out), "--summary", str(summary),
                "--block", "3", "--report", str(report)])
     assert rc == 0
-    text = capsys.readouterr().out
+    stdout, text = capsys.readouterr()
+    assert stdout == ""  # messages on stderr: stdout is for data
     assert "8 rows in 3 blocks of <= 3" in text and "row 8: wrote" in text
     with open(summary, newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -94,7 +95,8 @@ def test_bounds_command_json(tmp_path, plate_deformer):
 def test_sensitivities_command_vtu(tmp_path, capsys, plate_deformer):
     out = tmp_path / "sens.vtu"
     assert main(["sensitivities", *COMMON, "--plan", str(PLAN), "--at", "6", "--output", str(out)]) == 0
-    assert "at plan row 6 (line 7) (analytic)" in capsys.readouterr().out
+    stdout, err = capsys.readouterr()
+    assert stdout == "" and "at plan row 6 (line 7) (analytic)" in err
     m = meshio.read(out)
     shapes = parse_shapes(plate_shapes(), plate_deformer)
     ref = shape_sensitivities(plate_deformer, shapes, plan_values(read_plan(PLAN), shapes)[5])

@@ -63,22 +63,21 @@ def bend_move(mesh, angle: float, frac: float) -> dict:
 
 
 def distance_to_triangles(p: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> float:
-    """Distance from ``p`` to the nearest of the triangles (A, B, C) (k, 3): sampled exactly by
-    projecting on each plane and clamping to the triangle's edges when the projection falls outside."""
-    best = np.inf
-    for a, b, c in zip(A, B, C, strict=True):
-        n = np.cross(b - a, c - a)
-        nn = n @ n
-        q = p - ((p - a) @ n) / nn * n
-        w1 = np.cross(c - b, q - b) @ n / nn
-        w2 = np.cross(a - c, q - c) @ n / nn
-        if w1 >= 0 and w2 >= 0 and 1 - w1 - w2 >= 0:
-            best = min(best, float(np.linalg.norm(p - q)))
-            continue
-        for u, v in ((a, b), (b, c), (c, a)):
-            t = np.clip((p - u) @ (v - u) / ((v - u) @ (v - u)), 0.0, 1.0)
-            best = min(best, float(np.linalg.norm(p - (u + t * (v - u)))))
-    return best
+    """Distance from ``p`` to the nearest of the triangles (A, B, C) (k, 3): exact, by projecting on each
+    plane and, where the projection falls outside the triangle, taking the nearest point of its edges."""
+    dot = lambda X, Y: np.einsum("ij,ij->i", X, Y)  # noqa: E731 - row-wise dot products
+    n = np.cross(B - A, C - A)
+    nn = dot(n, n)
+    q = p - (dot(p - A, n) / nn)[:, None] * n
+    w1 = dot(np.cross(C - B, q - B), n) / nn
+    w2 = dot(np.cross(A - C, q - C), n) / nn
+    inside = (w1 >= 0) & (w2 >= 0) & (1 - w1 - w2 >= 0)
+    best = np.where(inside, np.linalg.norm(p - q, axis=1), np.inf)
+    for U, W in ((A, B), (B, C), (C, A)):
+        e = W - U
+        t = np.clip(dot(p - U, e) / dot(e, e), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(p - (U + t[:, None] * e), axis=1))
+    return float(best.min())
 
 
 def longest_axis(mesh):

@@ -2,6 +2,7 @@
 #   make run    create .venv, install everything, serve the REST API on 127.0.0.1:8000
 #               with the demo beam and a ready session (s_demo)
 #   make test   create .venv, install everything, run the test suite
+#   make check  lint and the fast tests (no browser, cluster, CalculiX, fuzzing or slow marks)
 #   make cluster       PostgreSQL, 3 replicas and HAProxy on 127.0.0.1 (balancer on :8100), detached
 #   make cluster-down  stop them
 PYTHON ?= python3
@@ -10,7 +11,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
+.PHONY: run morph-demo test check bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -27,6 +28,12 @@ morph-demo: install
 
 test: install web browser calculix clusterdeps
 	$(BIN)/python -m pytest -q
+
+# The developer's loop (CONTRIBUTING.md): lint, then the solver and service tests without the
+# browser, the cluster, CalculiX, fuzzing and the tests marked slow. `make test` runs them all.
+check: lint web
+	$(BIN)/python -m pytest -q -p no:cacheprovider -m "not slow and not fuzz and not ccx" -n auto \
+	  --ignore=tests/browser --ignore=tests/cluster --ignore=tests/service/state/test_pg_registry.py
 
 # The local cluster (README, "Cluster"): Debian's PostgreSQL (initdb under CLUSTER_DIR, run as an
 # unprivileged user), 3 `tetmorph serve` replicas and HAProxy, all on 127.0.0.1; balancer on :8100.

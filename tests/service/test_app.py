@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import tempfile
 
+import pytest
 import schemathesis
 from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, settings
@@ -21,6 +22,7 @@ from schemathesis.specs.openapi.checks import response_schema_conformance, statu
 from service.app import create_app
 from service.demo import DEMO_MESH, DEMO_SESSION
 
+pytestmark = pytest.mark.fuzz  # generated requests: make test, not make check
 _DATA = tempfile.mkdtemp(prefix="tetmorph-schema-")
 app = create_app(data_dir=_DATA, demo=True, rate_limit_per_s=0, max_sessions=100_000, job_wait_s=30)
 schema = schemathesis.openapi.from_asgi("/openapi.json", app)

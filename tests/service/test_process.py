@@ -19,6 +19,8 @@ from solver.deform.deformer import precompute
 
 from .conftest import BRACKET, BRACKET_SPEC
 
+pytestmark = pytest.mark.slow  # real server processes: make test, not make check
+
 MOVES = [{"handles": {"tip": {"translation": [0.0, 3.0 * k, 1.0]}}} for k in range(4)]
 
 

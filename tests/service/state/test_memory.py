@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import psutil
+import pytest
 
 from service.client import Client
 from service.process import serve_process
@@ -12,6 +13,7 @@ from ..conftest import BRACKET, BRACKET_SPEC, MOVES
 SESSIONS = 24
 
 
+@pytest.mark.slow
 def test_memory_returns_near_baseline_after_deleting_sessions(tmp_path, capsys):
     env = {"TETMORPH_MAX_SESSIONS": str(SESSIONS + 2), "TETMORPH_RATE_LIMIT_PER_S": "0"}
     with serve_process(tmp_path, env=env) as (url, proc), Client(url) as c:

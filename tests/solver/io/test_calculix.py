@@ -19,6 +19,7 @@ import pytest
 from solver import precompute, read_mesh, write_mesh
 from tests.conftest import DATA, shared_file
 
+pytestmark = pytest.mark.ccx  # runs CalculiX: make test, not make check
 CCX = shutil.which("ccx")
 #: Seconds a ccx run of these small decks may take before the test fails.
 CCX_TIMEOUT = 300

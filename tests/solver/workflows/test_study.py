@@ -48,6 +48,7 @@ def _study(f, *extra):
                  "--table", str(f / "study.csv"), *extra])
 
 
+@pytest.mark.ccx
 def test_each_row_is_solved_and_its_responses_tabled(study_files, capsys):
     f = study_files
     assert _study(f, "--solver", "ccx -i {stem}", "--response", "ccx", "--timeout", "120") == 1  # row 4 not ok

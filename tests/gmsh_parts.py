@@ -138,3 +138,33 @@ def sheet_panel(path, size: float) -> int:
     finally:
         gmsh.finalize()
     return rim_lines
+
+
+def block_with_faces(path, size: float = 4.0, order: int = 1) -> None:
+    """A 40 x 20 x 10 block meshed in tets, with physical surfaces FIXED (x = 0) and LOAD (x = 40) and a
+    physical volume SOLID, written to ``path`` (.msh 4.1): the layout of a Gmsh deck for a solver."""
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        box = occ.addBox(0, 0, 0, 40, 20, 10)
+        occ.synchronize()
+        faces = {}
+        for dim, tag in gmsh.model.getBoundary([(3, box)], oriented=False):
+            x = gmsh.model.occ.getCenterOfMass(dim, tag)[0]
+            if abs(x) < 1e-9:
+                faces["FIXED"] = tag
+            elif abs(x - 40) < 1e-9:
+                faces["LOAD"] = tag
+        for name, tag in faces.items():
+            gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, [tag]), name)
+        gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [box]), "SOLID")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.model.mesh.generate(3)
+        if order == 2:
+            gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()

@@ -227,9 +227,45 @@ def convert(c: Content, P: np.ndarray, fmt: str) -> Conversion:
     return enc(c, np.asarray(P, dtype=np.float64), fmt)
 
 
+def _faces_as_node_sets(c: Content) -> Content:
+    """A volume mesh's surface and line cells as node sets, for a deck a solver reads.
+
+    Gmsh keeps the faces of a named surface (a physical group) as triangle
+    cells; written to a deck they would be CPS3 / CPE6 / T3D2 elements, which a
+    solver takes for plane-stress, plane-strain or truss elements of the model
+    and refuses or solves wrongly. So, where the mesh has volume elements,
+    every set and label class with members among those cells becomes a node set
+    of their nodes, under its own name, and the cells are left out. A mesh of
+    surface cells alone keeps them.
+    """
+    vol = [b for b, (t, _) in enumerate(c.blocks) if t in VOLUME]
+    low = [b for b, (t, _) in enumerate(c.blocks) if t not in VOLUME]
+    if not vol or not low:
+        return c
+
+    def nodes(per: list[np.ndarray]) -> np.ndarray:
+        parts = [c.blocks[b][1][per[b]].ravel() for b in low if per[b].size]
+        return unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+
+    out = Content(blocks=[c.blocks[b] for b in vol], node_sets=dict(c.node_sets), node_labels=c.node_labels,
+                  point_data=c.point_data)
+    for name, per in c.element_sets.items():
+        if any(per[b].size for b in low):
+            out.node_sets[name] = unique(np.concatenate([out.node_sets.get(name, np.zeros(0, np.int64)),
+                                                         nodes(per)]))
+        if any(per[b].size for b in vol):
+            out.element_sets[name] = [per[b] for b in vol]
+    for key, per in c.labels.items():
+        for v in _label_classes([per[b] for b in low]):
+            out.node_sets[f"{key}={v}"] = nodes([np.flatnonzero(x == v) for x in per])
+        out.labels[key] = [per[b] for b in vol]
+    out.cell_data = {k: [v[b] for b in vol] for k, v in c.cell_data.items()}
+    return out
+
+
 def _abaqus(c: Content, P: np.ndarray, fmt: str) -> Conversion:
     losses: list[Loss] = []
-    c = _restrict(c, set(ABAQUS_TYPES), fmt, "an Abaqus deck", losses)
+    c = _restrict(_faces_as_node_sets(c), set(ABAQUS_TYPES), fmt, "an Abaqus deck", losses)
     taken: set[str] = set()
     renamed: dict[str, str] = {}
 

@@ -230,3 +230,24 @@ def test_a_sector_morphed_with_its_rim_grown_keeps_its_cyclic_tie_and_its_modes_
     assert (steps < 0).all(), rel
     mean = steps.mean(axis=0)
     assert (np.abs(steps - mean) <= np.abs(mean) / 3).all(), rel
+
+
+def test_a_gmsh_part_with_named_faces_converted_to_a_deck_runs_in_calculix(tmp_path):
+    """Named Gmsh surfaces arrive as node sets a *BOUNDARY and a *CLOAD can name, and no face element."""
+    import meshio
+
+    from tests.gmsh_parts import block_with_faces
+
+    src = tmp_path / "block.msh"
+    block_with_faces(src, 5.0, order=2)
+    m = meshio.read(src)
+    write_mesh(read_mesh(src), np.asarray(m.points, float), tmp_path / "block.inp")
+    deck = tmp_path / "run.inp"
+    deck.write_text((tmp_path / "block.inp").read_text() + "*MATERIAL, NAME=STEEL\n*ELASTIC\n210000, 0.3\n"
+                    "*SOLID SECTION, ELSET=SOLID, MATERIAL=STEEL\n*STEP\n*STATIC\n*BOUNDARY\nFIXED, 1, 3\n"
+                    "*CLOAD\nLOAD, 3, -1.0\n*NODE PRINT, NSET=LOAD\nU\n*END STEP\n")
+    text, dat = run_ccx(deck)
+    assert complaints(text) == []
+    u = dat_block(dat, "displacements")
+    load_nodes = np.unique(m.cells_dict["triangle6"][m.cell_sets_dict["LOAD"]["triangle6"]])
+    assert len(u) == load_nodes.size and (u[:, 3] < 0).all()  # every LOAD node printed, pushed down

@@ -16,6 +16,7 @@ import pytest
 
 from solver import read_mesh, write_mesh
 from solver.errors import LossyWriteError
+from solver.io.content import VOLUME
 from tests.conftest import DATA, shared_file
 
 SOURCES = {
@@ -109,6 +110,8 @@ def test_round_trip(source, target, tmp_path):
     data_arrays |= {k for k in src.cell_data if not k.startswith(("gmsh:", "medit:", "tetgen:", "nastran:"))
                     and k not in ("mat_id",)}
     same_format = path.suffix.lower().lstrip(".") == target
+    # a deck of volume elements holds named faces as node sets, never as CPS3/T3D2 elements of the model
+    faces_as_sets = target == "inp" and not same_format and any(t in VOLUME for t in src_types)
     expect_loss = not same_format and bool(
         lost_types or quadratic_lost or (names and target not in NAMED)
         or (data_arrays and target not in ("vtu", "vtk", "msh")))
@@ -134,7 +137,7 @@ def test_round_trip(source, target, tmp_path):
     np.testing.assert_allclose(np.asarray(back.points, float)[:, : P.shape[1]], P, rtol=0, atol=tol * scale)
     # cells: every element of a type the target holds, corners of quadratic tets where it holds only linear
     expected = {("tetra" if t == "tetra10" and quadratic_lost else t): n for t, n in src_types.items()
-                if t not in lost_types and t != "vertex" and n}
+                if t not in lost_types and t != "vertex" and n and not (faces_as_sets and t not in VOLUME)}
     got = {t: n for t, n in _counts(back).items() if t != "vertex" and n}
     assert got == expected
     if lost_types or quadratic_lost and target != "node":
@@ -219,3 +222,39 @@ def test_lossy_write_lists_what_was_dropped(tmp_path):
         ("node_set", "Nleft"), ("node_set", "Nright"), ("node_set", "Nall")}  # since *Node,NSET= is read): no refs
     back = meshio.read(tmp_path / "s.mesh")
     assert _counts(back) == {"tetra": 1489}  # the corners of every element, not an empty file
+
+
+def _deck_blocks(text: str) -> tuple[list[str], dict[str, set[int]]]:
+    """Element types and node sets of an Abaqus deck, read here line by line (1-based node numbers)."""
+    types, nsets, current = [], {}, None
+    for line in text.splitlines():
+        head = line.strip().upper()
+        if head.startswith("*"):
+            current = None
+            if head.startswith("*ELEMENT"):
+                types.append(re.search(r"TYPE\s*=\s*(\w+)", head).group(1))
+            elif head.startswith("*NSET"):
+                current = re.search(r"NSET\s*=\s*([\w=-]+)", line, re.I).group(1)
+                nsets[current] = set()
+        elif current is not None and head:
+            nsets[current] |= {int(v) for v in head.replace(",", " ").split()}
+    return types, nsets
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_gmsh_surface_groups_become_node_sets_of_a_deck_not_elements(tmp_path, order):
+    from tests.gmsh_parts import block_with_faces
+
+    src = tmp_path / "block.msh"
+    block_with_faces(src, 5.0, order)
+    m = meshio.read(src)
+    face_type = "triangle" if order == 1 else "triangle6"
+    w = write_mesh(read_mesh(src), np.asarray(m.points, float), tmp_path / "block.inp")
+    assert w.dropped == []
+    types, nsets = _deck_blocks((tmp_path / "block.inp").read_text())
+    assert set(types) == {"C3D4" if order == 1 else "C3D10"}, types  # no CPS3 / CPE6 / T3D2 in the model
+    for name in ("FIXED", "LOAD"):
+        faces = np.asarray(m.cell_sets_dict[name][face_type], np.int64)  # meshio's own reading of the .msh
+        want = set((np.unique(m.cells_dict[face_type][faces]) + 1).tolist())
+        assert nsets[name] == want
+    assert abs(np.asarray(m.points)[np.array(sorted(nsets["FIXED"])) - 1, 0]).max() < 1e-9

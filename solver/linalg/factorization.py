@@ -8,7 +8,7 @@ Backends, in order of preference:
 ``pardiso``
     Intel MKL PARDISO, called directly (:mod:`solver.linalg.pardiso`; MKL from pip). Used for the square,
     non-symmetric mean-value-coordinate system (LU with a symmetric METIS
-    ordering: 10x faster than SuperLU there), and for symmetric systems too when
+    ordering, far faster than SuperLU there: measure_choices ``small-lu``), and for symmetric systems too when
     CHOLMOD is missing.
 ``supernodal``
     Systems solved on every update, back-substituted by tetmorph's own
@@ -184,12 +184,11 @@ _BLAS_QUIETED = False
 def _quiet_system_blas() -> None:
     """One thread for the system OpenBLAS that CHOLMOD links (Debian's openblas-pthread).
 
-    OpenBLAS threads busy-wait after every call. On two cores they took cycles
-    from PARDISO's and numba's threads in the next step of the update: median
-    per-update solve of the 107k-tet bracket 17.5 ms with the default, 11.3 ms
-    with one thread, five runs each (``OPENBLAS_NUM_THREADS=1 python
-    benchmarks/bench_solver.py --case bracket:0.95:split --updates 60``), and
-    no measurable change in the 1M-tet set-up. Only libraries outside the
+    OpenBLAS threads busy-wait after every call. On two cores they take cycles
+    from PARDISO's and numba's threads in the next step of the update, while
+    CHOLMOD's small dense blocks gain little from a second thread (compare
+    ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_solver.py --case
+    bracket:0.95:split --updates 60`` with the default). Only libraries outside the
     Python prefix are touched, so numpy's and scipy's own BLAS keep their
     threads.
     """

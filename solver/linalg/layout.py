@@ -3,11 +3,10 @@
 PARDISO reads and writes its right-hand sides column by column (Fortran
 order); tetmorph builds them row by row (one row per vertex, three columns per
 position array). numpy's ``asfortranarray`` of a tall (n, k) C-order array
-walks one of the two arrays with a stride of k (or n) elements per step; for
-a DOE block on the 1M-tet bracket (160k rows, 48 columns) that is about 40 ms.
-The kernels here copy tiles of rows, so both arrays are read and written in
-runs of at least a cache line: about 4.4 ms for the same block (``python
-benchmarks/measure_choices.py --only layout``).
+walks one of the two arrays with a stride of k (or n) elements per step, a
+cache miss per element on a DOE block. The kernels here copy tiles of rows, so
+both arrays are read and written in runs of at least a cache line (``python
+benchmarks/measure_choices.py --only layout`` has the figures).
 """
 
 from __future__ import annotations

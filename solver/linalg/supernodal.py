@@ -45,10 +45,9 @@ import scipy.sparse as sp
 
 __all__ = ["SupernodalFactor", "Unsuitable", "supernode_starts", "tree_split", "lu_supernodal", "cholmod_supernodal"]
 
-#: Up to this many right-hand sides a solve sweeps three at a time; beyond, one sweep takes all of
-#: them (each factor entry read once). The 1M bracket's boundary system (37,142 unknowns): 3 columns
-#: 4.4 ms, 6 (two sweeps) 9.2, 12 (one) 21.0, 48 (one) 54.2 ms; CHOLMOD's solve 8.8, 13.0, 25.1 and
-#: 88.1 ms (``benchmarks/measure_choices.py --only supernodal``).
+#: Up to this many right-hand sides a solve sweeps three at a time (the fixed-width kernel keeps
+#: them in registers); beyond, one sweep takes all of them, so each factor entry is read once.
+#: ``benchmarks/measure_choices.py --only supernodal`` measures both against CHOLMOD's solve.
 GROUPED_COLUMNS = 9
 #: Normwise backward error a probe solve (in double precision) must meet at set-up.
 PROBE_TOL = 1e-12

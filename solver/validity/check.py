@@ -14,8 +14,9 @@ linear tetrahedra the check is three compiled, multi-threaded passes:
 3. :func:`_gather_between`, the values inside the bracket, from which the
    1st percentile is selected exactly (:func:`_select`).
 
-On the 1M-tet bracket this is 7 ms where one fused pass keeping a histogram
-took 14-15 ms (``python benchmarks/measure_choices.py --only check``). Mixed
+Three light passes beat one fused pass that keeps a histogram, because the
+histogram's scattered increments serialize (``python
+benchmarks/measure_choices.py --only check``). Mixed
 and quadratic meshes take the general path (corner and node Jacobians).
 """
 

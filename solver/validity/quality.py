@@ -99,9 +99,9 @@ def tet_quality(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Six times the signed volume and the scaled Jacobian of every tet, fused.
 
     The per-update check: one compiled, multi-threaded pass over the tets
-    (numba): 0.61-0.66 ms for the 107k-tet bracket, where the same formulas
-    as numpy array expressions take 15-26 ms
-    (``python benchmarks/measure_choices.py --only kernels``).
+    (numba), where the same formulas as numpy array expressions make a
+    temporary array per operation (``python benchmarks/measure_choices.py
+    --only kernels`` compares them).
 
     Parameters
     ----------

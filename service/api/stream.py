@@ -108,7 +108,10 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
         s = reg.session(owner, session_id)
         slot = state.connections.acquire(owner)
     except ServiceError as e:
-        await ws.close(code=4000 + e.status, reason=e.message[:120])
+        # closed before the handshake, a real server answers HTTP 403 and the code and reason are lost:
+        # accept, then close, so the client reads 4401 / 4404 / 4410 / 4429 and why
+        await ws.accept()
+        await _close(ws, 4000 + e.status, e.message)
         return
     try:
         await ws.accept()

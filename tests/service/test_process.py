@@ -77,3 +77,25 @@ def test_real_server_api_keys_from_environment(tmp_path):
                              ).status_code == 404
             assert [m["id"] for m in a.http.get("/v1/meshes", headers=a.headers).json()] == [mid]
             assert b.http.get("/v1/meshes", headers=b.headers).json() == []
+
+
+def test_stream_refusals_reach_a_real_client_as_close_codes(tmp_path):
+    """Over the wire, not only in the test client: accept, then close with the documented code and a reason."""
+    from websockets.exceptions import ConnectionClosed
+
+    port = free_port()
+    with server(tmp_path, port, ("TETMORPH_API_KEYS", "k1"), ("TETMORPH_MAX_CONNECTIONS_PER_KEY", "1")) as url:
+        with Client(url, api_key="k1") as c:
+            sid = c.create_session(c.upload_mesh(BRACKET)["id"], BRACKET_SPEC)["id"]
+        ws_url = url.replace("http", "ws") + "/v1/sessions/{}/stream"
+        for path, code in ((ws_url.format(sid), 4401), (ws_url.format(sid) + "?api_key=nope", 4401),
+                           (ws_url.format("s_nope") + "?api_key=k1", 4404)):
+            with connect(path) as ws, pytest.raises(ConnectionClosed) as e:
+                ws.recv(timeout=10)
+            assert e.value.rcvd is not None and e.value.rcvd.code == code and e.value.rcvd.reason, path
+        with connect(ws_url.format(sid) + "?api_key=k1") as first:
+            with connect(ws_url.format(sid) + "?api_key=k1") as ws, pytest.raises(ConnectionClosed) as e:
+                ws.recv(timeout=10)
+            assert e.value.rcvd.code == 4429
+            first.send(json.dumps({"seq": 1, "move": MOVES[1]}))
+            decode_frame(first.recv(timeout=30))  # the first stream still serves

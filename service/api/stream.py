@@ -192,6 +192,9 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
             except Exception as e:  # noqa: BLE001 - every failed MOVE is answered, the session unchanged
                 if status_of(e) >= 500:
                     raise
+                if getattr(e, "code", None) == "session_not_found":  # deleted while streamed: the stream ends
+                    await _close(ws, 4404, str(getattr(e, "message", e)))
+                    return
                 await ws.send_json({"seq": frame.seq, "dropped": skipped, **error_body(e)[1]})
                 continue
             X = r.V if kind == "positions" else r.V - V0

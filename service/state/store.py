@@ -289,7 +289,13 @@ class FileStore:
         self.save_session(record)
 
     def commit_session(self, record: dict[str, Any], version: int) -> int | None:
-        """Write ``record`` with ``version + 1`` (this process is the only writer)."""
+        """Write ``record`` with ``version + 1`` (this process is the only writer); None when it was deleted.
+
+        A session deleted while a MOVE of it was solved (over a stream, say) stays deleted:
+        its record is never written back.
+        """
+        if not self._has_record(str(record.get("id", ""))):
+            return None
         new = version + 1
         self.save_session({**record, "version": new})
         return new

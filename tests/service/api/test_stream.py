@@ -44,6 +44,31 @@ def test_websocket_refuses_unknown_session(tc):
     assert e.value.code == 4404
 
 
+def test_a_session_deleted_while_streamed_stays_deleted(tmp_path):
+    from starlette.websockets import WebSocketDisconnect
+
+    from service.client import Client
+
+    from ..conftest import running
+
+    with running(tmp_path / "data") as tc:
+        c = Client(http=tc)
+        sid = c.create_session(upload_bracket(c)["id"], BRACKET_SPEC)["id"]
+        with pytest.raises(WebSocketDisconnect) as e:
+            with tc.websocket_connect(f"/v1/sessions/{sid}/stream") as ws:
+                ws.send_text(json.dumps({"seq": 1, "move": MOVES[0]}))
+                decode_frame(ws.receive_bytes())
+                assert tc.delete(f"/v1/sessions/{sid}").status_code == 204
+                ws.send_text(json.dumps({"seq": 2, "move": MOVES[1]}))
+                ws.receive_bytes()
+        assert e.value.code == 4404
+        assert tc.get(f"/v1/sessions/{sid}").status_code == 404
+        folder = tc.app.state.registry.store.sessions_dir
+    assert not (folder / f"{sid}.json").exists(), "the stream wrote the deleted session back"
+    with running(tmp_path / "data") as tc:  # and a restart does not list it
+        assert tc.get("/v1/sessions").json() == []
+
+
 def test_websocket_frames_are_strict_and_leave_the_session_unchanged(client, tc):
     from starlette.websockets import WebSocketDisconnect
 

@@ -84,7 +84,15 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     metrics = Metrics()
     reg.observe_solve = metrics.solve_seconds.observe
     reg.builder.observe_build = metrics.build_seconds.observe
-    sweeper = Sweeper(reg.sweep, settings.sweep_interval_s)
+    jobs = JobRunner(settings.tetra_workers, settings.tetra_time_limit_s, task_workers=settings.batch_workers)
+
+    def sweep(now: float) -> list[str]:
+        gone = reg.sweep(now)
+        for sid in gone:  # an expired session's batches end with it, as a deleted one's
+            jobs.end_session(sid)
+        return gone
+
+    sweeper = Sweeper(sweep, settings.sweep_interval_s)
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -118,8 +126,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     app.state.limiter = (SharedRateLimiter(take, settings.rate_limit_per_s, settings.rate_burst) if take else
                          RateLimiter(settings.rate_limit_per_s, settings.rate_burst))
     app.state.connections = ConnectionSlots(settings.max_connections_per_key)
-    app.state.jobs = JobRunner(settings.tetra_workers, settings.tetra_time_limit_s,
-                               task_workers=settings.batch_workers)
+    app.state.jobs = jobs
     app.state.metrics = metrics
     app.state.sweeper = sweeper
     install_handlers(app)

@@ -262,8 +262,9 @@ async def reset(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
 
 @router.delete("/sessions/{session_id}", status_code=204, summary="Delete a session",
                responses=error_responses(*_AUTH, 404, 410))
-async def delete_session(s: SessionDep, reg: RegistryDep) -> Response:
-    """Drop the session and its factorization."""
+async def delete_session(s: SessionDep, reg: RegistryDep, request: Request) -> Response:
+    """Drop the session, its factorization and its batch jobs (running ones are cancelled)."""
+    request.app.state.jobs.end_session(s.id)
     await reg.delete_session(s)
     return Response(status_code=204)
 

@@ -192,6 +192,23 @@ class JobRunner:
         if job.task is not None:
             job.task.cancel()
 
+    def end_session(self, session_id: str) -> int:
+        """Stop and forget every job of a session being deleted: a job is owned by its session.
+
+        A queued or running batch is cancelled (``session_deleted``; it stops before its next block
+        and discards its partial zip); a finished one's zip is removed. Returns how many jobs it had.
+        """
+        mine = [j for j in self.jobs.values() if j.session_id == session_id]
+        for job in mine:
+            if job.status in ("queued", "running"):
+                self.cancel(job)
+                assert job.error is not None
+                job.error = {**job.error, "code": "session_deleted", "message": f"session {session_id} was deleted"}
+            elif job.result_path is not None:
+                job.result_path.unlink(missing_ok=True)
+            self.jobs.pop(job.id, None)
+        return len(mine)
+
     async def close(self) -> None:
         """Kill every running job."""
         self.closed = True

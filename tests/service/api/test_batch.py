@@ -150,6 +150,28 @@ def test_result_cap_and_cancel_leave_nothing(tmp_path):
         assert err(tc.get(f"/v1/sessions/{sid}/batch/j_0000/result"))["code"] == "job_not_found"
 
 
+def test_deleting_a_session_stops_its_batch_and_leaves_no_file(tmp_path):
+    with running(tmp_path / "data") as tc:
+        sid = session(tc)
+        many = {"columns": ["bend"], "rows": [[k / 2000] for k in range(2000)]}
+        r = tc.post(f"/v1/sessions/{sid}/batch", json={"shapes": plate_shapes()["shapes"], "plan": many,
+                                                      "block": 1})
+        jid = r.json()["id"]
+        deadline = time.monotonic() + 30
+        while tc.get(f"/v1/sessions/{sid}/batch/{jid}").json()["rows_done"] == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)  # the batch is writing decks
+        jobs = tc.app.state.jobs
+        job = jobs.jobs[jid]
+        assert tc.delete(f"/v1/sessions/{sid}").status_code == 204
+        assert job.status == "cancelled" and job.error["code"] == "session_deleted"
+        assert jid not in jobs.jobs  # owned by the session: gone with it
+        left, deadline = [1], time.monotonic() + 20
+        while left and time.monotonic() < deadline:  # the block in flight ends, then its zip is discarded
+            time.sleep(0.1)
+            left = [p for p in (tmp_path / "data" / "jobs").rglob("*") if p.is_file()]
+        assert not left and job.done < 2000
+
+
 def test_bounds_are_the_library_bounds(tmp_path, library):
     d, _, _ = library
     shapes = plate_shapes()["shapes"]

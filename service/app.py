@@ -31,7 +31,7 @@ from .models.error import ErrorEnvelope
 from .observability import Metrics, RequestContext
 from .security import Authenticator, ConnectionSlots, RateLimiter, SharedRateLimiter, load_secret
 from .settings import Settings
-from .state.batch import clear_jobs
+from .state.batch import clear_jobs, sweep_job_files
 from .state.jobs import JobRunner
 from .state.registry import Registry
 from .state.sweeper import Sweeper
@@ -86,10 +86,16 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     reg.builder.observe_build = metrics.build_seconds.observe
     jobs = JobRunner(settings.tetra_workers, settings.tetra_time_limit_s, task_workers=settings.batch_workers)
 
+    orphan_age_s = jobs.keep_s + 60.0  # older than any live job's file (batch.sweep_job_files)
+    old = sweep_job_files(settings.data_dir, orphan_age_s)
+    if old:
+        log.info("removed %d job files left by stopped processes: %s", len(old), old[:10])
+
     def sweep(now: float) -> list[str]:
         gone = reg.sweep(now)
         for sid in gone:  # an expired session's batches end with it, as a deleted one's
             jobs.end_session(sid)
+        sweep_job_files(settings.data_dir, orphan_age_s, now)
         return gone
 
     sweeper = Sweeper(sweep, settings.sweep_interval_s)

@@ -16,11 +16,13 @@ leaves no file behind.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import shutil
 import tempfile
 import threading
+import time
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -224,6 +226,36 @@ def clear_jobs(data_dir: Path, replica: str) -> None:
     d = Path(data_dir) / "jobs" / "".join(c if c.isalnum() or c in "._-" else "_" for c in replica)
     if d.is_dir():
         shutil.rmtree(d, ignore_errors=True)
+
+
+def sweep_job_files(data_dir: Path, older_than_s: float, now: float | None = None) -> list[str]:
+    """Remove job files no live job can own, whatever replica wrote them: untouched for ``older_than_s``.
+
+    A running batch writes its zip as it goes and a finished one's zip is removed when the job
+    expires, so a file older than the jobs' keep time belongs to a process that died (kill -9, a
+    replica gone for good, a replica id that is new at every start). Returns what was removed.
+    """
+    now = time.time() if now is None else now
+    root = Path(data_dir) / "jobs"
+    removed: list[str] = []
+    if not root.is_dir():
+        return removed
+    for folder in [d for d in root.iterdir() if d.is_dir()]:
+        for entry in list(folder.iterdir()):
+            try:
+                newest = max([entry.stat().st_mtime] + [f.stat().st_mtime for f in entry.rglob("*")]
+                             if entry.is_dir() else [entry.stat().st_mtime])
+            except OSError:
+                continue  # removed meanwhile
+            if now - newest > older_than_s:
+                if entry.is_dir():
+                    shutil.rmtree(entry, ignore_errors=True)
+                else:
+                    entry.unlink(missing_ok=True)
+                removed.append(f"{folder.name}/{entry.name}")
+        with contextlib.suppress(OSError):
+            folder.rmdir()  # only when empty
+    return removed
 
 
 def remove_tree(path: str | os.PathLike[str]) -> None:

@@ -172,6 +172,27 @@ def test_deleting_a_session_stops_its_batch_and_leaves_no_file(tmp_path):
         assert not left and job.done < 2000
 
 
+def test_job_files_of_dead_processes_are_swept_by_age_whatever_replica_wrote_them(tmp_path):
+    import os
+
+    jobs = tmp_path / "data" / "jobs"
+    old_zip = jobs / "host-1234" / "j_old.zip"  # a replica id of a process long gone (hostname-pid)
+    old_dir = jobs / "host-99" / "j_old2-decks"
+    fresh = jobs / "host-5678" / "j_new.zip"  # another live replica's batch, being written
+    for f in (old_zip, old_dir / "plate_1.inp", fresh):
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_bytes(b"x")
+    long_ago = time.time() - 3 * 3600
+    for f in (old_zip, old_dir / "plate_1.inp", old_dir):
+        os.utime(f, (long_ago, long_ago))
+    with running(tmp_path / "data") as tc:
+        assert not old_zip.exists() and not old_dir.exists() and not old_zip.parent.exists()
+        assert fresh.exists()  # a file a live job may own stays
+        later = time.time() + 3 * 3600  # the periodic sweep: once untouched long enough, it goes too
+        tc.app.state.sweeper.sweep(later)
+        assert not fresh.exists()
+
+
 def test_bounds_are_the_library_bounds(tmp_path, library):
     d, _, _ = library
     shapes = plate_shapes()["shapes"]

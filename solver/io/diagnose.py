@@ -16,6 +16,7 @@ import os
 import re
 
 from ..errors import UnreadableFileError
+from ..limits import MAX_CELLS, MAX_POINTS
 from .formats import a_format, detect_format
 
 __all__ = ["check_file", "diagnose", "check_complete", "undefined_inp_node", "undefined_bdf_node"]
@@ -297,3 +298,50 @@ def check_complete(path: str, fmt: str, data: bytes | None = None) -> None:
             f"{os.path.basename(path)!r} ends in the middle of a line ({nlast} fields where the line before "
             f"has {nprev}, and no line end): the file is truncated", code="truncated_file",
             file=os.path.basename(path))
+
+
+#: Bytes of a file's head read for the counts it declares (XML headers, Gmsh sections before $Nodes).
+_HEAD = 4 << 20
+
+
+def _declared(path: str, fmt: str) -> tuple[int, int, int]:
+    """Nodes, elements and the largest node tag a file declares in its head (0 where it does not say)."""
+    with open(path, "rb") as fh:
+        head = fh.read(_HEAD)
+    total = lambda pat: sum(int(x) for x in re.findall(pat, head))  # noqa: E731
+    if fmt == "vtu":
+        return total(rb'NumberOfPoints\s*=\s*"(\d+)"'), total(rb'NumberOfCells\s*=\s*"(\d+)"'), 0
+    if fmt == "vtk":
+        return total(rb"(?m)^\s*POINTS\s+(\d+)"), total(rb"(?m)^\s*CELLS\s+(\d+)"), 0
+    if fmt == "gmsh":
+        nodes = elems = tag = 0
+        m = re.search(rb"\$Nodes\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
+        if m:  # 2.2: the count; 4.1: blocks, count, smallest and largest tag
+            nodes = int(m[2]) if m[2] else int(m[1])
+            tag = int(m[4]) if m[4] else 0
+        m = re.search(rb"\$Elements\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
+        if m:
+            elems = int(m[2]) if m[2] else int(m[1])
+        return nodes, elems, tag
+    return 0, 0, 0
+
+
+def check_declared_sizes(path: str, fmt: str, max_points: int = MAX_POINTS, max_cells: int = MAX_CELLS) -> None:
+    """Refuse a file that declares more nodes or elements than tetmorph reads, before it is read.
+
+    Raises
+    ------
+    UnreadableFileError
+        ``too_many_points`` or ``too_many_cells``, naming the count declared and the bound.
+    """
+    points, cells, tag = _declared(path, fmt)
+    name = os.path.basename(path)
+    if points > max_points or tag > 4 * max_points:  # a tag that large: arrays indexed by tag would be too
+        what = f"{points:,} nodes" if points > max_points else f"node tags up to {tag:,}"
+        raise UnreadableFileError(
+            f"{name!r} declares {what}; tetmorph reads at most {max_points:,} nodes (solver/limits.py "
+            "MAX_POINTS)", code="too_many_points", file=name, declared=max(points, tag), bound=max_points)
+    if cells > max_cells:
+        raise UnreadableFileError(
+            f"{name!r} declares {cells:,} elements; tetmorph reads at most {max_cells:,} "
+            "(solver/limits.py MAX_CELLS)", code="too_many_cells", file=name, declared=cells, bound=max_cells)

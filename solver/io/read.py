@@ -15,7 +15,7 @@ from ..errors import MAX_IDS, InvalidMeshError, UnreadableFileError, Unsupported
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
 from ..ops.unique import unique
-from .diagnose import check_complete, check_file, diagnose
+from .diagnose import check_complete, check_declared_sizes, check_file, diagnose
 from .formats import SURFACE_FORMATS, format_of
 from .patch_inp import node_block_sets
 from .patchers import patcher_for
@@ -155,6 +155,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     check_file(path, fmt)
     assert fmt is not None  # check_file refuses unknown extensions
     check_complete(path, fmt)
+    check_declared_sizes(path, fmt)
     m = _read(path, fmt)
     if np.asarray(m.points).size == 0:
         raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",
@@ -208,6 +209,7 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -
     check_file(path, fmt)
     assert fmt is not None
     check_complete(path, fmt)
+    check_declared_sizes(path, fmt)
     m = _read(path, fmt)
     counts = {c.type: len(c.data) for c in m.cells if len(c.data)}
     if any(t in VOLUME_CELLS or t in MIXED_TYPES for t in counts):

@@ -64,6 +64,17 @@ def test_malformed_uploads_are_typed_422(tc, name, data, code):
     assert tc.get("/v1/meshes").json() == []  # nothing stored
 
 
+def test_a_decompression_bomb_is_refused_before_it_expands(tc, tmp_path):
+    from tests.solver.io.test_read import _vtu_bomb
+
+    _vtu_bomb(tmp_path / "bomb.vtu", 300_000_000)
+    r = tc.post("/v1/meshes", files=[("file", ("bomb.vtu", (tmp_path / "bomb.vtu").read_bytes()))])
+    e = err(r)
+    assert r.status_code == 422 and e["code"] == "too_many_points", e
+    assert e["details"]["declared"] == 300_000_000
+    assert tc.get("/v1/meshes").json() == []  # nothing stored
+
+
 def test_malformed_json_arrays(tc):
     bad = [
         ({"vertices": [[0, 0], [1, 0]], "tetrahedra": [[0, 1, 2, 3]]}, "invalid_request"),

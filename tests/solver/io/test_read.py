@@ -226,3 +226,49 @@ def test_a_file_read_with_an_explicit_format_is_written_back_in_place(tmp_path):
 
     out = tmp_path / "out.msh"
     assert write_mesh(mesh, mesh.V, out).patched and out.read_bytes() == p.read_bytes()
+
+
+def _vtu_bomb(path, points: int) -> None:
+    """A VTU whose compressed points (a few hundred bytes of zlib) declare ``points`` nodes."""
+    import base64
+    import struct
+    import zlib
+
+    raw = bytes(1 << 20)  # 1 MB of zeros stands for the rest: the header is what declares the size
+    block = zlib.compress(raw, 9)
+    head = struct.pack("<QQQQ", 1, len(raw), len(raw), len(block))
+    data = base64.b64encode(head).decode() + base64.b64encode(block).decode()
+    path.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" header_type="UInt64" '
+        'compressor="vtkZLibDataCompressor">\n<UnstructuredGrid>\n'
+        f'<Piece NumberOfPoints="{points}" NumberOfCells="1">\n<Points>\n'
+        f'<DataArray type="Float64" NumberOfComponents="3" format="binary">{data}</DataArray>\n'
+        '</Points>\n<Cells>\n<DataArray type="Int64" Name="connectivity" format="ascii">0 1 2 3</DataArray>\n'
+        '<DataArray type="Int64" Name="offsets" format="ascii">4</DataArray>\n'
+        '<DataArray type="UInt8" Name="types" format="ascii">10</DataArray>\n</Cells>\n</Piece>\n'
+        '</UnstructuredGrid>\n</VTKFile>\n')
+
+
+def test_files_declaring_more_than_the_bounds_are_refused_before_they_are_read(tmp_path):
+    import resource
+
+    from solver.limits import MAX_POINTS
+
+    bomb = tmp_path / "bomb.vtu"
+    _vtu_bomb(bomb, 300_000_000)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(bomb)
+    assert e.value.code == "too_many_points" and e.value.details["declared"] == 300_000_000
+    assert e.value.details["bound"] == MAX_POINTS and "300,000,000 nodes" in e.value.message
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # KiB: nothing expanded
+    msh = tmp_path / "huge.msh"
+    msh.write_text("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 400000000 1 400000000\n$EndNodes\n")
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(msh)
+    assert e.value.code == "too_many_points"
+    vtk = tmp_path / "huge.vtk"
+    vtk.write_text("# vtk DataFile Version 4.2\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 90000000000 double\n")
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(vtk)
+    assert e.value.code == "too_many_points"

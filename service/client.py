@@ -121,6 +121,10 @@ class Client:
             else:
                 if r.status_code not in (502, 503, 504) or last:
                     break
+                wait = r.headers.get("retry-after", "")
+                if wait.isdigit():  # the service says when (a database restarting): no sooner
+                    time.sleep(max(float(wait), self.backoff_s * 2**k))
+                    continue
             time.sleep(self.backoff_s * 2**k)
         if r.status_code >= 400:
             try:
@@ -243,7 +247,8 @@ class Client:
         params = {"result": "binary", "kind": kind, "dtype": dtype}
         if inversion:
             params["inversion"] = inversion
-        r = self._request("POST", f"/v1/sessions/{session_id}/deform", params=params,
+        # a MOVE is absolute (positions from the rest shape), so sending it again is safe: retried
+        r = self._request("POST", f"/v1/sessions/{session_id}/deform", idempotent=True, params=params,
                           content=json.dumps(move), headers={"content-type": "application/json",
                                                             "accept": MEDIA_TYPE})
         X, header = _frame(r)
@@ -253,7 +258,7 @@ class Client:
                     file_format: str | None = None) -> dict[str, Any]:
         """Apply a MOVE and write the deformed mesh file; return the short REPORT."""
         fmt = file_format or Path(path).suffix.lstrip(".") or "vtu"
-        r = self._request("POST", f"/v1/sessions/{session_id}/deform",
+        r = self._request("POST", f"/v1/sessions/{session_id}/deform", idempotent=True,
                           params={"result": "mesh", "format": fmt}, json=move)
         Path(path).write_bytes(r.content)
         return json.loads(r.headers.get("x-tetmorph-report", "{}"))

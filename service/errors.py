@@ -14,6 +14,7 @@ type, else 500.
 from __future__ import annotations
 
 import logging
+import sys
 from typing import Any
 
 from solver.errors import (
@@ -115,6 +116,19 @@ class NotFound(ServiceError):
         super().__init__(f"{kind}_not_found", f"no {kind} with id {ident!r}", **{f"{kind}_id": ident})
 
 
+#: Seconds a client is asked to wait (``Retry-After``) when the session store is unreachable.
+STORE_RETRY_AFTER_S = 1
+
+
+def store_outage(e: BaseException) -> bool:
+    """Whether ``e`` says the database cannot be reached (psycopg's operational and interface errors).
+
+    psycopg is imported only by the PostgreSQL store: when it is not loaded, nothing is an outage.
+    """
+    psycopg = sys.modules.get("psycopg")
+    return psycopg is not None and isinstance(e, (psycopg.OperationalError, psycopg.InterfaceError))
+
+
 def status_of(e: BaseException) -> int:
     """The HTTP status of an exception: by its code, then by its type, else 500.
 
@@ -128,6 +142,8 @@ def status_of(e: BaseException) -> int:
     code = getattr(e, "code", None)
     if isinstance(code, str) and code in CODE_STATUS:
         return CODE_STATUS[code]
+    if store_outage(e):
+        return 503
     for kind, status in TYPE_STATUS:
         if isinstance(e, kind):
             return status
@@ -150,6 +166,11 @@ def error_body(e: BaseException) -> tuple[int, dict[str, Any]]:
     status = status_of(e)
     if isinstance(e, (ServiceError, SolverError)):
         return status, envelope(status, e.code, e.message, e.details, type(e).__name__)
+    if status == 503:  # the database is down or restarting: nothing was stored, the request can be sent again
+        log.warning("session store unreachable: %s", type(e).__name__)
+        return 503, envelope(503, "store_unavailable", "the session store (PostgreSQL) cannot be reached; "
+                             f"nothing was stored: retry after {STORE_RETRY_AFTER_S} s",
+                             {"retry_after_s": STORE_RETRY_AFTER_S})
     log.error("unhandled error", exc_info=e)
     return 500, envelope(500, "internal_error", f"internal error ({type(e).__name__})",
                          {"exception": type(e).__name__})

@@ -11,7 +11,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from solver.errors import SolverError
 
-from ..errors import HTTP_CODES, ServiceError, envelope, error_body
+from ..errors import HTTP_CODES, STORE_RETRY_AFTER_S, ServiceError, envelope, error_body
 from .responses import JSONResponse
 
 __all__ = ["install_handlers", "error_response", "validation_envelope"]
@@ -20,7 +20,10 @@ __all__ = ["install_handlers", "error_response", "validation_envelope"]
 def error_response(e: BaseException) -> JSONResponse:
     """Map any exception to a JSONResponse carrying the envelope."""
     status, body = error_body(e)
-    return JSONResponse(body, status_code=status, headers=getattr(e, "headers", None))
+    headers = getattr(e, "headers", None)
+    if status == 503 and body["error"]["code"] == "store_unavailable":
+        headers = {**(headers or {}), "Retry-After": str(STORE_RETRY_AFTER_S)}
+    return JSONResponse(body, status_code=status, headers=headers)
 
 
 def _got(err: Any) -> str:

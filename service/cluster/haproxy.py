@@ -5,7 +5,9 @@ go to the backend ``by_session``: ``balance hash`` of the path's fourth field,
 the session id, with ``hash-type consistent``, so adding or removing one of N
 replicas moves about 1/N of the sessions. Everything else (uploads, session
 creation, listings) goes round-robin. Replicas are checked with ``GET
-/health`` every 500 ms and leave the ring after two failures.
+/ready`` every 500 ms and leave the ring after two failures: a replica that
+cannot reach PostgreSQL answers 503 there (while ``/health``, liveness, stays
+200) and takes no traffic until the database is back.
 """
 
 from __future__ import annotations
@@ -55,13 +57,13 @@ backend by_session
     # the session id is the fourth field of /v1/sessions/{{id}}/...
     balance hash path,field(4,/)
     hash-type consistent
-    option httpchk GET /health
+    option httpchk GET /ready
     http-check expect status 200
 {rows}
 
 backend round_robin
     balance roundrobin
-    option httpchk GET /health
+    option httpchk GET /ready
     http-check expect status 200
 {rows}
 """

@@ -156,3 +156,48 @@ def test_a_database_made_before_presets_gains_them_and_its_sessions_have_none(tm
         assert again.load_presets(rec["id"]) == PRESETS
     finally:
         again.close()
+
+
+def test_a_database_outage_answers_503_with_retry_after_and_loses_nothing(tmp_path):
+    """The real server stopped and started again under requests: 503s while it is down, never a 500."""
+    import tempfile
+
+    from service.client import Client
+    from service.cluster.postgres import LocalPostgres
+    from service.process import free_port
+
+    pg = LocalPostgres(tempfile.mkdtemp(prefix="tetmorph-pg-outage-"), free_port(), fast=True)
+    url = pg.start()
+    try:
+        with running(tmp_path / "data", database_url=url, rate_limit_per_s=0) as tc:
+            c = Client(http=tc)
+            mid = c.upload_mesh(BRACKET)["id"]
+            sid = c.create_session(mid, BRACKET_SPEC)["id"]
+            c.deform(sid, MOVES[0])
+            pg.stop()
+            seen = {}
+            for k in range(20):  # reads, a MOVE, an upload: every one 503, none stored
+                r = [tc.get(f"/v1/sessions/{sid}"), tc.get("/v1/sessions"),
+                     tc.post(f"/v1/sessions/{sid}/deform", json=MOVES[1 + k % 2]),
+                     tc.get("/ready")][k % 4]
+                seen[r.status_code] = seen.get(r.status_code, 0) + 1
+                if r.status_code == 503 and r.request.url.path != "/ready":
+                    assert r.headers["retry-after"] == "1" and err(r)["code"] == "store_unavailable", r.text
+            assert set(seen) == {503}, seen
+            assert tc.get("/health").status_code == 200  # liveness: the process itself is fine
+            pg.start()
+            assert tc.get("/ready").status_code == 200
+            doc = c.session(sid)
+            assert doc["last_move"] == MOVES[0] and doc["version"] == 1  # nothing lost, nothing doubled
+            X, _ = c.deform(sid, MOVES[1])
+            assert c.session(sid)["version"] == 2
+            # the client waits out an outage: a MOVE sent while the database restarts is answered once
+            import threading
+
+            pg.stop()
+            threading.Timer(1.5, pg.start).start()
+            patient = Client(http=tc, retries=6, backoff_s=0.5)
+            X, _ = patient.deform(sid, MOVES[2])
+            assert c.session(sid)["version"] == 3 and c.session(sid)["last_move"] == MOVES[2]
+    finally:
+        pg.remove()

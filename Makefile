@@ -3,6 +3,7 @@
 #               with the demo beam and a ready session (s_demo)
 #   make test   create .venv, install everything, run the test suite
 #   make check  lint and the fast tests (no browser, cluster, CalculiX, fuzzing or slow marks)
+#   make docs   the documentation site into site/ (warnings as errors); make docs-serve on 127.0.0.1:8001
 #   make cluster       PostgreSQL, 3 replicas and HAProxy on 127.0.0.1 (balancer on :8100), detached
 #   make cluster-down  stop them
 PYTHON ?= python3
@@ -11,7 +12,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test check bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
+.PHONY: run morph-demo test check docs docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -28,6 +29,12 @@ morph-demo: install
 
 test: install web browser calculix clusterdeps
 	$(BIN)/python -m pytest -q
+
+docs: install
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict -d site
+
+docs-serve: install
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve -a 127.0.0.1:8001
 
 # The developer's loop (CONTRIBUTING.md): lint, then the solver and service tests without the
 # browser, the cluster, CalculiX, fuzzing and the tests marked slow. `make test` runs them all.

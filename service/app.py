@@ -26,6 +26,7 @@ from .api import batch, health, meshes, sessions, stream, tetrahedralize
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
 from .demo import load_demo
+from .errors import envelope
 from .middleware import BodyLimit, ErrorShield, UnicodeGuard
 from .models.error import ErrorEnvelope
 from .observability import Metrics, RequestContext
@@ -164,7 +165,19 @@ def _mount_editor(app: FastAPI) -> None:
                 status_code=503)
         return FileResponse(index, media_type="text/html")
 
-    app.mount("/editor", StaticFiles(directory=EDITOR_DIR, check_dir=False), name="editor")
+    app.mount("/editor", _EditorFiles(directory=EDITOR_DIR, check_dir=False), name="editor")
+
+
+class _EditorFiles(StaticFiles):
+    """The editor's files; 404 naming ``make web`` while it is not built (StaticFiles would raise: a 500)."""
+
+    async def __call__(self, scope: Any, receive: Any, send: Any) -> None:
+        """Serve a file of the build, or say that there is no build."""
+        if scope["type"] == "http" and not EDITOR_DIR.is_dir():
+            body = envelope(404, "not_found", "the browser editor is not built: run `make web` (or `make run`)")
+            await JSONResponse(body, status_code=404)(scope, receive, send)
+            return
+        await super().__call__(scope, receive, send)
 
 
 def _version() -> str:

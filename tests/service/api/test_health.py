@@ -42,6 +42,14 @@ def test_metrics_labels_are_route_templates_whatever_the_client_asks(tc):
     assert len(routes) <= 6, routes
 
 
+def test_an_unbuilt_editor_is_a_404_that_says_how_to_build_it(tc, monkeypatch, tmp_path):
+    import service.app as app_module
+
+    monkeypatch.setattr(app_module, "EDITOR_DIR", tmp_path / "no-editor")
+    r = tc.get("/editor/main.js")
+    assert r.status_code == 404 and "make web" in r.json()["error"]["message"]
+
+
 def test_ready_says_what_fails(tc):
     import os
     import stat

@@ -461,9 +461,20 @@ def _surface(c: Content, P: np.ndarray, fmt: str) -> Conversion:
     losses: list[Loss] = []
     what = {"stl": "an STL file", "obj": "an OBJ file", "off": "an OFF file", "ply": "a PLY file"}[fmt]
     c = _restrict(c, SURFACE_TYPES[fmt], fmt, what + " (a surface)", losses)
+    c.cell_data = dict(c.cell_data)
+    if fmt == "stl":  # the writer computes every facet's normal from the new positions: nothing is lost
+        c.cell_data.pop("facet_normals", None)
+    kept: dict[str, list[np.ndarray]] = {}
+    groups = c.cell_data.pop("obj:group_ids", None)
+    if groups is not None and len(_label_classes([np.asarray(g).ravel() for g in groups])) > 1:
+        if fmt == "obj":  # an OBJ holds its face groups (solver/io/obj.py writes them)
+            kept["obj:group_ids"] = [np.asarray(g).ravel() for g in groups]
+        else:
+            c.cell_data["obj:group_ids"] = groups
+    # one group everywhere (an OBJ without g lines) labels nothing: nothing to keep
     _set_losses(c, what, losses)
     _data_losses(c, what, losses)
-    return Conversion(fmt, meshio.Mesh(P, [(t, b) for t, b in c.blocks]), losses)
+    return Conversion(fmt, meshio.Mesh(P, [(t, b) for t, b in c.blocks], cell_data=kept or None), losses)
 
 
 def _generic(c: Content, P: np.ndarray, fmt: str) -> Conversion:

@@ -237,6 +237,13 @@ def _read(path: str, fmt: str) -> meshio.Mesh:
             warnings.simplefilter("ignore")
             m = reader(path)
     except (Exception, SystemExit) as e:  # meshio raises many types, and sys.exit()s: never end the process
+        if fmt == "obj" and "point_data" in str(e):  # vt / vn per face corner: read without them
+            from .obj import read_obj
+
+            try:
+                return read_obj(path)
+            except (OSError, ValueError):
+                pass
         raise diagnose(path, fmt, e) from e
     if fmt == "abaqus":  # meshio drops the sets named on *NODE lines; they are sets like any *NSET
         with open(path, "rb") as fh:

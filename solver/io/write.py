@@ -242,6 +242,10 @@ def _write(conv: Conversion, target: str) -> list[str]:
             write_abaqus(target, m)
         elif fmt in ("gmsh", "gmsh22"):
             _write_gmsh22(target, m)
+        elif fmt == "obj":
+            from .obj import write_obj
+
+            write_obj(target, m)
         elif fmt == "nastran":
             from .nastran import write_nastran
 

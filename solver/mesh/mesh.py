@@ -225,6 +225,9 @@ class Mesh:
                                    "ids": self.degenerate_at_rest[:1000].tolist()},
             "coincident_nodes": int(len(self.coincident_nodes)),
         }
+        info = getattr(self.source, "info", None)
+        if isinstance(info, dict) and info.get("dropped"):  # what the reader left out of the file, named
+            out["dropped_on_read"] = list(info["dropped"])
         if self.is_surface:
             out["open_edges"] = int(len(self.rim_edges))
             out["rim_vertices"] = int(self.rim.sum())

@@ -9,7 +9,7 @@ import pytest
 
 from solver import read_mesh, write_mesh
 from solver.errors import LossyWriteError
-from tests.conftest import DATA
+from tests.conftest import DATA, shared_file
 
 DECKS = ["bar_small.bdf", "bar_large.bdf", "bar_free.bdf", "bar10_small.bdf"]
 
@@ -143,3 +143,62 @@ def test_features_written_into_a_deck_keep_the_deck(tmp_path):
     assert text.replace("*NSET, NSET=HOLE_rim\n1, 2, 3\n", "") == deck.read_text()
     assert text.index("NSET=HOLE_rim") < text.index("*STEP")
     assert meshio.read(out).point_sets["HOLE_rim"].tolist() == [0, 1, 2]
+
+
+GROUPED_OBJ = """# two groups of a tetrahedron's faces
+v 0 0 0
+v 1 0 0
+v 0 1 0
+v 0 0 1
+g bottom
+f 1 3 2
+f 1 2 4
+g top
+f 1 4 3
+f 2 3 4
+"""
+
+
+def test_an_obj_keeps_its_face_groups_and_a_single_group_is_no_loss(tmp_path):
+    src = tmp_path / "t.obj"
+    src.write_text(GROUPED_OBJ)
+    mesh = read_mesh(src)
+    P = mesh.V + [0.5, 0.0, 0.25]
+    w = write_mesh(mesh, P, tmp_path / "out.obj")
+    assert w.dropped == []
+    back, orig = meshio.read(tmp_path / "out.obj"), meshio.read(src)  # meshio numbers the groups by g line
+    np.testing.assert_array_equal(back.points, P)
+    np.testing.assert_array_equal(np.concatenate(back.cell_data["obj:group_ids"]),
+                                  np.concatenate(orig.cell_data["obj:group_ids"]))
+    np.testing.assert_array_equal(back.cells_dict["triangle"], orig.cells_dict["triangle"])
+    plain = read_mesh(shared_file("surface/fandisk.obj"))  # no g line: one group, nothing to keep
+    assert write_mesh(plain, plain.V, tmp_path / "fandisk.obj").dropped == []
+
+
+def test_an_obj_with_texture_coordinates_per_corner_reads_and_says_what_it_left_out(tmp_path):
+    spot = read_mesh(shared_file("surface/spot.obj"))
+    info = spot.info()
+    assert info["vertices"] == 2930 and info["dropped_on_read"] == ["3225 texture coordinates (vt)"]
+    faces = [ln.split()[1:] for ln in shared_file("surface/spot.obj").read_text().splitlines() if ln.startswith("f ")]
+    want = np.array([[int(c.split("/")[0]) - 1 for c in f] for f in faces])  # the file's faces, read here
+    np.testing.assert_array_equal(spot.surface, want)
+    write_mesh(spot, spot.V, tmp_path / "spot.obj")
+    np.testing.assert_array_equal(meshio.read(tmp_path / "spot.obj").cells_dict["triangle"], want)
+
+
+def test_an_stl_round_trip_writes_the_normals_of_the_new_positions(tmp_path):
+    from solver.testing import sphere_surface
+
+    V, F = sphere_surface(1)
+    src = tmp_path / "s.stl"
+    meshio.write(src, meshio.Mesh(V, [("triangle", F)]), binary=True)
+    mesh = read_mesh(src)
+    P = mesh.V * [2.0, 1.0, 0.5]
+    assert write_mesh(mesh, P, tmp_path / "out.stl").dropped == []
+    lines = (tmp_path / "out.stl").read_text().split("\n")  # the ASCII facets, read here
+    normals = np.array([[float(x) for x in ln.split()[2:5]] for ln in lines if ln.strip().startswith("facet")])
+    verts = np.array([[float(x) for x in ln.split()[1:4]] for ln in lines if ln.strip().startswith("vertex")])
+    tri = verts.reshape(-1, 3, 3)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    assert len(normals) == len(F) and np.abs(normals / np.linalg.norm(normals, axis=1)[:, None] - n).max() < 1e-9

@@ -16,13 +16,14 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
-from fastapi import FastAPI
+from fastapi import Depends, FastAPI
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 
 from solver.linalg import threads
 
 from .api import batch, health, meshes, sessions, stream, tetrahedralize
+from .api.deps import refuse_nul
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
 from .demo import load_demo
@@ -141,8 +142,9 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     app.add_middleware(BodyLimit, limit=settings.max_upload_bytes)
     app.add_middleware(ErrorShield)
     app.add_middleware(RequestContext, metrics=metrics, replica=settings.replica_id)
-    for mod in (meshes, tetrahedralize, sessions, batch, stream):
-        app.include_router(mod.router, prefix="/v1")
+    for mod in (meshes, tetrahedralize, sessions, batch):
+        app.include_router(mod.router, prefix="/v1", dependencies=[Depends(refuse_nul)])
+    app.include_router(stream.router, prefix="/v1")  # its frames are checked as they come (parse_frame)
     app.include_router(health.router)
     _mount_editor(app)
     return app

@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import time
 from typing import Annotated, Any
+from urllib.parse import unquote_plus
 
 from fastapi import Depends, Path, Request, Security
 from fastapi.security import APIKeyHeader
 
+from ..errors import ServiceError
 from ..settings import Settings
 from ..state.registry import Registry
 from ..state.session import Session
@@ -82,3 +84,30 @@ def safe_name(name: str | None, default: str) -> str:
     base = (name or "").replace("\\", "/").rsplit("/", 1)[-1]
     clean = "".join(c if c.isalnum() or c in "._-" else "_" for c in base).lstrip(".")
     return clean[:120] or default
+
+
+async def refuse_nul(request: Request) -> None:
+    """Refuse a NUL character anywhere a request carries text: query, JSON body, form fields, file names.
+
+    Text a request brings may be stored (names, SPECs, MOVEs), and PostgreSQL cannot store a NUL in
+    text: refused here, before any route runs, a single server and a cluster answer the same 422.
+    """
+    def bad(where: str) -> ServiceError:
+        return ServiceError("invalid_request", f"{where} contains a NUL character (\\u0000), which no "
+                            "tetmorph text may hold", field=where)
+
+    if "\x00" in unquote_plus(request.url.query):
+        raise bad("the query string")
+    kind = request.headers.get("content-type", "")
+    if kind.startswith("application/json"):
+        if b"\\u0000" in await request.body():  # JSON writes a NUL only as this escape
+            raise bad("the JSON body")
+    elif kind.startswith(("multipart/form-data", "application/x-www-form-urlencoded")):
+        try:
+            form = await request.form()
+        except Exception:  # noqa: BLE001 - a broken form is the route's 400, not this check's
+            return
+        for key, value in form.multi_items():
+            text = value if isinstance(value, str) else (getattr(value, "filename", None) or "")
+            if "\x00" in key or "\x00" in text:
+                raise bad(f"form field {key.replace(chr(0), '?')!r}")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -73,6 +75,20 @@ def test_a_decompression_bomb_is_refused_before_it_expands(tc, tmp_path):
     assert r.status_code == 422 and e["code"] == "too_many_points", e
     assert e["details"]["declared"] == 300_000_000
     assert tc.get("/v1/meshes").json() == []  # nothing stored
+
+
+def test_a_nul_in_any_text_of_a_request_is_refused_before_anything_is_stored(tc):
+    tet = _inp_bytes(TET, [[0, 1, 2, 3]])
+    r = tc.post("/v1/meshes", files=[("file", ("t.inp", tet))], data={"name": "bad\x00name"})
+    assert r.status_code == 422 and "NUL" in err(r)["message"] and err(r)["details"]["field"] == "form field 'name'"
+    assert tc.get("/v1/meshes").json() == []
+    mid = tc.post("/v1/meshes", files=[("file", ("t.inp", tet))]).json()["id"]
+    spec = {"selections": {"a\u0000": {"ids": [0]}, "b": {"ids": [3]}}, "fixed": ["a\u0000"], "handles": {"h": "b"}}
+    body = json.dumps({"mesh_id": mid, "spec": spec})  # json writes the NUL as an escape
+    r = tc.post("/v1/sessions", content=body, headers={"content-type": "application/json"})
+    assert r.status_code == 422 and "NUL" in err(r)["message"], r.text
+    assert tc.get("/v1/sessions").json() == []
+    assert tc.get("/v1/meshes?name=%00").status_code == 422
 
 
 def test_malformed_json_arrays(tc):

@@ -26,6 +26,10 @@ __all__ = ["RequestContext", "Metrics", "JSONFormatter", "RequestIdFilter", "con
 request_id: contextvars.ContextVar[str] = contextvars.ContextVar("request_id", default="-")
 access_log = logging.getLogger("tetmorph.access")
 _SANE_ID = re.compile(r"^[A-Za-z0-9._-]{1,64}$")
+#: Sent with every HTTP response, the editor's and the API's: no MIME sniffing, no framing by other
+#: pages (clickjacking), no referrer with ids in it sent elsewhere.
+SECURITY_HEADERS = ((b"x-content-type-options", b"nosniff"), (b"x-frame-options", b"DENY"),
+                    (b"referrer-policy", b"no-referrer"))
 #: ``name=value`` pairs of a query string, alone or inside a logged line (after ``?``, ``&``, ``;`` or a space).
 _PAIR = re.compile(r"(^|[?&;\s])([^=&;?\s]+)=([^&;\s]*)")
 SECRET_NAMES = frozenset({"api_key"})
@@ -163,7 +167,7 @@ class RequestContext:
             if msg["type"] == "http.response.start":
                 status = msg["status"]
                 msg["headers"] = [*msg.get("headers", []), (b"x-request-id", rid.encode()),
-                                  (b"x-tetmorph-replica", self.replica)]
+                                  (b"x-tetmorph-replica", self.replica), *SECURITY_HEADERS]
             elif msg["type"] == "websocket.accept":
                 msg["headers"] = [*msg.get("headers", []), (b"x-tetmorph-replica", self.replica)]
             await send(msg)

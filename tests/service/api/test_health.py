@@ -50,6 +50,13 @@ def test_an_unbuilt_editor_is_a_404_that_says_how_to_build_it(tc, monkeypatch, t
     assert r.status_code == 404 and "make web" in r.json()["error"]["message"]
 
 
+def test_every_response_says_no_sniffing_no_framing_no_referrer(tc):
+    for path in ("/health", "/", "/editor/main.js", "/v1/sessions/s_nope", "/openapi.json"):
+        h = tc.get(path).headers
+        assert h["x-content-type-options"] == "nosniff" and h["x-frame-options"] == "DENY", path
+        assert h["referrer-policy"] == "no-referrer", path
+
+
 def test_ready_says_what_fails(tc):
     import os
     import stat

@@ -306,6 +306,8 @@ _HEAD = 4 << 20
 
 def _declared(path: str, fmt: str) -> tuple[int, int, int]:
     """Nodes, elements and the largest node tag a file declares in its head (0 where it does not say)."""
+    if fmt not in ("vtu", "vtk", "gmsh"):
+        return 0, 0, 0  # formats that declare no counts: nothing to read
     with open(path, "rb") as fh:
         head = fh.read(_HEAD)
     total = lambda pat: sum(int(x) for x in re.findall(pat, head))  # noqa: E731
@@ -313,17 +315,16 @@ def _declared(path: str, fmt: str) -> tuple[int, int, int]:
         return total(rb'NumberOfPoints\s*=\s*"(\d+)"'), total(rb'NumberOfCells\s*=\s*"(\d+)"'), 0
     if fmt == "vtk":
         return total(rb"(?m)^\s*POINTS\s+(\d+)"), total(rb"(?m)^\s*CELLS\s+(\d+)"), 0
-    if fmt == "gmsh":
-        nodes = elems = tag = 0
-        m = re.search(rb"\$Nodes\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
-        if m:  # 2.2: the count; 4.1: blocks, count, smallest and largest tag
-            nodes = int(m[2]) if m[2] else int(m[1])
-            tag = int(m[4]) if m[4] else 0
-        m = re.search(rb"\$Elements\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
-        if m:
-            elems = int(m[2]) if m[2] else int(m[1])
-        return nodes, elems, tag
-    return 0, 0, 0
+    # gmsh
+    nodes = elems = tag = 0
+    m = re.search(rb"\$Nodes\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
+    if m:  # 2.2: the count; 4.1: blocks, count, smallest and largest tag
+        nodes = int(m[2]) if m[2] else int(m[1])
+        tag = int(m[4]) if m[4] else 0
+    m = re.search(rb"\$Elements\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
+    if m:
+        elems = int(m[2]) if m[2] else int(m[1])
+    return nodes, elems, tag
 
 
 def check_declared_sizes(path: str, fmt: str, max_points: int = MAX_POINTS, max_cells: int = MAX_CELLS) -> None:

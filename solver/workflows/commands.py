@@ -30,7 +30,7 @@ from ..mesh import Mesh
 from .batch_memory import keep_freed_memory
 from .bounds import MAX_VALUE, TOL, shape_bounds
 from .doe import BLOCK, deck_writer, run_doe, write_summary
-from .plan import plan_values, read_plan
+from .plan import Plan, plan_values, read_plan
 from .sensitivities import shape_sensitivities, write_sensitivities
 from .shapes import Shapes, parse_shapes
 from .study import DEFAULT_TIMEOUT_S, StudyRow, check_solver, load_response, run_study, write_table
@@ -54,10 +54,7 @@ def _setup(args: argparse.Namespace) -> tuple[Mesh, Deformer, Shapes]:
 
 def cmd_doe(args: argparse.Namespace) -> int:
     """``tetmorph doe``: one deck per plan row and a summary CSV."""
-    plan = read_plan(args.plan)
-    if plan.rows > 1 and "{i}" not in args.output:
-        raise SolverError("with several plan rows, --output needs '{i}' (the plan row, from 1), "
-                          "e.g. out_{i}.inp", code="usage")
+    plan = _plan_for(args, "out_{i}.inp")
     _one_stdout(summary=args.summary, report=args.report)
     mesh, deformer, shapes = _setup(args)
     writer = deck_writer(mesh, args.output, args.output_format)
@@ -115,10 +112,7 @@ def cmd_sensitivities(args: argparse.Namespace) -> int:
 
 def cmd_study(args: argparse.Namespace) -> int:
     """``tetmorph study``: every plan row morphed, solved by the FE solver, its responses in one table."""
-    plan = read_plan(args.plan)
-    if plan.rows > 1 and "{i}" not in args.output:
-        raise SolverError("with several plan rows, --output needs '{i}' (the plan row, from 1), "
-                          "e.g. out/{i}/deck.inp", code="usage")
+    plan = _plan_for(args, "out/{i}/deck.inp")
     if args.timeout <= 0:
         raise SolverError(f"--timeout must be > 0 seconds, got {args.timeout:g}", code="usage")
     check_solver(args.solver)  # before any cost: a missing program, a missing reader
@@ -136,6 +130,22 @@ def cmd_study(args: argparse.Namespace) -> int:
     ok = sum(r.status == "ok" for r in rows)
     print(f"{ok} of {len(rows)} rows solved; table {args.table}", file=sys.stderr)
     return 0 if ok == len(rows) else 1
+
+
+def _plan_for(args: argparse.Namespace, example: str) -> Plan:
+    """The ``--plan`` of a command that writes one deck per row; refused when ``--output`` cannot name the rows."""
+    plan = read_plan(args.plan)
+    if plan.rows > 1 and "{i}" not in args.output:
+        raise SolverError("with several plan rows, --output needs '{i}' (the plan row, from 1), "
+                          f"e.g. {example}", code="usage")
+    return plan
+
+
+def _plan_options(p: argparse.ArgumentParser, output_help: str) -> None:
+    """``--plan``, ``--output`` and ``--block`` of the commands that solve a plan row by row (doe, study)."""
+    p.add_argument("--plan", required=True, help="PLAN.csv: header of shape names, one variant per row")
+    p.add_argument("--output", required=True, help=output_help)
+    p.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")
 
 
 def _one_stdout(**paths: str | None) -> None:
@@ -163,11 +173,9 @@ def add_commands(subparsers: Any) -> None:
     pd = subparsers.add_parser("doe", help="morph every row of a PLAN (CSV, one column per shape): one deck "
                                "per row and a summary CSV, one factorization, rows stacked per back-substitution")
     _common(pd)
-    pd.add_argument("--plan", required=True, help="PLAN.csv: header of shape names, one variant per row")
-    pd.add_argument("--output", required=True, help="output mesh per row; '{i}' is the plan row (from 1)")
+    _plan_options(pd, "output mesh per row; '{i}' is the plan row (from 1)")
     pd.add_argument("--summary", required=True, help="SUMMARY.csv ('-': standard output): row, parameters, "
                     "inverted, min_scaled_jacobian, max_displacement, constraint_residual_max, file, status")
-    pd.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")
     pd.add_argument("--inversion", choices=["warn", "reject", "clamp"], help="override the SPEC's inversion "
                     "policy; 'reject' writes no deck for an inverting row")
     pd.add_argument("--report", help="write every row's REPORT as JSON ('-': standard output)")
@@ -192,8 +200,7 @@ def add_commands(subparsers: Any) -> None:
     pt = subparsers.add_parser("study", help="every row of a PLAN morphed, written, run through an FE solver "
                                "command and its responses read into one table (CSV)")
     _common(pt)
-    pt.add_argument("--plan", required=True, help="PLAN.csv: header of shape names, one variant per row")
-    pt.add_argument("--output", required=True, help="deck per row; '{i}' is the plan row (from 1)")
+    _plan_options(pt, "deck per row; '{i}' is the plan row (from 1)")
     pt.add_argument("--solver", required=True, help="solver command run in the deck's folder; {stem}, {deck}, "
                     "{dir} and {i} are substituted (e.g. 'ccx -i {stem}')")
     pt.add_argument("--response", default="ccx", help="'ccx' (CalculiX .dat: max_displacement, max_mises, "
@@ -202,7 +209,6 @@ def add_commands(subparsers: Any) -> None:
                     "mesh figures, solver time, responses, deck, message")
     pt.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S,
                     help=f"seconds per solver run (default {DEFAULT_TIMEOUT_S:g}); a run past it is recorded")
-    pt.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")
     pt.add_argument("--inversion", choices=["warn", "reject", "clamp"], default="reject",
                     help="the morph's inversion policy (default reject: an inverting row is recorded, not solved)")
     pt.set_defaults(func=cmd_study)

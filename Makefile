@@ -130,7 +130,7 @@ $(STAMP): pyproject.toml | sysdeps
 	$(BIN)/python -m pip install -q -e ".[dev,service,cholmod]" \
 	  || { echo "WARNING: CHOLMOD extra failed to build; installing without it"; \
 	       $(BIN)/python -m pip install -q -e ".[dev,service]"; }
-	$(BIN)/python -m solver.ops.kernels
+	$(BIN)/python -m solver.kernels
 	touch $(STAMP)
 
 install: sysdeps $(STAMP)

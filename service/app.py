@@ -10,6 +10,7 @@ Examples
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
 from collections.abc import AsyncIterator
@@ -20,6 +21,7 @@ from fastapi import Depends, FastAPI
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 
+from solver import load_kernels
 from solver.linalg import threads
 
 from .api import batch, health, meshes, sessions, stream, tetrahedralize
@@ -104,6 +106,8 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        if settings.load_kernels:  # once per process: later apps of the same process find them loaded
+            await asyncio.to_thread(load_kernels)
         reg.start()
         app.state.jobs.closed = False
         sweeper.start()

@@ -58,6 +58,8 @@ class Settings(BaseSettings):
     solver_threads: int = Field(0, ge=0, description="Most threads one solve uses (0: every free core; 1: "
                                 "serial solves, for hosts that run other work on every core).")
     demo: bool = Field(False, description="Load the demo beam and session at start-up.")
+    load_kernels: bool = Field(True, description="Load the solver's compiled kernels at start-up, before "
+                               "/ready answers ready, so that no client's first session waits for them.")
     sweep_interval_s: float = Field(60.0, gt=0, description="How often idle sessions are swept.")
     expired_memory_s: float = Field(7 * 24 * 3600.0, ge=0,
                                     description="How long a swept session answers 410 session_expired "

@@ -1,12 +1,22 @@
-"""Compile (and cache on disk) every numba kernel of tetmorph once, ahead of use.
+"""Load every numba kernel of tetmorph ahead of use (compiling and caching it on disk the first time).
 
 numba compiles a kernel on its first call and keeps the machine code in
-``__pycache__`` next to the module (``cache=True``); later processes load it
-in milliseconds. The first compilation of all kernels takes about 10 s on the
-reference machine (two cores), so ``make install`` and the Docker image run
-``python -m solver.ops.kernels`` once instead of leaving it to the first request.
+``__pycache__`` next to the module (``cache=True``). Later processes load it
+from there, but a process's first kernel also starts numba's own runtime
+(its typing and lowering registries), a fixed cost per process.
+:func:`load_kernels` pays both ahead of the first set-up:
 
-    python -m solver.ops.kernels        # prints the seconds it took
+- ``make install`` and the Docker image run ``python -m solver.kernels`` once,
+  so no process compiles;
+- the service calls it at start, before ``/ready`` answers ready, so no
+  client's first session waits for it;
+- a pipeline that sets up one mesh per process may call it while it reads
+  its deck.
+
+``benchmarks/bench_update.py`` reports its cost per process next to the
+peer's ``import igl``.
+
+    python -m solver.kernels        # prints the seconds it took
 """
 
 from __future__ import annotations
@@ -15,23 +25,26 @@ import time
 
 import numpy as np
 
-__all__ = ["compile_all"]
+__all__ = ["load_kernels"]
 
 
-def compile_all() -> float:
-    """Run every kernel on a tiny mesh; returns the seconds taken."""
+def load_kernels() -> float:
+    """Run every kernel once on a tiny mesh; returns the seconds taken.
+
+    Cheap once a process has run it (the kernels stay loaded).
+    """
     import scipy.sparse as sp
 
-    from ..linalg.layout import c_copy, fortran_copy
-    from ..linalg.residual import block_residual, corrected, coupled_residual_norms
-    from ..testing import cube_mesh
-    from ..validity.check import tet_check
-    from ..validity.quality import tet_quality
-    from .displacement import max_displacement
-    from .elements import corner_jacobians, oriented
-    from .mean_value_coordinates import mvc_triangle_weights
-    from .mvc_matrix import mvc_matrix
-    from .rotation import rotate_by_log
+    from .linalg.layout import c_copy, fortran_copy
+    from .linalg.residual import block_residual, corrected, coupled_residual_norms
+    from .ops.displacement import max_displacement
+    from .ops.elements import corner_jacobians, oriented
+    from .ops.mean_value_coordinates import mvc_triangle_weights
+    from .ops.mvc_matrix import mvc_matrix
+    from .ops.rotation import rotate_by_log
+    from .testing import cube_mesh
+    from .validity.check import _gather_between, tet_check
+    from .validity.quality import tet_quality
 
     t0 = time.perf_counter()
     V, T = cube_mesh(3)
@@ -41,6 +54,7 @@ def compile_all() -> float:
     tet_quality(V, T)
     for ints in (np.int32, np.int64):
         tet_check(V, T.astype(ints), rest_flat=np.zeros(len(T), bool))
+    _gather_between(np.ones(4), 0.0, 2.0, np.zeros(1, np.int64), np.empty(4))  # large meshes' selection
     rotate_by_log(V, 0.1 * V)
     max_displacement(V, V)
     for dt in (np.float32, np.float64):
@@ -65,10 +79,10 @@ def _supernodal_kernels() -> None:
     """The supernodal sweeps (both precisions, three and many columns) and the fused products."""
     import scipy.sparse as sp
 
-    from ..errors import FactorizationError
-    from ..linalg.multifrontal import lu_multifrontal
-    from ..linalg.products import combination, gradient, offset_product, product, shifted_product, stacked_differences
-    from ..linalg.supernodal import SupernodalFactor
+    from .errors import FactorizationError
+    from .linalg.multifrontal import lu_multifrontal
+    from .linalg.products import combination, gradient, offset_product, product, shifted_product, stacked_differences
+    from .linalg.supernodal import SupernodalFactor
 
     n = 40
     A = sp.csc_matrix(sp.diags([-1.0, 4.0, -1.0], [-1, 0, 1], shape=(n, n)))
@@ -94,4 +108,4 @@ def _supernodal_kernels() -> None:
 
 
 if __name__ == "__main__":
-    print(f"tetmorph kernels ready ({compile_all():.1f} s)")
+    print(f"tetmorph kernels ready ({load_kernels():.1f} s)")

@@ -18,6 +18,32 @@ def _blocks(page: Path, lang: str) -> list[str]:
     return re.findall(rf"```{lang}\n(.*?)```", page.read_text(), re.S)
 
 
+README = ROOT / "README.md"
+LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
+
+
+def test_the_readme_is_a_short_front_page():
+    lines = README.read_text().splitlines()
+    assert len(lines) < 250, f"README.md has {len(lines)} lines; its sections belong in docs/"
+
+
+def test_every_relative_link_of_the_readme_points_to_a_file():
+    targets = LINK.findall(README.read_text())
+    relative = [t.split("#")[0] for t in targets if not re.match(r"[a-z][a-z0-9+.-]*:|#", t)]
+    assert relative, "README.md links nowhere into the site"
+    missing = [t for t in relative if not (ROOT / t).is_file()]
+    assert not missing, f"README.md links to missing files: {missing}"
+
+
+def test_the_readme_library_example_runs(monkeypatch):
+    monkeypatch.chdir(ROOT)
+    (ROOT / "out").mkdir(exist_ok=True)
+    (code,) = _blocks(README, "python")
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)  # noqa: S102 - the README's own example
+    assert scope["result"].report["inverted_elements"] == 0
+
+
 def test_the_site_builds_with_warnings_as_errors(tmp_path):
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
     r = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(tmp_path / "site")],

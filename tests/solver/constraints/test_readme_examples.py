@@ -1,4 +1,4 @@
-"""The README's SPEC and MOVE examples are documents the parsers accept, and its POINT forms are POINTs."""
+"""The guide's SPEC and MOVE examples (docs/guide/constraints.md) parse, and its POINT forms are POINTs."""
 
 from __future__ import annotations
 
@@ -12,18 +12,18 @@ from solver.constraints.move import parse_move
 from solver.constraints.spec import parse_spec
 from solver.errors import SpecError
 
-README = Path(__file__).resolve().parents[3] / "README.md"
+PAGE = Path(__file__).resolve().parents[3] / "docs" / "guide" / "constraints.md"
 SELECTIONS = {n: {"ids": [k]} for k, n in enumerate(["hole1", "hole2", "hole3", "bottom", "clamp", "end"])}
 
 
 def _block(lang: str) -> str:
-    m = re.search(rf"```{lang}\n(.*?)```", README.read_text(), re.S)
-    assert m, f"README has no {lang} block"
+    m = re.search(rf"```{lang}\n(.*?)```", PAGE.read_text(), re.S)
+    assert m, f"{PAGE.name} has no {lang} block"
     return m.group(1)
 
 
 def _fragments() -> tuple[dict, list[dict]]:
-    """The SPEC entries of the README's constraint examples, and the MOVEs their comments give."""
+    """The SPEC entries of the page's constraint examples, and the MOVEs their comments give."""
     text = _block("jsonc")
     moves = []
     for m in re.finditer(r"// MOVE: (.*)", text):

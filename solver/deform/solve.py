@@ -131,6 +131,8 @@ def complete(data: DeformData, stage: BoundaryStage) -> Solved:
 def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move) -> Solved:
     """Mid-side placement (quadratic meshes) after the corner positions of a solve."""
     P = ps.P
+    if data.spec.method == "penalty" and data.constraints.corr.mapped:
+        P = _images_set(P, data.constraints.corr.mapped, data.constraints.constrained)
     if data.constraints.mirrors:  # interior mirror pairs exactly each other's image, whatever the precision
         P = P.copy()
         for mi in data.constraints.mirrors:
@@ -147,6 +149,26 @@ def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move)
                 P[m.slaves] = np.einsum("sk,skj->sj", m.weights, P[m.masters]) @ m.A.T + m.t
             placement = Placement(P, None, placement.relaxed)
     return Solved(P, rhs.U, rhs.d, pinned_at, placement, ps.interior_residual, ps.refined)
+
+
+def _images_set(P: np.ndarray, mapped: list, constrained: np.ndarray) -> np.ndarray:
+    """Free corner slaves of mirror and cyclic entries set to the images of their master points, exactly.
+
+    The penalty method (eq. 3.8) meets ``p_b = A p_a + t`` only to about
+    ``1 / beta``; a symmetry is a property of the part, not a soft target, so
+    its free slaves are set exactly after the solve. A slave that is also fixed
+    or in a handle keeps the penalty's compromise (and its residual is reported).
+    """
+    P = P.copy()
+    held = np.zeros(len(P), bool)
+    held[constrained] = True
+    for e in mapped:  # in SPEC order: an entry whose masters are another's slaves sees them already set
+        m = e.matching
+        free = ~held[m.slaves]
+        if free.any():
+            pts = np.einsum("sk,skj->sj", m.weights[free], P[m.masters[free]])
+            P[m.slaves[free]] = pts @ m.A.T + m.t
+    return P
 
 
 def check_positions(data: DeformData, solved: Solved) -> CheckResult | None:

@@ -154,6 +154,80 @@ def test_a_periodic_sector_keeps_its_cut_faces_matched():
         assert r.report["conflicting_constraints"] == [] and r.report["inverted_elements"] == 0
 
 
+_TURN = math.radians(30.0)
+_R30 = np.array([[math.cos(_TURN), -math.sin(_TURN), 0], [math.sin(_TURN), math.cos(_TURN), 0], [0, 0, 1]])
+
+
+def _sector_spec(V, turn, method, precision):
+    """Inner wall fixed, the top face off both cut faces a handle; the sector turned by ``turn`` (3, 3)."""
+    na = turn @ np.array([0.0, 1.0, 0.0])
+    nb = turn @ np.array([-math.sin(_TURN), math.cos(_TURN), 0.0])
+    local = V @ turn  # the sector's own frame
+    ang = np.degrees(np.arctan2(local[:, 1], local[:, 0]))
+    top = np.flatnonzero((V[:, 2] > 7.99) & (ang > 3) & (ang < 27))
+    return {"selections": {"A": {"plane": {"point": [0, 0, 0], "normal": na.tolist(), "tolerance": 1e-6}},
+                           "B": {"plane": {"point": [0, 0, 0], "normal": nb.tolist(), "tolerance": 1e-6}},
+                           "inner": {"sphere": {"center": [0, 0, 4], "radius": 8.5}, "boundary_only": True},
+                           "top": {"ids": top.tolist()}},
+            "fixed": ["inner"], "handles": {"h": "top"}, "precision": precision,
+            "constraints": {"method": method},
+            "cyclic": [{"name": "c", "axis": {"point": [0, 0, 0], "direction": [0, 0, 1]}, "angle_deg": 30.0,
+                        "faces": ["A", "B"]}]}
+
+
+def _cut_face_pairs(V):
+    """Every node of face A and its partner on face B (found here by coordinates)."""
+    A = np.flatnonzero(np.abs(V[:, 1]) < 1e-6)
+    B = np.flatnonzero(np.abs(V @ np.array([-math.sin(_TURN), math.cos(_TURN), 0.0])) < 1e-6)
+    dist, j = cKDTree(V[B]).query(V[A] @ _R30.T)
+    assert len(A) == len(B) and dist.max() < 1e-9
+    return A, B[j]
+
+
+#: Axisymmetric moves of the top face: a push along the axis and a turn about it.
+_AXISYMMETRIC = ({"handles": {"h": {"translation": [0, 0, 2]}}},
+                 {"handles": {"h": {"rotation": {"axis": [0, 0, 1], "angle_deg": 4}}}})
+
+
+@pytest.fixture(scope="module")
+def fine_sector():
+    return periodic_sector(0.55, 30.0)
+
+
+@pytest.mark.parametrize("method", ["null_space", "kkt", "penalty"])
+@pytest.mark.parametrize("precision", ["exact", "mixed"])
+def test_every_cut_face_pair_and_the_interior_of_a_sector_are_periodic(fine_sector, method, precision):
+    """All pairs ``p_b = R p_a``; and the neighbour sector (the mesh turned by R) under the same
+    axisymmetric move is this sector's result turned by R at every node, interior included, so
+    that the sectors expand into one continuous ring."""
+    V, T = fine_sector
+    m, turned = mesh_from_arrays(V, T), mesh_from_arrays(V @ _R30.T, T)
+    a, b = _cut_face_pairs(V)
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    d = precompute(m, _sector_spec(V, np.eye(3), method, precision))
+    d2 = precompute(turned, _sector_spec(V @ _R30.T, _R30, method, precision))
+    for mv in _AXISYMMETRIC:
+        r, r2 = d.solve(mv), d2.solve(mv)
+        assert np.linalg.norm(r.V[b] - r.V[a] @ _R30.T, axis=1).max() <= 1e-9 * diag
+        turned_back = np.linalg.norm(r2.V - r.V @ _R30.T, axis=1)
+        assert turned_back[~m.boundary].max() <= 1e-9 * diag and turned_back.max() <= 1e-9 * diag
+        assert np.abs(r.V - m.V).max() > 0.1  # it did move
+        assert r.report["inverted_elements"] == 0
+
+
+def test_a_sector_with_a_single_precision_interior_keeps_every_pair():
+    V, T = periodic_sector(0.4, 30.0)
+    m = mesh_from_arrays(V, T)
+    assert (~m.boundary).sum() > 5_000  # above LU_SMALL: the interior factor is single precision
+    a, b = _cut_face_pairs(V)
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    d = precompute(m, _sector_spec(V, np.eye(3), "null_space", "mixed"))
+    for mv in _AXISYMMETRIC:
+        r = d.solve(mv)
+        assert r.report["interior_precision"] == "single"
+        assert np.linalg.norm(r.V[b] - r.V[a] @ _R30.T, axis=1).max() <= 1e-9 * diag
+
+
 def _segment():
     mesh = read_mesh(shared_file("tet/segmenttet.inp"))
     left, right = mesh.sets["Nleft"], mesh.sets["Nright"]
@@ -246,6 +320,12 @@ def test_an_independently_meshed_interface_stays_closed_after_a_bend():
     assert tied.report["inverted_elements"] == 0
     loose = precompute(m, {**base, "ties": False}).solve(mv)
     assert gap(loose.V) > 1e-3 * diag  # without the tie the interface opens
+    for method in ("null_space", "kkt", "penalty"):  # every method, both precisions: every tied node
+        for precision in ("exact", "mixed"):
+            spec = {**base, "ties": {"surface": [["high", "low"]]}, "precision": precision,
+                    "constraints": {"method": method}}
+            r = precompute(m, spec).solve(mv)
+            assert gap(r.V) <= 1e-9 * diag, (method, precision)
 
 
 # ------------------------------------------------------------------ target surfaces

@@ -13,8 +13,13 @@ Two tools (Masuda, Ogawa et al., "Preserving form features", §4.3 and §6):
     The papers' future work, automated: the surface is split into patches at
     sharp edges (dihedral angle above a threshold), and each patch is fitted as
     a plane, a cylinder (a ``hole`` when its normals point at the axis, a
-    ``boss`` when they point away) or ``other``. Each candidate is a named
-    vertex selection usable in a SPEC.
+    ``boss`` when they point away) or ``other``. The cylinder's axis may have
+    any orientation: it is the null direction of the patch's normals, refined
+    with the centre and radius on the vertices. A bore blended into its
+    neighbours by a fillet or chamfer has no sharp edge around it; when no
+    primitive fits a whole patch, the cylinders that close around their axis
+    are grown out of it and the rest is fitted again. Each candidate is a
+    named vertex selection usable in a SPEC.
 """
 
 from __future__ import annotations
@@ -34,6 +39,9 @@ __all__ = ["FeatureCandidate", "feature_region", "feature_candidates", "face_adj
 
 #: Integer scale of the max-flow capacities (scipy's maximum_flow takes integers).
 CAPACITY_SCALE = 1_000_000
+#: A cylinder found inside a larger patch is a bore (or a boss) when its vertices leave no gap
+#: around the axis wider than this (radians); a fillet's quarter cylinder stays with its patch.
+MAX_BORE_GAP = np.pi / 2
 
 
 def _face_normals(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -192,54 +200,255 @@ def _fit_plane(P: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, fl
     return c, n, float(np.sqrt(np.mean((X @ n) ** 2)))
 
 
+def _plane_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors orthogonal to ``axis`` (unit) and to each other."""
+    e1 = -axis[int(np.argmin(np.abs(axis)))] * axis
+    e1[int(np.argmin(np.abs(axis)))] += 1.0
+    e1 /= np.sqrt(e1 @ e1)
+    a0, a1, a2 = axis
+    return e1, np.array([a1 * e1[2] - a2 * e1[1], a2 * e1[0] - a0 * e1[2], a0 * e1[1] - a1 * e1[0]])
+
+
+def _refine_cylinder(X: np.ndarray, axis: np.ndarray, base: np.ndarray, r: float
+                     ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Gauss-Newton on the distances of ``X`` (centred points) to the cylinder surface.
+
+    Each step tilts the axis, moves ``base`` (a point on the axis) in the plane
+    orthogonal to it and changes the radius; the basis is rebuilt around the
+    new axis, so the parametrisation stays free of singularities.
+    """
+    def resid(ax: np.ndarray, c: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        d = X - c
+        t = d @ ax
+        u = d - np.outer(t, ax)
+        dist = np.linalg.norm(u, axis=1)
+        return dist - rho, u / np.maximum(dist, 1e-300)[:, None], t
+
+    f, uh, t = resid(axis, base, r)
+    cost = float(f @ f)
+    for _ in range(60):
+        e1, e2 = _plane_basis(axis)
+        u1, u2 = uh @ e1, uh @ e2
+        J = np.column_stack([-t * u1, -t * u2, -u1, -u2, -np.ones_like(t)])
+        step = np.linalg.lstsq(J, -f, rcond=None)[0]
+        for _ in range(30):  # halve a step that does not lower the cost
+            ax = axis + step[0] * e1 + step[1] * e2
+            ax /= np.linalg.norm(ax)
+            c = base + step[2] * e1 + step[3] * e2
+            c -= (c @ ax) * ax  # the axis point nearest the centroid
+            fn, un, tn = resid(ax, c, r + step[4])
+            cn = float(fn @ fn)
+            if cn <= cost:
+                break
+            step = 0.5 * step
+        else:
+            break
+        small = np.abs(step[:2]).max() < 1e-15 and np.abs(step[2:]).max() < 1e-15 * max(r, 1e-300)
+        axis, base, r, f, uh, t = ax, c, r + float(step[4]), fn, un, tn
+        if small or cn >= cost * (1 - 1e-14):
+            break
+        cost = cn
+    return axis, base, r
+
+
 def _fit_cylinder(P: np.ndarray, N: np.ndarray, w: np.ndarray, C: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, float, float, float, bool]:
     """Axis from the normals (they are orthogonal to it), circle fit in the orthogonal plane.
+
+    The axis is the normals' null direction (the eigenvector of their
+    area-weighted scatter with the smallest eigenvalue), so any orientation
+    is found. The circle fit in the plane orthogonal to it is then refined
+    by geometric least squares on the vertices: facet normals only
+    approximate the axis, the vertices lie on the CAD surface.
 
     Returns ``axis, center, radius, rms, length, normals_point_inward``.
     """
     _, vec = np.linalg.eigh((w[:, None] * N).T @ N)
     axis = vec[:, 0]
-    e1 = np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
-    x, y = P @ e1, P @ e2
+    e1, e2 = _plane_basis(axis)
+    m0 = P.mean(axis=0)
+    X = P - m0
+    x, y = X @ e1, X @ e2
     # algebraic circle fit (Kasa): x^2 + y^2 = 2 a x + 2 b y + c
     M = np.column_stack([2 * x, 2 * y, np.ones_like(x)])
     (a, b, c), *_ = np.linalg.lstsq(M, x ** 2 + y ** 2, rcond=None)
     r = float(np.sqrt(max(c + a * a + b * b, 0.0)))
-    # refine axis, centre and radius by geometric least squares on the vertices (facet normals
-    # only approximate the axis; the vertices lie on the CAD surface)
-    from scipy.optimize import least_squares
-
-    def resid(q: np.ndarray) -> np.ndarray:
-        ax = axis + q[0] * e1 + q[1] * e2
-        ax = ax / np.linalg.norm(ax)
-        cpt = (a + q[2]) * e1 + (b + q[3]) * e2
-        d = P - cpt
-        return np.linalg.norm(d - np.outer(d @ ax, ax), axis=1) - (r + q[4])
-
+    base = a * e1 + b * e2
     if P.shape[0] >= 6 and r > 0:
-        q = least_squares(resid, np.zeros(5), x_scale=np.array([1.0, 1.0, r, r, r]), xtol=1e-15,
-                          ftol=1e-15, gtol=1e-15, max_nfev=200).x
-        axis = axis + q[0] * e1 + q[1] * e2
-        axis /= np.linalg.norm(axis)
-        base = (a + q[2]) * e1 + (b + q[3]) * e2
-        r += float(q[4])
-        e1 = np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(axis, e1)
-        a, b = float(base @ e1), float(base @ e2)
-        x, y = P @ e1, P @ e2
-    t = P @ axis
-    center = a * e1 + b * e2 + float(t.mean()) * axis
-    rms = float(np.sqrt(np.mean((np.hypot(x - a, y - b) - r) ** 2)))
+        axis, base, r = _refine_cylinder(X, axis, base, r)
+    d = X - base
+    t = d @ axis
+    dist = np.linalg.norm(d - np.outer(t, axis), axis=1)
+    center = m0 + base + float(t.mean()) * axis
+    rms = float(np.sqrt(np.mean((dist - r) ** 2)))
     # face normals vs. the direction from the axis to each face centroid
-    cx, cy = C @ e1 - a, C @ e2 - b
-    radial = np.column_stack([cx, cy]) / np.maximum(np.hypot(cx, cy), 1e-300)[:, None]
-    nr = (N @ e1) * radial[:, 0] + (N @ e2) * radial[:, 1]
-    inward = float((w * nr).sum()) < 0
+    dc = C - m0 - base
+    radial = dc - np.outer(dc @ axis, axis)
+    radial /= np.maximum(np.linalg.norm(radial, axis=1), 1e-300)[:, None]
+    inward = float((w * np.einsum("ij,ij->i", N, radial)).sum()) < 0
     return axis, center, r, rms, float(t.max() - t.min()), inward
+
+
+def _cylinder_params(P: np.ndarray, N: np.ndarray, w: np.ndarray, C: np.ndarray) -> tuple[str, dict[str, Any]]:
+    axis, center, r, rms, length, inward = _fit_cylinder(P, N, w, C)
+    return ("hole" if inward else "boss"), {"axis": axis, "center": center, "radius": r, "length": length,
+                                            "rms": rms}
+
+
+def _fit_patch(V: np.ndarray, F: np.ndarray, N: np.ndarray, area: np.ndarray, fids: np.ndarray, tol: float,
+               cos_sharp: float) -> tuple[str, float, np.ndarray, int, dict] | None:
+    """The plane or cylinder that fits the faces ``fids`` within ``tol``, or None."""
+    ids = unique(F[fids])
+    P = V[ids]
+    size = float(np.linalg.norm(P.max(0) - P.min(0)))
+    w = area[fids]
+    Cf = V[F[fids]].mean(axis=1)
+    c, n, rms_plane = _fit_plane(Cf, w)
+    side = np.sign((w * (N[fids] @ n)).sum())
+    if rms_plane <= tol * size and float(np.min((N[fids] @ n) * side)) >= cos_sharp:
+        return "plane", float(w.sum()), ids, fids.size, {"point": c, "normal": n * side, "rms": rms_plane}
+    kind, params = _cylinder_params(P, N[fids], w, Cf)
+    # the vertices (exactly on the CAD surface) decide; facet normals tilt by the faceting
+    r = params["radius"]
+    if r > 0 and params["rms"] <= tol * size and r < 10 * size:
+        return kind, float(w.sum()), ids, fids.size, params
+    return None
+
+
+def _other(V: np.ndarray, F: np.ndarray, N: np.ndarray, area: np.ndarray, fids: np.ndarray
+           ) -> tuple[str, float, np.ndarray, int, dict]:
+    ids = unique(F[fids])
+    w = area[fids]
+    Cf = V[F[fids]].mean(axis=1)
+    rms_plane = _fit_plane(Cf, w)[2]
+    rms = _fit_cylinder(V[ids], N[fids], w, Cf)[3]
+    return "other", float(w.sum()), ids, fids.size, {"rms": min(rms_plane, rms)}
+
+
+def _off_cylinder(P: np.ndarray, axis: np.ndarray, center: np.ndarray, r: float) -> np.ndarray:
+    """Distance of each point ``P`` (m, 3) from the cylinder surface."""
+    d = P - center
+    return np.abs(np.linalg.norm(d - np.outer(d @ axis, axis), axis=1) - r)
+
+
+def _largest_gap(P: np.ndarray, axis: np.ndarray, center: np.ndarray) -> float:
+    """The largest angle (radians) around ``axis`` between consecutive points of ``P``."""
+    e1, e2 = _plane_basis(axis)
+    d = P - center
+    ang = np.sort(np.arctan2(d @ e2, d @ e1))
+    return float(np.max(np.diff(np.concatenate([ang, ang[:1] + 2 * np.pi]))))
+
+
+def _cylinders_inside(V: np.ndarray, F: np.ndarray, N: np.ndarray, area: np.ndarray, fids: np.ndarray,
+                      smooth_pairs: np.ndarray, tol: float, min_faces: int
+                      ) -> tuple[list[tuple[str, float, np.ndarray, int, dict]], list[np.ndarray]]:
+    """The cylindrical regions inside a patch no primitive fits, and the rest of it.
+
+    A seed face's two-ring of faces (by shared vertices) is fitted as a
+    cylinder, with the axis of any orientation (the normals' null direction,
+    refined on the vertices). The region then grows over the faces whose
+    three vertices lie on that cylinder within ``tol`` times its radius, and
+    is fitted again, until it no longer changes. A region of at least
+    ``min_faces`` faces that still fits within ``tol`` is a hole or a boss;
+    the seeds then move on to faces no region or failed seed has covered. Only
+    regions that close around their axis (:data:`MAX_BORE_GAP`) are taken out.
+
+    Returns
+    -------
+    cylinders : list of (kind, area, ids, faces, params)
+    rest : list of int arrays
+        The face indices of each edge-connected part that is left, with at
+        least ``min_faces`` faces.
+    """
+    nf = fids.size
+    local = np.full(F.shape[0], -1, np.int64)
+    local[fids] = np.arange(nf)
+    pa = local[smooth_pairs]
+    pa = pa[(pa >= 0).all(axis=1)]
+    # face-face graphs of the patch: by shared edges (growth) and shared vertices (seed rings)
+    Gedge = sp.coo_matrix((np.ones(pa.shape[0]), (pa[:, 0], pa[:, 1])), shape=(nf, nf)).tocsr()
+    Gedge = Gedge + Gedge.T
+    ids, Fl = np.unique(F[fids], return_inverse=True)
+    Fl = Fl.reshape(-1, 3)
+    A = sp.csr_matrix((np.ones(3 * nf), (np.repeat(np.arange(nf), 3), Fl.ravel())), shape=(nf, ids.size))
+    R1 = (A @ A.T).tocsr()
+    P = V[ids]
+    Nf = N[fids]
+    Cf = V[F[fids]].mean(axis=1)
+    w = area[fids]
+    taken = np.zeros(nf, bool)  # in a cylinder
+    tried = np.zeros(nf, bool)  # covered by a seed that grew no cylinder
+    cylinders = []
+    for seed in range(nf):
+        if taken[seed] or tried[seed]:
+            continue
+        ring = R1[R1[seed].indices].indices  # the seed's two-ring
+        ring = np.unique(ring[~taken[ring]])
+        region = _grow_cylinder(ring, seed, P, Fl, Nf, Cf, w, Gedge, taken, tol)
+        if region is None or region.size < min_faces:
+            tried[ring] = True
+            continue
+        rid = unique(Fl[region])
+        kind, params = _cylinder_params(P[rid], Nf[region], w[region], Cf[region])
+        if _largest_gap(P[rid], params["axis"], params["center"]) > MAX_BORE_GAP:
+            tried[region] = True  # part of a cylinder (a fillet), not a bore: left to the rest
+            continue
+        taken[region] = True
+        cylinders.append((kind, float(w[region].sum()), ids[rid], int(region.size), params))
+    left = np.flatnonzero(~taken)
+    if not cylinders:
+        return [], []
+    ncomp, lab = connected_components(Gedge[left][:, left], directed=False)
+    rest = [fids[left[lab == c]] for c in range(ncomp) if np.count_nonzero(lab == c) >= min_faces]
+    return cylinders, rest
+
+
+def _grow_cylinder(ring: np.ndarray, seed: int, P: np.ndarray, Fl: np.ndarray, Nf: np.ndarray, Cf: np.ndarray,
+                   w: np.ndarray, Gedge: sp.csr_matrix, taken: np.ndarray, tol: float) -> np.ndarray | None:
+    """The faces (local indices) of the cylinder grown from a seed's ring, or None.
+
+    The faces are grown within ``tol`` times the radius until the region is
+    stable, then once more within a band set by the vertices' own scatter
+    (20 robust standard deviations of their distances to the cylinder, and at
+    least ``tol / 100`` times the radius), so that the first rows of a tangent
+    fillet, close to the cylinder but not on it, are left out.
+    """
+    region = ring
+    band = None
+    tight = False
+    for _ in range(12):
+        vid = unique(Fl[region])
+        Q = P[vid]
+        lam = np.linalg.eigvalsh((w[region, None] * Nf[region]).T @ Nf[region]) / w[region].sum()
+        if lam[1] < 1e-8 * lam[2]:
+            return None  # flat: the normals give no axis
+        axis, center, r, rms, _, _ = _fit_cylinder(Q, Nf[region], w[region], Cf[region])
+        size = float(np.linalg.norm(Q.max(0) - Q.min(0)))
+        if not (0 < r < 10 * size) or rms > tol * r:
+            return None
+        if band is None or not tight:
+            band = tol * r
+        on = _off_cylinder(P, axis, center, r) <= band
+        ok = on[Fl].all(axis=1) & ~taken
+        okid = np.flatnonzero(ok)
+        if not okid.size:
+            return None
+        ncomp, lab = connected_components(Gedge[okid][:, okid], directed=False)
+        # the part that overlaps the region most (the seed's part while the band is tol * r)
+        hits = np.bincount(lab[np.isin(okid, region)], minlength=ncomp)
+        if not ok[seed] and not tight or not hits.any():
+            return None
+        grown = okid[lab == int(np.argmax(hits))]
+        if np.array_equal(grown, region):
+            if tight:
+                return region
+            dev = _off_cylinder(Q, axis, center, r)
+            scatter = 1.4826 * float(np.median(dev))
+            tight = True
+            band = min(tol * r, max(20 * scatter, 0.01 * tol * r))
+            continue
+        region = grown
+    return region
 
 
 def feature_candidates(mesh: Mesh, angle_deg: float = 30.0, tol: float = 1e-3,
@@ -281,30 +490,25 @@ def feature_candidates(mesh: Mesh, angle_deg: float = 30.0, tol: float = 1e-3,
     G = sp.coo_matrix((np.ones(int(smooth.sum())), (pairs[smooth, 0], pairs[smooth, 1])), shape=(nf, nf))
     npatch, lab = connected_components(G, directed=False)
     found: list[tuple[str, float, np.ndarray, int, dict]] = []
+    cos_sharp = float(np.cos(np.radians(angle_deg)))
     for p in range(npatch):
         fids = np.flatnonzero(lab == p)
         if fids.size < min_faces:
             continue
-        ids = unique(F[fids])
-        P = V[ids]
-        size = float(np.linalg.norm(P.max(0) - P.min(0)))
-        w = area[fids]
-        Cf = V[F[fids]].mean(axis=1)
-        c, n, rms_plane = _fit_plane(Cf, w)
-        flat = float(np.min((N[fids] @ n) * np.sign((w * (N[fids] @ n)).sum())))
-        if rms_plane <= tol * size and flat >= np.cos(np.radians(angle_deg)):
-            n = n * np.sign((w * (N[fids] @ n)).sum())
-            found.append(("plane", float(w.sum()), ids, fids.size,
-                          {"point": c, "normal": n, "rms": rms_plane}))
+        fit = _fit_patch(V, F, N, area, fids, tol, cos_sharp)
+        if fit is not None:
+            found.append(fit)
             continue
-        axis, center, r, rms, length, inward = _fit_cylinder(P, N[fids], w, Cf)
-        # the vertices (exactly on the CAD surface) decide; facet normals tilt by the faceting
-        if r > 0 and rms <= tol * size and r < 10 * size:
-            kind = "hole" if inward else "boss"
-            found.append((kind, float(w.sum()), ids, fids.size,
-                          {"axis": axis, "center": center, "radius": r, "length": length, "rms": rms}))
-        else:
-            found.append(("other", float(w.sum()), ids, fids.size, {"rms": min(rms_plane, rms)}))
+        # no primitive fits the whole patch: a bore blended into its neighbours by a fillet
+        # or a chamfer has no sharp edge around it; take the cylinders out, fit what is left
+        cyl, rest = _cylinders_inside(V, F, N, area, fids, pairs[smooth], tol, min_faces)
+        if not cyl:
+            found.append(_other(V, F, N, area, fids))
+            continue
+        found.extend(cyl)
+        for part in rest:
+            fit = _fit_patch(V, F, N, area, part, tol, cos_sharp)
+            found.append(fit if fit is not None else _other(V, F, N, area, part))
     out: list[FeatureCandidate] = []
     for kind in ("hole", "boss", "plane", "other"):
         mine = sorted((f for f in found if f[0] == kind), key=lambda f: -f[1])

@@ -1,4 +1,4 @@
-"""The ``doe``, ``bounds``, ``sensitivities`` and ``study`` commands.
+"""The ``doe``, ``bounds``, ``sensitivities``, ``study`` and ``optimize`` commands.
 
 ::
 
@@ -7,6 +7,8 @@
     tetmorph sensitivities MESH --spec SPEC --shapes SHAPES [--plan PLAN --at ROW] --output SENS.vtu
     tetmorph study MESH --spec SPEC --shapes SHAPES --plan PLAN --solver 'ccx -i {stem}' --response ccx
       --output 'out/{i}/deck.inp' --table study.csv
+    tetmorph optimize MESH --spec SPEC --shapes SHAPES --solver 'ccx -i {stem}' --response ccx
+      --objective max_mises --constraint 'mass<=M' --output 'opt/{i}/deck.inp' --history history.csv
 
 :func:`add_commands` registers them on an ``argparse`` subparsers object;
 :func:`main` runs them alone (``python -m solver.workflows``). Exit codes as
@@ -30,6 +32,16 @@ from ..mesh import Mesh
 from .batch_memory import keep_freed_memory
 from .bounds import MAX_VALUE, TOL, shape_bounds
 from .doe import BLOCK, deck_writer, run_doe, write_summary
+from .optimize import (
+    METHODS,
+    STEP,
+    Evaluation,
+    default_bounds,
+    parse_condition,
+    run_optimize,
+    write_history,
+    write_plot,
+)
 from .plan import Plan, plan_values, read_plan
 from .sensitivities import shape_sensitivities, write_sensitivities
 from .shapes import Shapes, parse_shapes
@@ -164,6 +176,79 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", help="input meshio format name when the extension does not tell")
 
 
+def _assignments(items: list[str] | None, what: str, pair: bool) -> dict[str, Any]:
+    """``NAME=LO:HI`` (``pair``) or ``NAME=VALUE`` options as a dict."""
+    out: dict[str, Any] = {}
+    for text in items or []:
+        name, eq, rest = text.partition("=")
+        parts = rest.split(":") if pair else [rest]
+        try:
+            vals = [float(v) for v in parts]
+        except ValueError:
+            vals = []
+        if not eq or not name.strip() or len(vals) != (2 if pair else 1):
+            form = "NAME=LO:HI" if pair else "NAME=VALUE"
+            raise SolverError(f"--{what} {text!r}: expected {form}", code="usage")
+        out[name.strip()] = tuple(vals) if pair else vals[0]
+    return out
+
+
+def cmd_optimize(args: argparse.Namespace) -> int:
+    """``tetmorph optimize``: a response minimized over the shape parameters, the FE solver in the loop."""
+    if "{i}" not in args.output:
+        raise SolverError("--output needs '{i}' (the evaluation, from 1), e.g. opt/{i}/deck.inp", code="usage")
+    if args.timeout <= 0:
+        raise SolverError(f"--timeout must be > 0 seconds, got {args.timeout:g}", code="usage")
+    _one_stdout(history=args.history, result=args.result)
+    conditions = [parse_condition(c) for c in args.constraint or []]
+    given = _assignments(args.bounds, "bounds", pair=True)
+    starts = _assignments(args.start, "start", pair=False)
+    check_solver(args.solver)
+    response = load_response(args.response)
+    mesh, deformer, shapes = _setup(args)
+    unknown = sorted(set(starts) - set(shapes.names))
+    if unknown:
+        raise SolverError(f"--start names {unknown}, not shapes of SHAPES (shapes: {list(shapes.names)})",
+                          code="usage")
+    bounds = default_bounds(deformer, shapes, given)
+    print("bounds: " + ", ".join(f"{n} [{lo:.6g}, {hi:.6g}]" for n, (lo, hi) in zip(shapes.names, bounds,
+                                                                                    strict=True)), file=sys.stderr)
+    start = np.array([starts.get(n, 0.0) for n in shapes.names])
+
+    def progress(e: Evaluation) -> None:
+        got = f"{args.objective}={e.objective:.6g}" if e.objective is not None else e.study.status
+        print(f"evaluation {e.index} (iteration {e.iteration}, {e.role}): {got}"
+              + (f"  ({e.study.message})" if e.study.message else ""), file=sys.stderr)
+
+    result = run_optimize(mesh, deformer, shapes, output=args.output, solver=args.solver, response=response,
+                          objective=args.objective, constraints=conditions, maximize=args.maximize, bounds=bounds,
+                          start=start, method=args.method, max_evaluations=args.max_evaluations, step=args.step,
+                          timeout=args.timeout, progress=progress)
+    write_history(result, shapes.names, args.objective, args.history)
+    if args.plot:
+        write_plot(result, args.objective, args.plot)
+    best = result.best
+    summary = {"status": result.status, "message": result.message, "evaluations": len(result.history),
+               "bounds": {n: list(b) for n, b in zip(shapes.names, result.bounds.tolist(), strict=True)},
+               "start": _evaluation_doc(result.start, args.objective), "best": _evaluation_doc(best, args.objective)}
+    if args.result:
+        dump_json(summary, args.result)
+    if best is None:
+        print(f"{result.status}: no feasible evaluation ({result.message}); history {args.history}", file=sys.stderr)
+        return 1
+    print(f"{result.status} after {len(result.history)} evaluations ({result.message}): best {args.objective} "
+          f"{best.objective:.6g} at evaluation {best.index} ({best.study.deck}); history {args.history}",
+          file=sys.stderr)
+    return 0
+
+
+def _evaluation_doc(e: Evaluation | None, objective: str) -> dict[str, Any] | None:
+    if e is None:
+        return None
+    return {"evaluation": e.index, "parameters": e.study.parameters, objective: e.objective,
+            "feasible": e.feasible, "slacks": e.slacks, "responses": e.study.responses, "deck": e.study.deck}
+
+
 def add_commands(subparsers: Any) -> None:
     """Register ``doe``, ``bounds`` and ``sensitivities`` on an ``argparse`` subparsers object.
 
@@ -201,17 +286,44 @@ def add_commands(subparsers: Any) -> None:
                                "command and its responses read into one table (CSV)")
     _common(pt)
     _plan_options(pt, "deck per row; '{i}' is the plan row (from 1)")
-    pt.add_argument("--solver", required=True, help="solver command run in the deck's folder; {stem}, {deck}, "
-                    "{dir} and {i} are substituted (e.g. 'ccx -i {stem}')")
-    pt.add_argument("--response", default="ccx", help="'ccx' (CalculiX .dat: max_displacement, max_mises, "
-                    "mass, freq_k) or a Python file defining response(deck) -> dict of floats")
+    _solver_options(pt)
     pt.add_argument("--table", required=True, help="STUDY.csv ('-': standard output): row, parameters, status, "
                     "mesh figures, solver time, responses, deck, message")
-    pt.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S,
-                    help=f"seconds per solver run (default {DEFAULT_TIMEOUT_S:g}); a run past it is recorded")
     pt.add_argument("--inversion", choices=["warn", "reject", "clamp"], default="reject",
                     help="the morph's inversion policy (default reject: an inverting row is recorded, not solved)")
     pt.set_defaults(func=cmd_study)
+    po = subparsers.add_parser("optimize", help="minimize an FE response over the shape parameters (SLSQP or "
+                               "COBYQA), every evaluation morphed, written and solved as a study row")
+    _common(po)
+    _solver_options(po)
+    po.add_argument("--objective", required=True, help="the response to minimize, e.g. max_mises")
+    po.add_argument("--maximize", action="store_true", help="maximize the objective instead")
+    po.add_argument("--constraint", action="append", metavar="NAME<=VALUE",
+                    help="a response constraint, NAME<=VALUE or NAME>=VALUE (repeatable)")
+    po.add_argument("--bounds", action="append", metavar="NAME=LO:HI", help="a shape's search range "
+                    "(repeatable); default: 0.8 x its safe range (tetmorph bounds)")
+    po.add_argument("--start", action="append", metavar="NAME=VALUE", help="a shape's start value (default 0)")
+    po.add_argument("--method", choices=METHODS, default="slsqp", help="slsqp (forward differences, default) "
+                    "or cobyqa (derivative-free)")
+    po.add_argument("--max-evaluations", type=int, default=40, help="solver runs at most (default 40)")
+    po.add_argument("--step", type=float, default=STEP, help=f"forward-difference step, as a fraction of each "
+                    f"shape's range (default {STEP:g})")
+    po.add_argument("--output", required=True, help="deck per evaluation; '{i}' is the evaluation (from 1)")
+    po.add_argument("--history", required=True, help="HISTORY.csv ('-': standard output): evaluation, "
+                    "iteration, role, parameters, status, objective, feasible, slacks, responses, deck")
+    po.add_argument("--plot", help="an SVG chart of the objective against the iterations")
+    po.add_argument("--result", help="the start, the best evaluation and the status as JSON ('-': standard output)")
+    po.set_defaults(func=cmd_optimize)
+
+
+def _solver_options(p: argparse.ArgumentParser) -> None:
+    """``--solver``, ``--response`` and ``--timeout`` of the commands that run an FE solver (study, optimize)."""
+    p.add_argument("--solver", required=True, help="solver command run in the deck's folder; {stem}, {deck}, "
+                   "{dir} and {i} are substituted (e.g. 'ccx -i {stem}')")
+    p.add_argument("--response", default="ccx", help="'ccx' (CalculiX .dat: max_displacement, max_mises, "
+                   "mass, freq_k) or a Python file defining response(deck) -> dict of floats")
+    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S,
+                   help=f"seconds per solver run (default {DEFAULT_TIMEOUT_S:g}); a run past it is recorded")
 
 
 def build_parser() -> argparse.ArgumentParser:

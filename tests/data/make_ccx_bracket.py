@@ -9,6 +9,7 @@ displacements, stresses and the total mass printed to the .dat file. Run from
 this folder::
 
     python make_ccx_bracket.py 4.0 ccx_bracket.inp
+    python make_ccx_bracket.py 4.0 two_holes.inp 30:5 65:5    # two bores, sets HOLE1 and HOLE2
 """
 
 from __future__ import annotations
@@ -28,8 +29,13 @@ def _nset(name: str, ids: np.ndarray) -> list[str]:
     return out
 
 
-def make_ccx_bracket(size: float, path: str) -> None:
-    """Mesh the bar with gmsh's MeshSizeMax = ``size`` (second order) and write the deck to ``path``."""
+def make_ccx_bracket(size: float, path: str, holes: tuple[tuple[float, float], ...] = ((60.0, 5.0),)) -> None:
+    """Mesh the bar with gmsh's MeshSizeMax = ``size`` (second order) and write the deck to ``path``.
+
+    ``holes`` are ``(x, radius)`` of vertical bores through the bar at y = 10. With
+    one (the default: the checked-in deck), its nodes are the set HOLE; with
+    several, HOLE holds them all and HOLE1, HOLE2, ... each one.
+    """
     import gmsh
 
     gmsh.initialize()
@@ -38,8 +44,7 @@ def make_ccx_bracket(size: float, path: str) -> None:
         gmsh.model.add("ccx_bracket")
         occ = gmsh.model.occ
         box = occ.addBox(0, 0, 0, 100, 20, 10)
-        hole = occ.addCylinder(60, 10, -1, 0, 0, 12, 5)
-        occ.cut([(3, box)], [(3, hole)])
+        occ.cut([(3, box)], [(3, occ.addCylinder(x, 10, -1, 0, 0, 12, r)) for x, r in holes])
         occ.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
         gmsh.option.setNumber("Mesh.ElementOrder", 2)
@@ -67,8 +72,9 @@ def make_ccx_bracket(size: float, path: str) -> None:
         off = np.linalg.norm(X[E[:, m] - 1] - 0.5 * (pa + pb), axis=1) / np.linalg.norm(pb - pa, axis=1)
         assert off.max() < 0.25, (m, off.max())  # a wrong pairing is off by 0.5 or more
     ids = np.arange(1, X.shape[0] + 1)
-    r = np.hypot(X[:, 0] - 60.0, X[:, 1] - 10.0)
-    lines = ["*HEADING", "Cantilever bar with a bolt hole, tet10 (tetmorph tests/data/make_ccx_bracket.py)",
+    on = [np.abs(np.hypot(X[:, 0] - x, X[:, 1] - 10.0) - r) < 1e-6 for x, r in holes]
+    what = "a bolt hole" if len(holes) == 1 else f"{len(holes)} bolt holes"
+    lines = ["*HEADING", f"Cantilever bar with {what}, tet10 (tetmorph tests/data/make_ccx_bracket.py)",
              "*NODE, NSET=NALL"]
     lines += [f"{i}, {x!r}, {y!r}, {z!r}" for i, (x, y, z) in zip(ids, X.tolist(), strict=True)]
     lines.append("*ELEMENT, TYPE=C3D10, ELSET=EALL")
@@ -76,7 +82,10 @@ def make_ccx_bracket(size: float, path: str) -> None:
     lines += _nset("FIXED", ids[np.abs(X[:, 0]) < 1e-9])
     load = ids[np.abs(X[:, 0] - 100.0) < 1e-9]
     lines += _nset("LOAD", load)
-    lines += _nset("HOLE", ids[np.abs(r - 5.0) < 1e-6])
+    lines += _nset("HOLE", ids[np.any(on, axis=0)])
+    if len(holes) > 1:
+        for k, mask in enumerate(on, start=1):
+            lines += _nset(f"HOLE{k}", ids[mask])
     lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", "210000., 0.3", "*DENSITY", "7.85e-9",
               "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL", "*STEP", "*STATIC",
               "*BOUNDARY", "FIXED, 1, 3", "*CLOAD"]
@@ -87,5 +96,6 @@ def make_ccx_bracket(size: float, path: str) -> None:
         f.write("\n".join(lines) + "\n")
 
 
-if __name__ == "__main__":
-    make_ccx_bracket(float(sys.argv[1]), sys.argv[2])
+if __name__ == "__main__":  # python make_ccx_bracket.py SIZE PATH [X:RADIUS ...]
+    bores = tuple(tuple(float(v) for v in a.split(":")) for a in sys.argv[3:]) or ((60.0, 5.0),)
+    make_ccx_bracket(float(sys.argv[1]), sys.argv[2], bores)  # type: ignore[arg-type]

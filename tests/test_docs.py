@@ -44,15 +44,98 @@ def test_the_readme_library_example_runs(monkeypatch):
     assert scope["result"].report["inverted_elements"] == 0
 
 
-def test_the_site_builds_with_warnings_as_errors(tmp_path):
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    """The site, built once for the tests of this module, with warnings as errors."""
+    out = tmp_path_factory.mktemp("docs") / "site"
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
-    r = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(tmp_path / "site")],
+    r = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(out)],
                        cwd=ROOT, capture_output=True, text=True, timeout=300, env=env)
     assert r.returncode == 0, r.stdout + r.stderr
-    api = (tmp_path / "site" / "reference" / "solver" / "index.html").read_text()
+    return out
+
+
+def _page(site: Path, uri: str) -> str:
+    return (site / uri / "index.html").read_text()
+
+
+def _row(html_text: str, needle: str) -> str:
+    """The table row of a page that holds ``needle``."""
+    rows = [r for r in re.findall(r"<tr>(.*?)</tr>", html_text, re.S) if needle in r]
+    assert rows, f"no table row holds {needle!r}"
+    return rows[0]
+
+
+def test_the_site_builds_with_warnings_as_errors(site):
+    api = _page(site, "reference/solver")
     assert "precompute" in api and "Parameters" in api  # the reference is generated from the docstrings
     for page in TUTORIALS:
-        assert (tmp_path / "site" / "tutorials" / page.stem / "index.html").is_file()
+        assert (site / "tutorials" / page.stem / "index.html").is_file()
+
+
+def test_every_setting_is_on_the_settings_page_with_its_variable_and_default(site):
+    from service.settings import Settings
+
+    page = _page(site, "reference/settings")
+    for name, field in Settings.model_fields.items():
+        row = _row(page, f"<code>TETMORPH_{name.upper()}</code>")
+        assert f"<code>{name}</code>" in row
+        if field.default_factory is None:
+            assert f"<code>{field.default}</code>" in row, (name, field.default)
+
+
+def _error_codes() -> dict[str, int | None]:
+    """Every error code: the two error modules' tables and classes, and every literal code raised."""
+    import service.errors as sv
+    import solver.errors as se
+
+    codes: dict[str, int | None] = dict(sv.CODE_STATUS)
+    codes.update({c: s for s, c in sv.HTTP_CODES.items() if c not in codes})
+    for name in se.__all__:
+        cls = getattr(se, name)
+        if isinstance(cls, type) and issubclass(cls, se.SolverError):
+            codes.setdefault(cls.default_code, None)
+            listed = re.sub(r"\([^)]*\)", "", (cls.__doc__ or "").partition("Codes:")[2], flags=re.S)
+            for c in re.findall(r"``(\w+)``", listed):
+                codes.setdefault(c, None)
+    for source in list((ROOT / "solver").rglob("*.py")) + list((ROOT / "service").rglob("*.py")):
+        s = source.read_text()
+        for c in re.findall(r"\bcode=[\"']([a-z_]+)[\"']", s) + re.findall(r"ServiceError\(\s*[\"']([a-z_]+)[\"']", s):
+            codes.setdefault(c, None)
+    return codes
+
+
+def test_every_error_code_is_on_the_errors_page_with_its_status(site):
+    page = _page(site, "reference/errors")
+    codes = _error_codes()
+    assert len(codes) > 80
+    for c, status in codes.items():
+        row = _row(page, f'id="{c}"')
+        if status is not None:
+            assert f"<td>{status}</td>" in row, (c, status)
+
+
+def test_every_route_is_on_the_rest_page(site):
+    from service.app import create_app
+    from service.settings import Settings
+
+    page = _page(site, "reference/rest")
+    doc = create_app(Settings(data_dir=site.parent / "data", load_kernels=False)).openapi()
+    for path, ops in doc["paths"].items():
+        for method in ops:
+            assert f"{method.upper()} <code>{path}</code>" in page, (method, path)
+
+
+def test_every_field_of_spec_move_and_report_is_on_the_documents_page(site):
+    from service.models.move import Move
+    from service.models.report import Report
+    from service.models.spec import Spec
+
+    page = _page(site, "reference/documents")
+    for model in (Spec, Move, Report):
+        section = page.split(f'id="{model.__name__.lower()}"', 1)[1]
+        for name in model.model_fields:
+            assert f"<code>{name}</code>" in section, (model.__name__, name)
 
 
 @pytest.mark.ccx  # the last step runs CalculiX

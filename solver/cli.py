@@ -131,7 +131,8 @@ def cmd_morph(args: argparse.Namespace) -> int:
             _say(f"move {i}: rejected, {e.message}")
             continue
         os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-        w = write_mesh(mesh, res.V, out, args.output_format, quality=args.quality, lossy=args.lossy)
+        w = write_mesh(mesh, res.V, out, args.output_format, quality=args.quality, lossy=args.lossy,
+                       nastran_large=args.nastran_large)
         _dropped(w, f"move {i}")
         rep = {"move": i, "output": out, **res.report, "written": w.to_dict()}
         reports.append(rep)
@@ -241,6 +242,8 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
                     "(the SPEC's repair: true)")
     pm.add_argument("--lossy", action="store_true", help="write even when the output format cannot hold "
                     "everything the input carries (sets, element types, data); what is dropped is listed")
+    pm.add_argument("--nastran-large", action="store_true", help="Nastran decks: write moved nodes whose "
+                    "coordinates do not fit 8 columns exactly as large-field GRID* cards (16 columns)")
     pm.set_defaults(func=cmd_morph)
     pf = sub.add_parser("features", help="form-feature candidates (holes, bosses, planes) or the "
                         "min-cut feature region inside a band")

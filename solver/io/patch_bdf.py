@@ -6,13 +6,19 @@ GRID card whose node moved gets its X1, X2, X3 fields rewritten in the card's
 own field format: 8 columns (small field), 16 columns (large field ``GRID*``)
 or free field, with the field's own justification; fields whose value did not
 change, and so every card of an unmoved node, keep their text.
+
+An 8-column field holds about seven significant digits (a rounding of up to
+5e-5 on a 100 mm part). With ``large=True``, a small-field card of a moved
+node whose new coordinates do not all fit its 8 columns exactly is written as
+a two-line large-field ``GRID*`` card instead (16 columns, about 15 digits);
+the rest of the deck, and every other card, is unchanged.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .nastran import grid_cards, nastran_float, nastran_real
+from .nastran import GridCard, grid_cards, nastran_float, nastran_real
 
 __all__ = ["patch_bdf", "grid_count"]
 
@@ -25,7 +31,7 @@ def grid_count(data: bytes) -> int:
         return -1
 
 
-def patch_bdf(data: bytes, V: np.ndarray) -> bytes:
+def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
     r"""The deck ``data`` with its GRID coordinates replaced by ``V``.
 
     Parameters
@@ -34,6 +40,11 @@ def patch_bdf(data: bytes, V: np.ndarray) -> bytes:
         The original deck.
     V : (n, 3) float array
         New positions, one row per GRID card in order of appearance.
+    large : bool
+        Write a small-field card whose new coordinates do not fit its 8-column
+        fields exactly as a large-field ``GRID*`` card (two lines, 16-column
+        fields; ID, CP, CD, PS and SEID carried over). Cards whose values fit,
+        and cards of unmoved nodes, stay as they are.
 
     Returns
     -------
@@ -51,12 +62,19 @@ def patch_bdf(data: bytes, V: np.ndarray) -> bytes:
     >>> out = patch_bdf(deck, np.array([[0.0, 0, 0], [1.0, -3.55e-15, 0.25]])).decode().splitlines()
     >>> out[3], out[4]  # node 1 unmoved; node 2: X1 unchanged, X2 and X3 rewritten, left-justified
     ('GRID    1               0.      0.      0.', 'GRID    2               1.      -3.55-15.25     ')
+    >>> big = patch_bdf(deck, np.array([[0.0, 0, 0], [1.0, 1 / 3, 0.25]]), large=True).decode().splitlines()
+    >>> big[4], big[5]  # 1/3 does not fit 8 columns: node 2 becomes a GRID* card
+    ('GRID*   2                                             1..333333333333333', '*                    .25')
     """
     lines = data.splitlines(keepends=True)
     cards = grid_cards(lines)
     if len(cards) != V.shape[0]:
         raise ValueError(f"the deck has {len(cards)} GRID cards, the positions {V.shape[0]} rows")
     for card, x in zip(cards, np.asarray(V, dtype=np.float64), strict=True):
+        if large and card.style == "small" and _needs_large(lines, card, x):
+            k = card.spans[0][0]
+            lines[k] = _large_card(lines[k], x)
+            continue
         # right to left, so that free-field spans on one line stay valid
         for k, a, b in sorted(card.spans, key=lambda t: (t[0], -t[1])):
             v = float(x[card.spans.index((k, a, b))])
@@ -76,3 +94,28 @@ def patch_bdf(data: bytes, V: np.ndarray) -> bytes:
                 body = body.ljust(b)  # a short line: its blank fields are there
             lines[k] = body[:a] + text + body[b:] + end
     return b"".join(lines)
+
+
+def _needs_large(lines: list[bytes], card: GridCard, x: np.ndarray) -> bool:
+    """Whether a small-field card's new coordinates ``x`` lose digits in its 8-column fields."""
+    for (k, a, b), v in zip(card.spans, x, strict=True):
+        v = float(v)
+        if nastran_float(lines[k].rstrip(b"\r\n")[a:b]) != v and nastran_float(nastran_real(v, 8)) != v:
+            return True
+    return False
+
+
+def _large_card(line: bytes, x: np.ndarray) -> bytes:
+    """A small-field GRID line as a large-field GRID* card at ``x`` (two lines, the line's own end).
+
+    Field 10 of the first line and field 1 of the continuation are left blank
+    but for the ``*``: the continuation follows its parent directly.
+    """
+    body = line.rstrip(b"\r\n")
+    end = line[len(body):] or b"\n"
+    text = body.decode("ascii").ljust(72)
+    gid, cp, cd, ps, seid = (text[a:a + 8].strip() for a in (8, 16, 48, 56, 64))
+    X = [nastran_real(float(v), 16) for v in x]
+    first = f"GRID*   {gid:<16}{cp:<16}{X[0]:>16}{X[1]:>16}"
+    second = f"*       {X[2]:>16}{cd:<16}{ps:<16}{seid:<16}".rstrip()
+    return first.encode() + end + second.encode() + end

@@ -19,6 +19,8 @@ from ..mesh import Mesh
 from .content import content
 from .conversion import CELL_DATA_FORMATS, Conversion, Loss, abaqus_name, convert
 from .formats import a_format, describe, format_of
+from .nastran import grid_rounding
+from .patch_bdf import patch_bdf
 from .patchers import patcher_for
 
 __all__ = ["write_mesh", "tet_cell_data", "Written"]
@@ -46,6 +48,11 @@ class Written:
     skipped : list of str
         Requested extras the format does not store (per-element quality in an
         Abaqus deck, ...).
+    write_rounding : float or None
+        Nastran decks: the largest difference, over every coordinate of every
+        GRID card, between the value written and the position given (length
+        units; 8-column small fields round to about seven digits). None for
+        the other formats.
     """
 
     path: str
@@ -55,18 +62,20 @@ class Written:
     dropped: list[dict[str, Any]] = field(default_factory=list)
     renamed: dict[str, str] = field(default_factory=dict)
     skipped: list[str] = field(default_factory=list)
+    write_rounding: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The record as a JSON-ready dict."""
         return {"path": self.path, "format": self.format, "files": self.files, "patched": self.patched,
-                "dropped": self.dropped, "renamed": self.renamed, "skipped": self.skipped}
+                "dropped": self.dropped, "renamed": self.renamed, "skipped": self.skipped,
+                "write_rounding": self.write_rounding}
 
 
 def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
                file_format: str | None = None, point_data: dict[str, np.ndarray] | None = None,
                cell_data: dict[str, list[np.ndarray]] | None = None,
                point_sets: dict[str, np.ndarray] | None = None, quality: bool = False,
-               lossy: bool = False) -> Written:
+               lossy: bool = False, nastran_large: bool = False) -> Written:
     """Write ``mesh`` with new coordinates ``V``, changing nothing else.
 
     Written in the format of the file the mesh was read from, the file is
@@ -103,6 +112,13 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     lossy : bool
         Write even when the format cannot hold everything; the losses are
         listed in the result's ``dropped``.
+    nastran_large : bool
+        Patching a Nastran deck, write each moved node whose coordinates do
+        not fit its 8-column small-field card exactly as a large-field
+        ``GRID*`` card (16-column fields); other cards keep their text
+        (:func:`~solver.io.patch_bdf.patch_bdf`). Listed in ``skipped`` for
+        other formats. A deck written from another format is large field
+        throughout.
 
     Returns
     -------
@@ -132,9 +148,11 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     holds_cells = fmt in CELL_DATA_FORMATS
     if quality and not holds_cells:
         skipped.append(f"quality: {describe(fmt)} holds no per-element data")
+    if nastran_large and fmt != "nastran":
+        skipped.append(f"nastran_large: {describe(fmt)} is not a Nastran deck")
     losses: list[Loss] = []
     patched = _patch_in_place(mesh, V, target, fmt, point_sets, point_data, cell_data, quality and holds_cells,
-                              losses)
+                              losses, nastran_large)
     if patched is not None:
         patched.skipped = skipped
         return patched
@@ -161,7 +179,11 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     if losses and not lossy:
         raise _lossy_error(target, fmt, losses)
     files = _write(conv, target)
-    return Written(target, fmt, files, False, [x.to_dict() for x in losses], conv.renamed, skipped)
+    rounding = None
+    if fmt == "nastran":
+        with open(target, "rb") as fh:
+            rounding = _rounding(fh.read(), np.asarray(conv.mesh.points, dtype=np.float64), target)
+    return Written(target, fmt, files, False, [x.to_dict() for x in losses], conv.renamed, skipped, rounding)
 
 
 def _lossy_error(target: str, fmt: str, losses: list[Loss]) -> LossyWriteError:
@@ -174,7 +196,7 @@ def _lossy_error(target: str, fmt: str, losses: list[Loss]) -> LossyWriteError:
 
 def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets: dict[str, np.ndarray] | None,
                     point_data: dict[str, np.ndarray] | None, cell_data: dict[str, list[np.ndarray]] | None,
-                    cell_extras: bool, losses: list[Loss]) -> Written | None:
+                    cell_extras: bool, losses: list[Loss], nastran_large: bool = False) -> Written | None:
     """Write the mesh's own file with new coordinates when ``target`` has its format.
 
     Returns None otherwise, after adding a ``file_content`` loss when the patch failed.
@@ -191,7 +213,8 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
         reason = f"its node definitions no longer match the mesh's {mesh.n} points"
     else:
         try:
-            data = p.patch(mesh.raw, V)
+            data = patch_bdf(mesh.raw, V, large=True) if nastran_large and p.name == "nastran" else \
+                p.patch(mesh.raw, V)
         except ValueError as e:
             reason = str(e)
         if data is None and reason is None:
@@ -211,7 +234,17 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
         with open(cp, "wb") as fh:
             fh.write(mesh.companions[ext])
         files.append(cp)
-    return Written(main, fmt, files, True)
+    rounding = _rounding(data, V, main) if p.name == "nastran" else None
+    return Written(main, fmt, files, True, write_rounding=rounding)
+
+
+def _rounding(deck: bytes, V: np.ndarray, path: str) -> float:
+    """:func:`~solver.io.nastran.grid_rounding` of a deck just written."""
+    try:
+        return grid_rounding(deck, V[:, :3] if V.shape[1] >= 3 else np.c_[V, np.zeros((len(V), 3 - V.shape[1]))])
+    except ValueError as e:
+        raise InvalidMeshError(f"cannot read back the GRID cards of {os.path.basename(path)!r}: {e}",
+                               code="unwritable_format", format="nastran") from e
 
 
 _STEP = re.compile(rb"^\s*\*\s*step\b", re.IGNORECASE | re.MULTILINE)

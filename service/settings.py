@@ -87,6 +87,13 @@ class Settings(BaseSettings):
                                        description="Largest zip a batch may produce (the job fails above).")
     batch_time_limit_s: float = Field(3600.0, gt=0, description="A batch running longer is stopped.")
     batch_workers: int = Field(1, gt=0, description="Batches solved at once per replica (more queue).")
+    study_solvers: dict[str, str] = Field(default_factory=dict, description="FE solver commands a study "
+                                          "may run, by name (JSON, e.g. {\"ccx\": \"ccx -i {stem}\"}; "
+                                          "{stem}, {deck}, {dir}, {i} substituted). A study names one; clients "
+                                          "never send a command. Empty: POST /v1/sessions/{id}/study answers "
+                                          "422 solver_unavailable.")
+    study_timeout_s: float = Field(600.0, gt=0, description="Longest a study's solver run may take; a study "
+                                   "may ask for less.")
     bounds_time_limit_s: float = Field(30.0, gt=0,
                                        description="POST /v1/sessions/{id}/bounds stops after this (422).")
 

@@ -14,7 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictStr
 
 from .move import Move
 
-__all__ = ["PlanTable", "BatchCreate", "BoundsQuery", "shapes_document"]
+__all__ = ["PlanTable", "BatchCreate", "StudyCreate", "BoundsQuery", "shapes_document"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
@@ -49,6 +49,34 @@ class BatchCreate(BaseModel):
     block: int = Field(16, ge=1, le=1024, description="rows per stacked back-substitution")
     inversion: Literal["warn", "reject", "clamp"] | None = Field(
         None, description="override the SPEC's policy; 'reject' writes no deck for an inverting row")
+
+    def shapes_doc(self) -> dict[str, Any]:
+        """The SHAPES document for :func:`solver.workflows.parse_shapes`."""
+        return shapes_document(self.shapes)
+
+
+class StudyCreate(BaseModel):
+    """Morph every row of a PLAN, run the FE solver on each deck and table its responses (``tetmorph study``)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [{
+        "shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}},
+        "plan": {"columns": ["bend"], "rows": [[0.0], [0.5]]}, "solver": "ccx"}]})
+
+    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000,
+                                          description="SHAPES: name -> MOVE at parameter value 1")
+    plan: PlanTable | Annotated[str, Field(max_length=50_000_000)] = Field(
+        description="{columns, rows}, or the text of a PLAN CSV file (header of shape names)")
+    solver: StrictStr = Field(min_length=1, max_length=64, description="a solver name of the service's "
+                              "TETMORPH_STUDY_SOLVERS (the service runs its configured command)")
+    response: Literal["ccx"] = Field("ccx", description="the response reader: ccx (CalculiX .dat: "
+                                     "max_displacement, max_mises, mass, freq_k)")
+    timeout_s: float | None = Field(None, gt=0, allow_inf_nan=False, description="seconds per solver run "
+                                    "(at most, and by default, TETMORPH_STUDY_TIMEOUT_S)")
+    format: StrictStr | None = Field(None, max_length=40, description="deck format name or extension; "
+                                     "default the mesh's own")
+    block: int = Field(16, ge=1, le=1024, description="rows per stacked back-substitution")
+    inversion: Literal["warn", "reject", "clamp"] = Field(
+        "reject", description="the morph's policy; 'reject' (default) records an inverting row, unsolved")
 
     def shapes_doc(self) -> dict[str, Any]:
         """The SHAPES document for :func:`solver.workflows.parse_shapes`."""

@@ -47,7 +47,7 @@ class JobDoc(BaseModel):
     """A job: a tetrahedralization, or a batch of plan rows on a session."""
 
     id: str
-    kind: Literal["tetrahedralize", "batch"] = "tetrahedralize"
+    kind: Literal["tetrahedralize", "batch", "study"] = "tetrahedralize"
     status: Literal["queued", "running", "done", "failed", "cancelled"]
     stage: str = Field(description="reading, tetrahedralizing, storing, solving, done")
     progress: float = Field(description="0 to 1: rows done / rows of a batch; fTetWild reports no finer progress")
@@ -59,5 +59,7 @@ class JobDoc(BaseModel):
     session_id: str | None = Field(None, description="the session of a batch")
     rows_done: int | None = Field(None, description="plan rows solved so far (batch)")
     rows_total: int | None = Field(None, description="plan rows (batch)")
-    summary: dict[str, Any] | None = Field(None, description="variants ok / rejected / conflict, engine, timings")
-    result: str | None = Field(None, description="where to GET the zip of decks and summary.csv when done")
+    summary: dict[str, Any] | None = Field(None, description="variants ok / rejected / conflict, engine, timings "
+                                           "(a study: rows per status)")
+    result: str | None = Field(None, description="where to GET the zip when done: decks and summary.csv "
+                               "(batch); each row's folder and study.csv (study)")

@@ -70,7 +70,7 @@ class Job:
                "time_limit_s": self.time_limit_s, "created": self.created, "error": self.error,
                "mesh": self.result}
         if self.kind != "tetrahedralize":
-            base = f"/v1/sessions/{self.session_id}/batch/{self.id}"
+            base = f"/v1/sessions/{self.session_id}/{'study' if self.kind == 'study' else 'batch'}/{self.id}"
             doc.update({"session_id": self.session_id, "rows_done": self.done, "rows_total": self.total,
                         "summary": self.summary, "result": base + "/result" if self.status == "done" else None})
         return doc

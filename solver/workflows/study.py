@@ -41,7 +41,8 @@ from .doe import BLOCK, deck_writer, run_doe, write_rows
 from .plan import Plan
 from .shapes import Shapes
 
-__all__ = ["StudyRow", "ccx_responses", "load_response", "run_study", "write_table", "DEFAULT_TIMEOUT_S"]
+__all__ = ["StudyRow", "ccx_responses", "load_response", "morph_rows", "solve_row", "run_study", "write_table",
+           "DEFAULT_TIMEOUT_S"]
 
 #: Seconds a solver run may take before it is stopped and recorded as ``timeout``.
 DEFAULT_TIMEOUT_S = 600.0
@@ -233,6 +234,44 @@ def _solve(row: StudyRow, template: str, response: Response, timeout: float) -> 
     row.status = "ok"
 
 
+def morph_rows(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, output: str,
+               file_format: str | None = None, block: int = BLOCK, inversion: str | None = "reject",
+               cancelled: Callable[[], bool] | None = None) -> list[StudyRow]:
+    """Morph every plan row and write its deck: the rows of a study, not solved yet.
+
+    Parameters
+    ----------
+    mesh, deformer, shapes, plan
+        As for :func:`~solver.workflows.doe.run_doe`.
+    output : str
+        Deck path per row; ``{i}`` is the plan row (from 1).
+    file_format : str, optional
+        meshio format name of the decks (default: the extension).
+    block, inversion, cancelled
+        As for :func:`~solver.workflows.doe.run_doe` (default policy ``reject``).
+
+    Returns
+    -------
+    list of StudyRow
+        In plan order; rows that are not ``ok`` say why in ``message``.
+    """
+    result = run_doe(deformer, shapes, plan, block=block, output=deck_writer(mesh, output, file_format),
+                     inversion=inversion, cancelled=cancelled)
+    rows = []
+    for v in result.variants:
+        r = StudyRow(v.row, v.parameters, v.status, v.inverted, v.min_scaled_jacobian, v.max_displacement, v.file)
+        if not (v.status == "ok" and v.file is not None):
+            r.message = "not solved: the morph was " + v.status
+        rows.append(r)
+    return rows
+
+
+def solve_row(row: StudyRow, solver: str, response: Response, timeout: float = DEFAULT_TIMEOUT_S) -> None:
+    """Run the solver on a morphed row's deck and read its responses into ``row`` (a no-op for other rows)."""
+    if row.status == "ok" and row.deck is not None:
+        _solve(row, solver, response, timeout)
+
+
 def run_study(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, output: str, solver: str,
               response: Response, timeout: float = DEFAULT_TIMEOUT_S, block: int = BLOCK,
               inversion: str | None = "reject",
@@ -262,15 +301,9 @@ def run_study(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, out
         In plan order.
     """
     check_solver(solver)
-    result = run_doe(deformer, shapes, plan, block=block, output=deck_writer(mesh, output), inversion=inversion)
-    rows = []
-    for v in result.variants:
-        r = StudyRow(v.row, v.parameters, v.status, v.inverted, v.min_scaled_jacobian, v.max_displacement, v.file)
-        if v.status == "ok" and v.file is not None:
-            _solve(r, solver, response, timeout)
-        else:
-            r.message = "not solved: the morph was " + v.status
-        rows.append(r)
+    rows = morph_rows(mesh, deformer, shapes, plan, output=output, block=block, inversion=inversion)
+    for r in rows:
+        solve_row(r, solver, response, timeout)
         if progress is not None:
             progress(r)
     return rows

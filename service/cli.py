@@ -80,16 +80,26 @@ def _doe(args: argparse.Namespace, local: Any) -> int:
     return int(local(args))
 
 
+def _study(args: argparse.Namespace, local: Any) -> int:
+    """``tetmorph study``: this process, or the morphs on Ray actors and each solver run a task."""
+    if args.engine == "ray":
+        from solver.workflows.ray_study import cmd_study_ray
+
+        return cmd_study_ray(args)
+    return int(local(args))
+
+
 def add_engine(sub: Any) -> None:
-    """Give ``tetmorph doe`` its ``--engine ray [--address ADDR] [--actors N]`` options."""
+    """Give ``tetmorph doe`` and ``tetmorph study`` their ``--engine ray [--address ADDR] [--actors N]``."""
     from solver.workflows.ray_engine import add_ray_options
 
-    doe = sub.choices.get("doe")
-    if doe is None:
-        return
-    add_ray_options(doe)
-    local = doe.get_default("func")
-    doe.set_defaults(func=lambda args: _doe(args, local))
+    for name, run in (("doe", _doe), ("study", _study)):
+        cmd = sub.choices.get(name)
+        if cmd is None:
+            continue
+        add_ray_options(cmd)
+        local = cmd.get_default("func")
+        cmd.set_defaults(func=lambda args, run=run, local=local: run(args, local))
 
 
 def add_serve(sub: Any) -> None:

@@ -41,8 +41,8 @@ from .doe import BLOCK, deck_writer, run_doe, write_rows
 from .plan import Plan
 from .shapes import Shapes
 
-__all__ = ["StudyRow", "ccx_responses", "load_response", "morph_rows", "solve_row", "run_study", "write_table",
-           "DEFAULT_TIMEOUT_S"]
+__all__ = ["StudyRow", "ccx_responses", "load_response", "morph_rows", "solve_row", "read_run", "run_study",
+           "write_table", "DEFAULT_TIMEOUT_S"]
 
 #: Seconds a solver run may take before it is stopped and recorded as ``timeout``.
 DEFAULT_TIMEOUT_S = 600.0
@@ -219,11 +219,20 @@ def _solve(row: StudyRow, template: str, response: Response, timeout: float) -> 
         row.solver_s, row.status, row.message = time.perf_counter() - t0, "timeout", f"stopped after {timeout:g} s"
         return
     row.solver_s = time.perf_counter() - t0
-    (deck.parent / f"{deck.stem}.solver.log").write_text(out.stdout + out.stderr)
-    errors = [ln.strip() for ln in (out.stdout + out.stderr).splitlines() if "*ERROR" in ln]
-    if out.returncode != 0 or errors:
+    read_run(row, deck, out.returncode, out.stdout + out.stderr, response)
+
+
+def read_run(row: StudyRow, deck: Path, returncode: int, log: str, response: Response) -> None:
+    """A finished solver run into ``row``: its log beside the deck, its status, its responses.
+
+    ``solver_failed`` for a non-zero exit or an ``*ERROR`` line in its output;
+    ``response_failed`` when the reader raises; else ``ok`` with the responses.
+    """
+    (deck.parent / f"{deck.stem}.solver.log").write_text(log)
+    errors = [ln.strip() for ln in log.splitlines() if "*ERROR" in ln]
+    if returncode != 0 or errors:
         row.status = "solver_failed"
-        row.message = (errors[0] if errors else f"exit code {out.returncode}")[:300]
+        row.message = (errors[0] if errors else f"exit code {returncode}")[:300]
         return
     try:
         got = response(deck)

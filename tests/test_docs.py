@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import subprocess
@@ -142,17 +143,31 @@ def _needs_ccx(page: Path) -> bool:
     return any(re.search(r"\bccx\b", s) for s in _blocks(page, "sh"))
 
 
-@pytest.mark.parametrize("page", [pytest.param(p, marks=[pytest.mark.ccx] if _needs_ccx(p) else [])
-                                  for p in TUTORIALS], ids=[p.stem for p in TUTORIALS])
+def _marks(page: Path) -> list:
+    marks = [pytest.mark.ccx] if _needs_ccx(page) else []
+    if any("serve_process" in c for c in _blocks(page, "python")):
+        marks.append(pytest.mark.slow)  # a real server process: make test, not make check
+    return marks
+
+
+@pytest.mark.parametrize("page", [pytest.param(p, marks=_marks(p)) for p in TUTORIALS],
+                         ids=[p.stem for p in TUTORIALS])
 def test_every_block_of_a_tutorial_runs_as_written(page, monkeypatch):
+    """The page's Python and shell blocks run in the order they appear, sharing the environment."""
     monkeypatch.chdir(ROOT)  # the pages' paths are the repository's
     monkeypatch.setenv("PATH", f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")  # venv on
+    monkeypatch.setenv("TETMORPH_URL", "")  # a page may set it for its shell blocks; restored afterwards
     (ROOT / "out").mkdir(exist_ok=True)
     scope: dict = {}
-    for code in _blocks(page, "python"):
-        exec(compile(code, f"{page.name}", "exec"), scope)  # noqa: S102 - the page's own code
-    env = dict(os.environ)
-    for script in _blocks(page, "sh"):
-        r = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=ROOT, capture_output=True, text=True,
-                           timeout=600, env=env)
-        assert r.returncode == 0, f"{page.name}:\n{script}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
+    try:
+        for lang, code in re.findall(r"```(python|sh)\n(.*?)```", page.read_text(), re.S):
+            if lang == "python":
+                exec(compile(code, f"{page.name}", "exec"), scope)  # noqa: S102 - the page's own code
+                continue
+            r = subprocess.run(["bash", "-euo", "pipefail", "-c", code], cwd=ROOT, capture_output=True, text=True,
+                               timeout=600, env=dict(os.environ))
+            assert r.returncode == 0, f"{page.name}:\n{code}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
+    finally:  # a server or a client the page opened is closed even when a block fails
+        for value in scope.values():
+            if isinstance(value, contextlib.ExitStack):
+                value.close()

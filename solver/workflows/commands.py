@@ -45,7 +45,7 @@ from .optimize import (
 from .plan import Plan, plan_values, read_plan
 from .sensitivities import shape_sensitivities, write_sensitivities
 from .shapes import Shapes, parse_shapes
-from .study import DEFAULT_TIMEOUT_S, StudyRow, check_solver, load_response, run_study, write_table
+from .study import DEFAULT_TIMEOUT_S, StudyRow, check_solver, load_reader, load_response, run_study, write_table
 
 __all__ = ["add_commands", "build_parser", "main"]
 
@@ -204,7 +204,9 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     given = _assignments(args.bounds, "bounds", pair=True)
     starts = _assignments(args.start, "start", pair=False)
     check_solver(args.solver)
-    response = load_response(args.response)
+    response, gradient = load_reader(args.response)
+    if args.no_gradient or args.method != "slsqp":
+        gradient = None
     mesh, deformer, shapes = _setup(args)
     unknown = sorted(set(starts) - set(shapes.names))
     if unknown:
@@ -223,7 +225,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     result = run_optimize(mesh, deformer, shapes, output=args.output, solver=args.solver, response=response,
                           objective=args.objective, constraints=conditions, maximize=args.maximize, bounds=bounds,
                           start=start, method=args.method, max_evaluations=args.max_evaluations, step=args.step,
-                          timeout=args.timeout, progress=progress)
+                          timeout=args.timeout, gradient=gradient, progress=progress)
     write_history(result, shapes.names, args.objective, args.history)
     if args.plot:
         write_plot(result, args.objective, args.plot)
@@ -306,6 +308,8 @@ def add_commands(subparsers: Any) -> None:
     po.add_argument("--method", choices=METHODS, default="slsqp", help="slsqp (forward differences, default) "
                     "or cobyqa (derivative-free)")
     po.add_argument("--max-evaluations", type=int, default=40, help="solver runs at most (default 40)")
+    po.add_argument("--no-gradient", action="store_true", help="difference the responses even when the "
+                    "response file defines gradient(deck)")
     po.add_argument("--step", type=float, default=STEP, help=f"forward-difference step, as a fraction of each "
                     f"shape's range (default {STEP:g})")
     po.add_argument("--output", required=True, help="deck per evaluation; '{i}' is the evaluation (from 1)")

@@ -18,6 +18,14 @@ of their bounds, ``u = (theta - lo) / (hi - lo)``:
 - ``cobyqa``: scipy's derivative-free COBYQA, for responses too noisy to
   difference.
 
+Where the response file also defines ``gradient(deck) -> {name: (n, 3)
+array}``, the derivatives of responses with respect to the node
+coordinates (in the order of the mesh's points as read: an adjoint
+solver's nodal sensitivities, or the user's own), SLSQP takes no
+differences: each gradient is chained with tetmorph's exact ``dX/dtheta``
+(:func:`~solver.workflows.sensitivities.shape_sensitivities`),
+``dR/dtheta_k = sum_i dR/dX_i . dX_i/dtheta_k``, one evaluation per iterate.
+
 The default bounds of each shape are its safe range (:func:`~solver.workflows.bounds.shape_bounds`:
 the largest values either way that invert no element, each shape alone),
 scaled by ``safety`` because shapes combined can invert where each alone
@@ -43,6 +51,7 @@ from ..mesh import Mesh
 from .bounds import shape_bounds
 from .doe import write_rows
 from .plan import parse_plan
+from .sensitivities import shape_sensitivities
 from .shapes import Shapes
 from .study import DEFAULT_TIMEOUT_S, Response, StudyRow, check_solver, run_study
 
@@ -117,6 +126,9 @@ class Evaluation:
     objective : float or None
     slacks : dict of str to float
         Each constraint's slack (``>= 0`` when met).
+    gradients : dict of str to (K,) float array
+        ``dR/dtheta`` of the objective and the constrained responses, when the
+        response file gives ``gradient(deck)`` (chained with ``dX/dtheta``).
     """
 
     index: int
@@ -125,6 +137,7 @@ class Evaluation:
     study: StudyRow
     objective: float | None = None
     slacks: dict[str, float] = field(default_factory=dict)
+    gradients: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def feasible(self) -> bool:
@@ -202,6 +215,7 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
                  objective: str, constraints: Sequence[Condition] = (), maximize: bool = False,
                  bounds: np.ndarray, start: np.ndarray | None = None, method: str = "slsqp",
                  max_evaluations: int = 40, step: float = STEP, timeout: float = DEFAULT_TIMEOUT_S,
+                 gradient: Callable[[Any], dict[str, Any]] | None = None,
                  progress: Callable[[Evaluation], None] | None = None) -> OptimizeResult:
     """Minimize (or maximize) a response over the shape parameters, subject to response constraints.
 
@@ -225,7 +239,11 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
     max_evaluations : int
         Solver runs at most (each iterate and each difference probe is one).
     step : float
-        Forward-difference step in the unit box (``slsqp``).
+        Forward-difference step in the unit box (``slsqp`` without ``gradient``).
+    gradient : callable, optional
+        ``gradient(deck) -> {name: (n, 3) array}``: derivatives of the objective
+        and of each constrained response with respect to the node coordinates
+        (``slsqp`` only); chained with ``dX/dtheta`` instead of differences.
     progress : callable, optional
         Called with each evaluation when it is done.
 
@@ -252,8 +270,11 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
     x0 = np.zeros(shapes.count) if start is None else np.asarray(start, float)
     if x0.shape != (shapes.count,) or not np.isfinite(x0).all():
         raise SolverError(f"--start needs {shapes.count} finite values (shapes {list(shapes.names)})", code="usage")
+    if gradient is not None and method != "slsqp":
+        raise SolverError("response gradients are used by --method slsqp only", code="usage")
     check_solver(solver)
     sign = -1.0 if maximize else 1.0
+    wanted = (objective, *dict.fromkeys(c.name for c in constraints))
     history: list[Evaluation] = []
     seen: dict[bytes, Evaluation] = {}
     state: dict[str, Any] = {"iteration": 0, "role": "start"}
@@ -284,6 +305,8 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
             else:
                 ev.objective = row.responses[objective]
                 ev.slacks = {str(c): c.slack(row.responses) for c in constraints}
+                if gradient is not None:
+                    _chain(ev, gradient, deformer, shapes, t, wanted)
         if progress is not None:
             progress(ev)
         if row.status != "ok":
@@ -297,6 +320,13 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
     def g(u: np.ndarray) -> np.ndarray:
         ev = evaluate(u)
         return np.array([ev.slacks[str(c)] for c in constraints])
+
+    def f_chained(u: np.ndarray) -> np.ndarray:  # d/du = d/dtheta * (hi - lo)
+        return sign * evaluate(u).gradients[objective] * (hi - lo)
+
+    def g_chained(u: np.ndarray) -> np.ndarray:
+        ev = evaluate(u)
+        return np.stack([(1.0 if c.op == ">=" else -1.0) * ev.gradients[c.name] * (hi - lo) for c in constraints])
 
     def differences(fn: Callable[[np.ndarray], Any], u: np.ndarray) -> np.ndarray:
         base = np.asarray(fn(u), float)
@@ -324,11 +354,13 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
         cons = []
         if constraints:
             if method == "slsqp":
-                cons = [{"type": "ineq", "fun": g, "jac": lambda u: differences(g, u)}]
+                cons = [{"type": "ineq", "fun": g,
+                         "jac": g_chained if gradient is not None else (lambda u: differences(g, u))}]
             else:
                 cons = [NonlinearConstraint(g, 0.0, np.inf)]
         if method == "slsqp":
-            res = minimize(f, u0, jac=lambda u: differences(f, u), bounds=[(0.0, 1.0)] * len(u0),
+            jac = f_chained if gradient is not None else (lambda u: differences(f, u))
+            res = minimize(f, u0, jac=jac, bounds=[(0.0, 1.0)] * len(u0),
                            constraints=cons, method="SLSQP", callback=advance,
                            options={"maxiter": max_evaluations, "ftol": 1e-6})
         else:
@@ -341,6 +373,29 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
     feasible = [e for e in history if e.feasible]
     best = min(feasible, key=lambda e: sign * float(e.objective)) if feasible else None  # type: ignore[arg-type]
     return OptimizeResult(history, best, history[0] if history else None, status, message, np.c_[lo, hi])
+
+
+def _chain(ev: Evaluation, gradient: Callable[[Any], dict[str, Any]], deformer: Deformer, shapes: Shapes,
+           theta: np.ndarray, wanted: tuple[str, ...]) -> None:
+    """``dR/dtheta`` of the wanted responses into ``ev`` from the user's ``dR/dX``, or a failed row."""
+    row = ev.study
+    n = deformer.data.mesh.n
+    try:
+        got = dict(gradient(row.deck))
+        grads = {}
+        for name in wanted:
+            if name not in got:
+                raise ValueError(f"gradient(deck) gives no {name!r} (gave {sorted(got)})")
+            G = np.asarray(got[name], np.float64)
+            if G.shape != (n, 3) or not np.isfinite(G).all():
+                raise ValueError(f"gradient {name!r} must be a finite ({n}, 3) array, got shape {G.shape}")
+            grads[name] = G
+    except Exception as e:  # the user's function: whatever it raises is recorded on the row
+        row.status, row.message = "response_failed", f"gradient: {type(e).__name__}: {e}"[:300]
+        ev.objective, ev.slacks = None, {}
+        return
+    D = shape_sensitivities(deformer, shapes, theta).derivatives  # (K, n, 3)
+    ev.gradients = {name: np.einsum("knj,nj->k", D, G) for name, G in grads.items()}
 
 
 def _named(shapes: Shapes, t: np.ndarray) -> str:

@@ -41,8 +41,8 @@ from .doe import BLOCK, deck_writer, run_doe, write_rows
 from .plan import Plan
 from .shapes import Shapes
 
-__all__ = ["StudyRow", "ccx_responses", "load_response", "morph_rows", "solve_row", "read_run", "run_study",
-           "write_table", "DEFAULT_TIMEOUT_S"]
+__all__ = ["StudyRow", "ccx_responses", "load_response", "load_reader", "morph_rows", "solve_row", "read_run",
+           "run_study", "write_table", "DEFAULT_TIMEOUT_S"]
 
 #: Seconds a solver run may take before it is stopped and recorded as ``timeout``.
 DEFAULT_TIMEOUT_S = 600.0
@@ -165,8 +165,22 @@ def load_response(what: str) -> Response:
     SolverError
         ``invalid_response`` for a file that is missing, does not import, or has no ``response``.
     """
+    return load_reader(what)[0]
+
+
+def load_reader(what: str) -> tuple[Response, Callable[[Path], dict[str, object]] | None]:
+    """The response reader and the file's gradient: ``(response, gradient)``.
+
+    ``gradient`` is the file's ``gradient(deck) -> {name: (n, 3) array}`` when
+    it defines one, else None (always for ``ccx``).
+
+    Raises
+    ------
+    SolverError
+        As :func:`load_response`.
+    """
     if what == "ccx":
-        return ccx_responses
+        return ccx_responses, None
     path = Path(what)
     if not path.is_file():
         raise SolverError(f"--response {what!r}: no such file (or 'ccx' for the built-in reader)",
@@ -183,7 +197,8 @@ def load_response(what: str) -> Response:
     fn = getattr(module, "response", None)
     if not callable(fn):
         raise SolverError(f"--response {what!r} defines no function response(deck)", code="invalid_response")
-    return fn  # type: ignore[no-any-return]
+    grad = getattr(module, "gradient", None)
+    return fn, grad if callable(grad) else None
 
 
 def _command(template: str, deck: Path, row: int) -> list[str]:

@@ -17,8 +17,9 @@ Two tools (Masuda, Ogawa et al., "Preserving form features", §4.3 and §6):
     any orientation: it is the null direction of the patch's normals, refined
     with the centre and radius on the vertices. A bore blended into its
     neighbours by a fillet or chamfer has no sharp edge around it; when no
-    primitive fits a whole patch, the cylinders that close around their axis
-    are grown out of it and the rest is fitted again. Each candidate is a
+    primitive fits a whole patch and the patch has a loop a bore could close
+    (two border loops that are not small islands, or a handle), the cylinders that close around their
+    axis are grown out of it and the rest is fitted again. Each candidate is a
     named vertex selection usable in a SPEC.
 """
 
@@ -42,6 +43,9 @@ CAPACITY_SCALE = 1_000_000
 #: A cylinder found inside a larger patch is a bore (or a boss) when its vertices leave no gap
 #: around the axis wider than this (radians); a fillet's quarter cylinder stays with its patch.
 MAX_BORE_GAP = np.pi / 2
+#: A seed ring whose vertices are farther than this (over the radius) from the circle fitted about
+#: the normals' null direction is not fitted further (coarse gmsh cylinders stay below 0.03).
+SEED_MISFIT = 0.05
 
 
 def _face_normals(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -209,49 +213,56 @@ def _plane_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.array([a1 * e1[2] - a2 * e1[1], a2 * e1[0] - a0 * e1[2], a0 * e1[1] - a1 * e1[0]])
 
 
-def _refine_cylinder(X: np.ndarray, axis: np.ndarray, base: np.ndarray, r: float
+def _refine_cylinder(X: np.ndarray, axis: np.ndarray, base: np.ndarray, r: float, give_up: float | None = None
                      ) -> tuple[np.ndarray, np.ndarray, float]:
     """Gauss-Newton on the distances of ``X`` (centred points) to the cylinder surface.
 
     Each step tilts the axis, moves ``base`` (a point on the axis) in the plane
     orthogonal to it and changes the radius; the basis is rebuilt around the
-    new axis, so the parametrisation stays free of singularities.
+    new axis, so the parametrisation stays free of singularities. With
+    ``give_up``, the iteration stops after three steps whose rms distance is
+    still above ``give_up`` times the radius: points on a cylinder are fitted
+    to round-off by then.
     """
-    def resid(ax: np.ndarray, c: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        d = X - c
-        t = d @ ax
-        u = d - np.outer(t, ax)
-        dist = np.linalg.norm(u, axis=1)
-        return dist - rho, u / np.maximum(dist, 1e-300)[:, None], t
+    def resid(ax: np.ndarray, c: np.ndarray, rho: float) -> tuple[np.ndarray, ...]:
+        e1, e2 = _plane_basis(ax)
+        Y = X @ np.column_stack([e1, e2, ax])
+        x, y = Y[:, 0] - c @ e1, Y[:, 1] - c @ e2
+        dist = np.maximum(np.hypot(x, y), 1e-300)
+        return dist - rho, x / dist, y / dist, Y[:, 2] - c @ ax, e1, e2
 
-    f, uh, t = resid(axis, base, r)
+    f, ux, uy, t, e1, e2 = resid(axis, base, r)
     cost = float(f @ f)
-    for _ in range(60):
-        e1, e2 = _plane_basis(axis)
-        u1, u2 = uh @ e1, uh @ e2
-        J = np.column_stack([-t * u1, -t * u2, -u1, -u2, -np.ones_like(t)])
-        step = np.linalg.lstsq(J, -f, rcond=None)[0]
-        for _ in range(30):  # halve a step that does not lower the cost
+    for it in range(60):
+        if give_up is not None and it >= 3 and cost > give_up ** 2 * r * r * X.shape[0]:
+            break
+        J = np.column_stack([-t * ux, -t * uy, -ux, -uy, -np.ones_like(t)])
+        try:
+            step = np.linalg.solve(J.T @ J, -(J.T @ f))
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(J, -f, rcond=None)[0]
+        for _ in range(6):  # halve a step that does not lower the cost (none does once converged)
             ax = axis + step[0] * e1 + step[1] * e2
-            ax /= np.linalg.norm(ax)
+            ax /= np.sqrt(ax @ ax)
             c = base + step[2] * e1 + step[3] * e2
             c -= (c @ ax) * ax  # the axis point nearest the centroid
-            fn, un, tn = resid(ax, c, r + step[4])
-            cn = float(fn @ fn)
+            res = resid(ax, c, r + step[4])
+            cn = float(res[0] @ res[0])
             if cn <= cost:
                 break
             step = 0.5 * step
         else:
             break
         small = np.abs(step[:2]).max() < 1e-15 and np.abs(step[2:]).max() < 1e-15 * max(r, 1e-300)
-        axis, base, r, f, uh, t = ax, c, r + float(step[4]), fn, un, tn
+        axis, base, r = ax, c, r + float(step[4])
+        f, ux, uy, t, e1, e2 = res
         if small or cn >= cost * (1 - 1e-14):
             break
         cost = cn
     return axis, base, r
 
 
-def _fit_cylinder(P: np.ndarray, N: np.ndarray, w: np.ndarray, C: np.ndarray
+def _fit_cylinder(P: np.ndarray, N: np.ndarray, w: np.ndarray, C: np.ndarray, give_up: float | None = None
                   ) -> tuple[np.ndarray, np.ndarray, float, float, float, bool]:
     """Axis from the normals (they are orthogonal to it), circle fit in the orthogonal plane.
 
@@ -261,7 +272,8 @@ def _fit_cylinder(P: np.ndarray, N: np.ndarray, w: np.ndarray, C: np.ndarray
     by geometric least squares on the vertices: facet normals only
     approximate the axis, the vertices lie on the CAD surface.
 
-    Returns ``axis, center, radius, rms, length, normals_point_inward``.
+    Returns ``axis, center, radius, rms, length, normals_point_inward``;
+    ``give_up`` is passed to :func:`_refine_cylinder`.
     """
     _, vec = np.linalg.eigh((w[:, None] * N).T @ N)
     axis = vec[:, 0]
@@ -275,7 +287,7 @@ def _fit_cylinder(P: np.ndarray, N: np.ndarray, w: np.ndarray, C: np.ndarray
     r = float(np.sqrt(max(c + a * a + b * b, 0.0)))
     base = a * e1 + b * e2
     if P.shape[0] >= 6 and r > 0:
-        axis, base, r = _refine_cylinder(X, axis, base, r)
+        axis, base, r = _refine_cylinder(X, axis, base, r, give_up)
     d = X - base
     t = d @ axis
     dist = np.linalg.norm(d - np.outer(t, axis), axis=1)
@@ -329,6 +341,32 @@ def _off_cylinder(P: np.ndarray, axis: np.ndarray, center: np.ndarray, r: float)
     """Distance of each point ``P`` (m, 3) from the cylinder surface."""
     d = P - center
     return np.abs(np.linalg.norm(d - np.outer(d @ axis, axis), axis=1) - r)
+
+
+def _has_loops(V: np.ndarray, Fp: np.ndarray) -> bool:
+    """Whether a patch (faces ``Fp``) has a loop that bounds no disk in it: two border loops, or a handle.
+
+    A cylinder that closes around its axis is such a loop; a patch shaped as a
+    disk or a sphere (an organic surface between sharp edges) holds none.
+    Border loops shorter than 5% of the patch's size (the diagonal of its
+    bounding box) are islands of small patches cut out of it, and do not count.
+    """
+    E = np.sort(np.concatenate([Fp[:, [0, 1]], Fp[:, [1, 2]], Fp[:, [2, 0]]]), axis=1)
+    E, count = np.unique(E, axis=0, return_counts=True)
+    ids = unique(Fp)
+    chi = ids.size - E.shape[0] + Fp.shape[0]
+    B = E[count == 1]
+    loops = long = 0
+    if B.size:
+        vb, inv = np.unique(B, return_inverse=True)
+        inv = inv.reshape(-1, 2)
+        G = sp.coo_matrix((np.ones(inv.shape[0]), (inv[:, 0], inv[:, 1])), shape=(vb.size, vb.size))
+        loops, lab = connected_components(G, directed=False)
+        length = np.bincount(lab[inv[:, 0]], weights=np.linalg.norm(V[B[:, 0]] - V[B[:, 1]], axis=1),
+                             minlength=loops)
+        P = V[ids]
+        long = int(np.count_nonzero(length >= 0.05 * np.linalg.norm(P.max(0) - P.min(0))))
+    return long >= 2 or 2 - chi - loops >= 2
 
 
 def _largest_gap(P: np.ndarray, axis: np.ndarray, center: np.ndarray) -> float:
@@ -403,6 +441,17 @@ def _cylinders_inside(V: np.ndarray, F: np.ndarray, N: np.ndarray, area: np.ndar
     return cylinders, rest
 
 
+def _circle_misfit(Q: np.ndarray, N: np.ndarray, w: np.ndarray) -> float:
+    """Largest distance of ``Q`` from its algebraic circle about the normals' null direction, over the radius."""
+    _, vec = np.linalg.eigh((w[:, None] * N).T @ N)
+    e1, e2 = _plane_basis(vec[:, 0])
+    X = Q - Q.mean(axis=0)
+    x, y = X @ e1, X @ e2
+    (a, b, c), *_ = np.linalg.lstsq(np.column_stack([2 * x, 2 * y, np.ones_like(x)]), x * x + y * y, rcond=None)
+    r = float(np.sqrt(max(c + a * a + b * b, 0.0)))
+    return float(np.abs(np.hypot(x - a, y - b) - r).max()) / r if r > 0 else np.inf
+
+
 def _grow_cylinder(ring: np.ndarray, seed: int, P: np.ndarray, Fl: np.ndarray, Nf: np.ndarray, Cf: np.ndarray,
                    w: np.ndarray, Gedge: sp.csr_matrix, taken: np.ndarray, tol: float) -> np.ndarray | None:
     """The faces (local indices) of the cylinder grown from a seed's ring, or None.
@@ -422,7 +471,9 @@ def _grow_cylinder(ring: np.ndarray, seed: int, P: np.ndarray, Fl: np.ndarray, N
         lam = np.linalg.eigvalsh((w[region, None] * Nf[region]).T @ Nf[region]) / w[region].sum()
         if lam[1] < 1e-8 * lam[2]:
             return None  # flat: the normals give no axis
-        axis, center, r, rms, _, _ = _fit_cylinder(Q, Nf[region], w[region], Cf[region])
+        if band is None and _circle_misfit(Q, Nf[region], w[region]) > SEED_MISFIT:
+            return None  # far from any cylinder: not worth the geometric fit
+        axis, center, r, rms, _, _ = _fit_cylinder(Q, Nf[region], w[region], Cf[region], 2 * tol)
         size = float(np.linalg.norm(Q.max(0) - Q.min(0)))
         if not (0 < r < 10 * size) or rms > tol * r:
             return None
@@ -501,7 +552,8 @@ def feature_candidates(mesh: Mesh, angle_deg: float = 30.0, tol: float = 1e-3,
             continue
         # no primitive fits the whole patch: a bore blended into its neighbours by a fillet
         # or a chamfer has no sharp edge around it; take the cylinders out, fit what is left
-        cyl, rest = _cylinders_inside(V, F, N, area, fids, pairs[smooth], tol, min_faces)
+        cyl, rest = (_cylinders_inside(V, F, N, area, fids, pairs[smooth], tol, min_faces)
+                     if _has_loops(V, F[fids]) else ([], []))
         if not cyl:
             found.append(_other(V, F, N, area, fids))
             continue

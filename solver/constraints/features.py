@@ -468,7 +468,9 @@ def _grow_cylinder(ring: np.ndarray, seed: int, P: np.ndarray, Fl: np.ndarray, N
     for _ in range(12):
         vid = unique(Fl[region])
         Q = P[vid]
-        lam = np.linalg.eigvalsh((w[region, None] * Nf[region]).T @ Nf[region]) / w[region].sum()
+        if not w[region].sum() > 0:
+            return None  # degenerate faces only
+        lam = np.linalg.eigvalsh((w[region, None] * Nf[region]).T @ Nf[region])
         if lam[1] < 1e-8 * lam[2]:
             return None  # flat: the normals give no axis
         if band is None and _circle_misfit(Q, Nf[region], w[region]) > SEED_MISFIT:
@@ -485,11 +487,16 @@ def _grow_cylinder(ring: np.ndarray, seed: int, P: np.ndarray, Fl: np.ndarray, N
         if not okid.size:
             return None
         ncomp, lab = connected_components(Gedge[okid][:, okid], directed=False)
-        # the part that overlaps the region most (the seed's part while the band is tol * r)
-        hits = np.bincount(lab[np.isin(okid, region)], minlength=ncomp)
-        if not ok[seed] and not tight or not hits.any():
-            return None
-        grown = okid[lab == int(np.argmax(hits))]
+        if not tight:  # the seed's part
+            if not ok[seed]:
+                return None
+            part = lab[np.searchsorted(okid, seed)]
+        else:  # the part that overlaps the region most (the seed may be a fillet's first row)
+            hits = np.bincount(lab[np.isin(okid, region)], minlength=ncomp)
+            if not hits.any():
+                return None
+            part = int(np.argmax(hits))
+        grown = okid[lab == part]
         if np.array_equal(grown, region):
             if tight:
                 return region

@@ -278,3 +278,12 @@ def drag_pivot(pg, dx: float, dy: float, steps: int = 12, pause: float = 0.03) -
 def canvas_box(pg) -> dict:
     return pg.eval_on_selector("#canvas", "c => { const r = c.getBoundingClientRect(); "
                                "return {x: r.left, y: r.top, w: r.width, h: r.height}; }")
+
+
+def confirm(pg, ok: bool = True, timeout: float = 5000) -> str:
+    """Answer the editor's confirmation dialog (OK or Cancel) as a person does; return what it asked."""
+    pg.wait_for_selector("#confirm-dialog[open]", timeout=timeout)
+    text = pg.inner_text("#confirm-text")
+    pg.click("#confirm-ok" if ok else "#confirm-cancel")
+    pg.wait_for_selector("#confirm-dialog:not([open])", state="attached", timeout=timeout)
+    return text

@@ -14,7 +14,7 @@ import meshio
 import numpy as np
 
 from solver import precompute, read_mesh
-from tests.browser.conftest import BRACKET, differs, drag_pivot, load_bracket, settle, shot
+from tests.browser.conftest import BRACKET, confirm, differs, drag_pivot, load_bracket, settle, shot
 
 
 def select_and_create(pg, handle_by_box: bool = True, policy: str = "warn") -> None:
@@ -89,6 +89,7 @@ def test_numeric_moves_undo_and_reset(page, server):
     settle(page)
     np.testing.assert_allclose(np.array(page.evaluate("window.tetmorph.positions()")), first, atol=1e-5)
     page.click("#reset")
+    confirm(page)
     page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
     V0 = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)"))
     np.testing.assert_array_equal(np.array(page.evaluate("window.tetmorph.positions()")), V0)

@@ -25,6 +25,7 @@ from tests.browser.conftest import (
     assign_set,
     bracket_session,
     canvas_box,
+    confirm,
     create,
     differs,
     drag,
@@ -372,6 +373,7 @@ def save_lift_preset(pg) -> np.ndarray:
 def test_named_presets_are_kept_with_the_session(page):
     moved = save_lift_preset(page)
     page.click("#reset")
+    confirm(page)
     page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
     sid = page.evaluate("window.tetmorph.state.sessionId")
     # leave the session and open it again from the list: the preset is still there
@@ -395,6 +397,7 @@ def test_presets_live_on_the_service_another_browser_sees_and_applies_them(pages
     assert stored[0]["move"] == a.evaluate("window.tetmorph.state.lastMove")  # the MOVE shown when saved
     assert a.evaluate("Object.keys(localStorage).filter((k) => k.startsWith('tetmorph-presets'))") == []
     a.click("#reset")
+    confirm(a)
     a.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
     a.close()  # the tab goes; the moved session stays on the service
     # another browser (a fresh context: nothing of the first one's storage), where an editor of before
@@ -457,6 +460,7 @@ def test_session_list_close_delete_and_reopening_a_mesh_offers_its_sessions(page
     with httpx.Client(base_url=server) as c:
         assert c.get(f"/v1/sessions/{sid}").status_code == 200  # closed here, kept there
         b.click(f"#sessions-table tr[data-id={sid}] button[data-act=delete]")
+        confirm(b)
         b.wait_for_function(f"!document.querySelector('#sessions-table tr[data-id={sid}]')")
         assert c.get(f"/v1/sessions/{sid}").status_code == 404
 
@@ -511,7 +515,8 @@ def test_the_first_load_says_what_to_do_and_demo_opens_the_ready_session(pages, 
     legend = pg.inner_text("#legend")
     assert "root" in legend and "tip" in legend
     np.testing.assert_allclose(positions(pg), server_positions(demo_server, "s_demo"), atol=1e-5)
-    assert pg.input_value("#ty") == "0.1" and pg.input_value("#scale") == "1.5"  # its last MOVE
+    np.testing.assert_array_equal(positions(pg), rest(pg))  # it opens at rest, ready to be dragged
+    assert pg.input_value("#ty") == "0" and pg.input_value("#scale") == "1"
 
 
 # ---------------------------------------------------------------------------- feedback

@@ -21,6 +21,7 @@ from tests.browser.conftest import (
     assign_set,
     bracket_session,
     canvas_box,
+    confirm,
     create,
     differs,
     drag,
@@ -175,6 +176,7 @@ def test_a_rejected_move_restores_the_pose_and_the_report_and_reset_clears_the_e
     np.testing.assert_array_equal(positions(page), good)
     # 7: Reset takes the error panel away with the MOVE
     page.click("#reset")
+    confirm(page)
     page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
     assert page.is_hidden("#errors")
 
@@ -263,6 +265,7 @@ def test_sessions_do_not_leak_and_the_session_limit_has_a_way_out(pages, tight_s
     pg2.wait_for_selector("#sessions-dialog[open]")
     pg2.wait_for_function("document.querySelectorAll('#sessions-table tr[data-id]').length === 2")
     pg2.click("#sessions-table tr[data-id] button[data-act=delete]")
+    confirm(pg2)
     pg2.wait_for_function("document.querySelectorAll('#sessions-table tr[data-id]').length === 1")
     pg2.click("#sessions-close")
     create(pg2)

@@ -61,13 +61,22 @@ export class Moves {
     this.gizmo = new TransformControls(viewer.camera, viewer.canvas);
     this.gizmo.addEventListener("dragging-changed", (ev) => {
       viewer.orbit.enabled = !ev.value && radio("tool") === "orbit";
+      if (ev.value) this.refusedDrag = false;
       if (!ev.value && this.dragged) { this.dragged = false; this.commit("drag", this.dragSeq); }
     });
     this.gizmo.addEventListener("objectChange", () => {
       if (!this.active) return;
+      const before = this.snapshot();
       this.storePivot();
+      const seq = this.io.send(this.move());
+      if (seq === null) {  // no stream: the handle stays where the session is
+        this.restore(before);
+        if (!this.refusedDrag) this.io.refuse("the session's stream is closed: this move was not sent");
+        this.refusedDrag = true;
+        return;
+      }
       this.dragged = true;
-      this.dragSeq = this.io.send(this.move());
+      this.dragSeq = seq;
       this.syncFields();
     });
     this.helper = this.gizmo.getHelper();
@@ -115,6 +124,39 @@ export class Moves {
     this.helper.visible = false;
     $("gizmo-label").hidden = true;
     emit("history");
+    emit("active-handle", null);
+  }
+
+  /** Every move field back to its value at rest (a new mesh: nothing of the last one's moves stays). */
+  resetFields() {
+    const rest = { tx: 0, ty: 0, tz: 0, ax: 0, ay: 0, az: 1, angle: 0, scale: 1, dx: 0, dy: 0, dz: 0, dangle: 0 };
+    for (const [id, v] of Object.entries(rest)) $(id).value = String(v);
+    this.shown = {};
+  }
+
+  /** Snap steps for a model of this diagonal: a round length near 1 % of it, and 5°. */
+  snapDefaults(diag) {
+    const target = diag / 100, p = 10 ** Math.floor(Math.log10(target));
+    const step = [5, 2, 1].map((m) => m * p).find((x) => x <= target * 1.0000001) || p;
+    $("snap-t").value = String(Number(step.toPrecision(3)));
+    $("snap-r").value = "5";
+    this.applySnap();
+  }
+
+  /** The handles' transforms, to go back to when a move cannot be sent. */
+  snapshot() {
+    const out = {};
+    for (const [name, h] of Object.entries(state.transforms)) out[name] = { t: h.t.slice(), q: h.q.clone(), s: h.s };
+    return out;
+  }
+
+  restore(snap) {
+    for (const [name, v] of Object.entries(snap)) {
+      const h = state.transforms[name];
+      if (h) { h.t = v.t; h.q = v.q; h.s = v.s; }
+    }
+    this.loadPivot();
+    this.syncFields(true);
   }
 
   setActive(name) {
@@ -203,10 +245,14 @@ export class Moves {
     return entry;
   }
 
-  /** Send the current transforms as a new history entry. */
-  sendAndCommit(label) {
+  /** Send the current transforms as a new history entry; `before` is where the handles go back when it cannot be sent. */
+  sendAndCommit(label, before = null) {
     const seq = this.io.send(this.move());
-    if (seq === null) { this.io.refuse("the session's stream is not open"); return; }
+    if (seq === null) {
+      if (before) this.restore(before);
+      this.io.refuse("the session's stream is closed: this move was not sent");
+      return;
+    }
     this.commit(label, seq);
   }
 
@@ -291,9 +337,15 @@ export class Moves {
     return s && s[0] === el.value ? s[1] : Number(el.value);
   }
 
+  /** True when a move field shows what was applied last (nothing typed into it since). */
+  unedited(el) {
+    const s = this.shown[el.id];
+    return !!s && s[0] === el.value;
+  }
+
   applyFields() {
     if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
-    const h = state.transforms[this.active];
+    const h = state.transforms[this.active], before = this.snapshot();
     const axis = new THREE.Vector3(this.field("ax"), this.field("ay"), this.field("az"));
     const q = new THREE.Quaternion();
     const ang = this.field("angle");
@@ -304,21 +356,22 @@ export class Moves {
     h.s = s > 0 ? s : 1;
     this.loadPivot();
     this.syncFields(true);
-    this.sendAndCommit("numeric");
+    this.sendAndCommit("numeric", before);
   }
 
   /** Relative move: translate by (dx, dy, dz) and turn by dθ about an axis through the handle's current centre. */
   moveBy() {
     if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
-    const h = state.transforms[this.active];
+    const h = state.transforms[this.active], before = this.snapshot();
     const d = [Number($("dx").value) || 0, Number($("dy").value) || 0, Number($("dz").value) || 0];
     const deg = Number($("dangle").value) || 0;
+    for (const id of ["dx", "dy", "dz", "dangle"]) this.shown[id] = [$(id).value, Number($(id).value) || 0];
     const axis = new THREE.Vector3().setComponent(Number($("daxis").value), 1);
     h.t = [h.t[0] + d[0], h.t[1] + d[1], h.t[2] + d[2]];
     if (deg) h.q = new THREE.Quaternion().setFromAxisAngle(axis, THREE.MathUtils.degToRad(deg)).multiply(h.q);
     this.loadPivot();
     this.syncFields(true);
-    this.sendAndCommit(`by (${d.map(fmt).join(", ")})${deg ? ` ${fmt(deg)}°` : ""}`);
+    this.sendAndCommit(`by (${d.map(fmt).join(", ")})${deg ? ` ${fmt(deg)}°` : ""}`, before);
   }
 
   // ---------------------------------------------------------------- read-out
@@ -334,14 +387,42 @@ export class Moves {
     el.hidden = false;
   }
 
+  /** Canvas pixels (x, y) of a world point. */
+  screen(p, out = new THREE.Vector3()) {
+    const c = this.viewer.canvas;
+    out.copy(p).project(this.viewer.camera);
+    return { x: (out.x + 1) / 2 * c.clientWidth, y: (1 - out.y) / 2 * c.clientHeight };
+  }
+
+  /** How far the gizmo reaches on screen from its centre, in pixels (its handles' bounding box, projected). */
+  gizmoReach(centre) {
+    const g = this.gizmo._gizmo && this.gizmo._gizmo.gizmo && this.gizmo._gizmo.gizmo[this.gizmo.mode];
+    if (!g) return 80;
+    const box = this.reachBox || (this.reachBox = new THREE.Box3());
+    box.setFromObject(g);
+    if (box.isEmpty()) return 80;
+    const v = new THREE.Vector3(), tmp = new THREE.Vector3();
+    let r = 0;
+    for (let k = 0; k < 8; k++) {
+      v.set(k & 1 ? box.max.x : box.min.x, k & 2 ? box.max.y : box.min.y, k & 4 ? box.max.z : box.min.z);
+      const s = this.screen(v, tmp);
+      r = Math.max(r, Math.hypot(s.x - centre.x, s.y - centre.y));
+    }
+    return Number.isFinite(r) ? Math.min(r, 400) : 80;
+  }
+
+  /** The read-out beside the gizmo, never on it: below its reach, or above when there is no room below. */
   placeLabel() {
     const el = $("gizmo-label");
     if (el.hidden) return;
-    const p = this.pivot.position.clone().project(this.viewer.camera);
-    const c = this.viewer.canvas;
-    const x = (p.x + 1) / 2 * c.clientWidth + 28, y = (1 - p.y) / 2 * c.clientHeight - 34;
-    el.style.left = `${Math.max(4, Math.min(c.clientWidth - el.offsetWidth - 4, x))}px`;
-    el.style.top = `${Math.max(4, Math.min(c.clientHeight - el.offsetHeight - 4, y))}px`;
+    const c = this.viewer.canvas, w = el.offsetWidth, h = el.offsetHeight;
+    const p = this.screen(this.pivot.position);
+    const reach = this.gizmoReach(p) + 6;
+    let y = p.y + reach;
+    if (y + h > c.clientHeight - 4 && p.y - reach - h >= 4) y = p.y - reach - h;
+    const x = Math.max(4, Math.min(c.clientWidth - w - 4, p.x - w / 2));
+    el.style.left = `${x}px`;
+    el.style.top = `${Math.max(4, Math.min(c.clientHeight - h - 4, y))}px`;
   }
 
   // ---------------------------------------------------------------- presets
@@ -359,8 +440,9 @@ export class Moves {
   applyPreset(name) {
     const p = state.presets.find((x) => x.name === name);
     if (!p || !state.sessionId) return;
+    const before = this.snapshot();
     this.setFromMove(p.move);
-    this.sendAndCommit(`preset ${name}`);
+    this.sendAndCommit(`preset ${name}`, before);
   }
 
   deletePreset(name) {

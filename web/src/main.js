@@ -13,7 +13,8 @@ import { Moves } from "./gizmo.js";
 import { renderFeatures, renderHandleSelect, renderHistory, renderMeshSessions, renderPresets, renderRegions,
   renderSessionsTable, wireRegions } from "./lists.js";
 import { MeshView, QUALITY_COLORS } from "./meshview.js";
-import { clearError, drawHistogram, drawLegend, fmt, refreshReport, setBusy, showError, showModel, showReport,
+import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshReport, setBusy, showError, showModel,
+  showReport, unitText,
   thresholdPageX, wireThreshold } from "./panels.js";
 import { Regions } from "./selection.js";
 import { saveBlob, SessionControl } from "./session.js";
@@ -52,10 +53,12 @@ async function openMesh(id) {
   await session.leave();
   setBusy("loading");
   try {
-    const r = await api(`/v1/meshes/${id}/geometry`);
+    const [r, meta] = await Promise.all([api(`/v1/meshes/${id}/geometry`), getJson(`/v1/meshes/${id}`)]);
     const { header, arrays } = decodeBundle(await r.arrayBuffer());
     state.meshId = id;
     state.meshName = header.name || id;
+    state.meshFormat = meta.format;
+    state.meshInfo = meta.info || {};
     state.V0 = Float32Array.from(arrays.V);
     state.V = Float32Array.from(arrays.V);
     state.F = arrays.F;
@@ -73,12 +76,22 @@ async function openMesh(id) {
     state.diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
     // mixed meshes: T also carries the corner tets of hexahedra, wedges and pyramids
     state.elements = header.elements ?? state.T.length / 4;
+    state.surface = state.elements === 0;
     state.units = localStorage.getItem(`tetmorph-units:${state.meshName}`) ?? "mm";
     $("units").value = state.units;
-    $("mesh-name").textContent = `${state.meshName} · ${fmt(n)} vertices · ${fmt(state.elements)} elements`;
+    $("mesh-name").textContent = `${state.meshName} · ${fmt(n)} vertices · ` +
+      (state.surface ? `surface, ${fmt(state.F.length / 3)} triangles` : `${fmt(state.elements)} elements`);
     $("mesh-name").title = $("mesh-name").textContent;
+    if (![...$("meshes").options].some((o) => o.value === id)) await listMeshes();
+    $("meshes").value = id;
     $("sets").innerHTML = '<option value="">— named sets —</option>' +
       header.sets.map((s) => `<option>${s}</option>`).join("");
+    // nothing of the mesh before stays: colouring, move fields, snap step, download choice
+    $("color-by").value = "regions";
+    meshView.options.colorBy = "regions";
+    moves.resetFields();
+    moves.snapDefaults(state.diag);
+    $("format").value = "";
     meshView.load();
     regions.reset();
     regions.changed();
@@ -88,11 +101,103 @@ async function openMesh(id) {
     $("welcome").hidden = true;
     renderFeatures(null);
     showModel(header);
-    showReport({ mesh: state.meshName, elements: state.elements, vertices: n });
+    showReport(meshReport());
+    showSurface();
+    formatNote();
+    brushSize();
     offerMeshSessions();
   } finally {
     setBusy(null);
   }
+}
+
+/** The brush's size beside its slider: percent of the model diagonal, and the radius in model units. */
+function brushSize() {
+  const pct = Number($("brush").value);
+  $("brush-size").textContent = state.V
+    ? `${pct} % · r ${Number((pct / 100 * state.diag).toPrecision(3))}${unitText()}` : `${pct} %`;
+}
+
+// ------------------------------------------------------------------ download formats
+let formats = [];  // GET /v1/formats: what each format keeps
+
+async function loadFormats() {
+  try { formats = await getJson("/v1/formats"); } catch { formats = []; }
+  formatNote();
+}
+
+/** The extension a format is written with (the mesh's own when `name` is empty). */
+function extOf(name) {
+  const row = formats.find((f) => f.name === name || f.extension === `.${name}`);
+  if (row) return row.name === "tetgen" ? ".node + .ele" : row.extension;
+  return name ? `.${name}` : "";
+}
+
+/** Below the format choice: the mesh's own format, or what a conversion to the chosen one leaves out. */
+function formatNote() {
+  const el = $("format-note"), own = $("format").options[0];
+  const mine = state.meshFormat && state.meshFormat !== "arrays" ? state.meshFormat : "vtu";
+  own.textContent = state.meshFormat ? `original format (${extOf(mine)})` : "original format";
+  const chosen = $("format").value;
+  if (!state.meshId || !chosen) { el.hidden = true; return; }
+  const row = formats.find((f) => f.extension === `.${chosen}` || f.name === chosen);
+  const info = state.meshInfo || {}, lost = [];
+  const sets = Object.keys(info.sets || {});
+  const types = Object.keys(info.cell_types || {});
+  if (row && !row.sets && sets.length) lost.push(`the named sets (${sets.join(", ")})`);
+  if (row && !row.quadratic && info.element_order === 2) lost.push("the mid-side nodes of its quadratic elements");
+  if (row && !row.mixed && types.some((t) => /^(hexahedron|wedge|pyramid)/.test(t))) lost.push("its hexahedra, wedges and pyramids");
+  el.textContent = lost.length
+    ? `A ${extOf(chosen)} file does not keep ${lost.join(", ")}: the download says what it leaves out before writing.`
+    : `Converted to ${extOf(chosen)}; the mesh's own format (${extOf(mine)}) keeps the file as uploaded.`;
+  el.hidden = false;
+}
+
+// ------------------------------------------------------------------ surfaces
+/** A surface mesh has no volume to morph: say so, and offer to fill it with tetrahedra. */
+function showSurface() {
+  const el = $("surface-note");
+  $("create").disabled = !!state.surface;
+  if (!state.surface) { el.hidden = true; return; }
+  $("surface-text").textContent = `${state.meshName} is a surface: ${fmt(state.F.length / 3)} triangles and no ` +
+    "volume elements. Morphing moves the nodes of a volume mesh; tetrahedralize the surface to get one.";
+  el.hidden = false;
+}
+
+/** Fill the open surface with tetrahedra on the service (POST /v1/tetrahedralize) and open the result. */
+async function tetrahedralize() {
+  if (!state.surface || !state.meshId) return;
+  clearError();
+  setBusy("tetrahedralizing");
+  try {
+    const stem = state.meshName.replace(/\.[^.]+$/, "");
+    let file;
+    if (["stl", "obj", "ply", "off"].includes(state.meshFormat)) {
+      file = new File([await (await api(`/v1/meshes/${state.meshId}/file`)).blob()], state.meshName);
+    } else {  // another format holding triangles: its surface as an OFF file
+      const V = state.V0, F = state.F, lines = ["OFF", `${V.length / 3} ${F.length / 3} 0`];
+      for (let i = 0; i < V.length; i += 3) lines.push(`${V[i]} ${V[i + 1]} ${V[i + 2]}`);
+      for (let f = 0; f < F.length; f += 3) lines.push(`3 ${F[f]} ${F[f + 1]} ${F[f + 2]}`);
+      file = new File([lines.join("\n") + "\n"], `${stem}.off`);
+    }
+    const fd = new FormData();
+    fd.append("file", file, file.name);
+    fd.append("name", `${stem}.tet`);
+    const r = await api("/v1/tetrahedralize", { method: "POST", body: fd });
+    let doc = await r.json();
+    if (r.status === 202) {  // still running: poll the job
+      for (;;) {
+        if (doc.status === "done") { doc = doc.mesh; break; }
+        if (doc.status === "failed" || doc.status === "cancelled")
+          throw Object.assign(new Error(`tetrahedralization ${doc.status}`), { body: { error: doc.error } });
+        setBusy(`tetrahedralizing (${doc.stage})`);
+        await new Promise((res) => setTimeout(res, 1000));
+        doc = await getJson(`/v1/jobs/${doc.id}`);
+      }
+    }
+    await listMeshes();
+    await openMesh(doc.id);
+  } catch (e) { showError(e); } finally { setBusy(null); }
 }
 
 async function listMeshes() {
@@ -132,7 +237,9 @@ async function upload(files) {
 async function demo() {
   clearError();
   try {
-    await getJson("/v1/sessions/s_demo");
+    const doc = await getJson("/v1/sessions/s_demo");
+    // the demo starts at rest: whatever moved it before is not the next visitor's starting point
+    if (doc.last_move) await api("/v1/sessions/s_demo/reset", { method: "POST" });
   } catch (e) {
     if (e.status !== 404) { showError(e); return; }
     try { await openMesh("m_demo_beam"); } catch (e2) {
@@ -158,7 +265,13 @@ function sessionHandlers(after = () => {}) {
   return {
     open: async (id) => { $("sessions-dialog").close(); await session.open(id); },
     close: async () => { session.close(); await after(); offerMeshSessions(); },
-    delete: async (id) => { await session.remove(id); await after(); },
+    delete: async (id) => {
+      const open = id === state.sessionId ? " It is open here: it closes." : "";
+      if (!await ask(`Delete session ${id} on the service? Its factorization, last move and presets go with it, ` +
+        `and this cannot be undone.${open}`, "Delete")) return;
+      await session.remove(id);
+      await after();
+    },
   };
 }
 
@@ -169,12 +282,23 @@ async function openSessionsDialog() {
       const [sessions, meshes] = await Promise.all([session.list(), getJson("/v1/meshes")]);
       renderSessionsTable(sessions, new Map(meshes.map((m) => [m.id, m.name || m.id])), sessionHandlers(refresh));
       dlg.dataset.count = String(sessions.length);
+      // "all but the open one" with none open would be all of them: offered only beside an open session
+      const others = $("sessions-delete-others");
+      others.disabled = !state.sessionId || !sessions.some((s) => s.id !== state.sessionId);
+      others.title = state.sessionId ? `delete every session but ${state.sessionId}` : "no session is open here";
     } catch (e) { showError(e); }
   };
   await refresh();
   if (!dlg.open) dlg.showModal();
   $("sessions-delete-others").onclick = async () => {
-    for (const s of await session.list()) if (s.id !== state.sessionId) await session.remove(s.id, true);
+    const keep = state.sessionId;
+    if (!keep) return;
+    const others = (await session.list()).filter((s) => s.id !== keep);
+    if (!others.length) return;
+    const n = others.length;
+    if (!await ask(`Delete ${n} session${n === 1 ? "" : "s"} on the service, every one but the open ${keep}? ` +
+      "This cannot be undone.", `Delete ${n}`)) return;
+    for (const s of others) if (s.id !== state.sessionId) await session.remove(s.id, true);
     await refresh();
   };
 }
@@ -266,8 +390,15 @@ $("apply-move").addEventListener("click", () => moves.applyFields());
 $("move-by").addEventListener("click", () => moves.moveBy());
 $("undo").addEventListener("click", () => moves.undo());
 $("redo").addEventListener("click", () => moves.redo());
-$("reset").addEventListener("click", () => session.reset());
+$("reset").addEventListener("click", async () => {
+  const cur = state.history[state.historyIndex];
+  if (state.sessionId && cur && cur.move && !await ask("Reset the session to the rest shape? The history keeps the " +
+    "current pose: Undo brings it back.", "Reset")) return;
+  session.reset();
+});
 $("download").addEventListener("click", () => session.download());
+$("format").addEventListener("change", formatNote);
+$("tetrahedralize").addEventListener("click", tetrahedralize);
 $("handle-select").addEventListener("change", () => moves.setActive($("handle-select").value));
 $("preset-save").addEventListener("click", () => { if (state.sessionId) moves.savePreset($("preset-name").value); });
 $("fit").addEventListener("click", fit);
@@ -280,8 +411,9 @@ $("units").addEventListener("change", () => {
   state.units = $("units").value;
   if (state.meshName) localStorage.setItem(`tetmorph-units:${state.meshName}`, state.units);
   if (state.bbox) showModel({ bbox: state.bbox });
-  legend(); refreshReport(); moves.updateLabel();
+  legend(); refreshReport(); moves.updateLabel(); brushSize();
 });
+$("brush").addEventListener("input", brushSize);
 $("toggle-left").addEventListener("click", () => togglePanel("left"));
 $("toggle-right").addEventListener("click", () => togglePanel("right"));
 wireThreshold(setThreshold);
@@ -302,9 +434,21 @@ document.addEventListener("keydown", (ev) => {
   const t = ev.target;
   const typing = t && (t.tagName === "INPUT" && !["checkbox", "radio", "range", "button"].includes(t.type) ||
     t.tagName === "TEXTAREA" || t.tagName === "SELECT");
-  if (ev.key === "Escape") { if (!typing && regions.cancel()) ev.preventDefault(); return; }
-  if (typing || document.querySelector("dialog[open]")) return;
+  const dialog = document.querySelector("dialog[open]");
   const ctrl = ev.ctrlKey || ev.metaKey, key = ev.key.toLowerCase();
+  if (ev.key === "Escape") {
+    if (typing && !dialog) { t.blur(); ev.preventDefault(); return; }  // Esc leaves the field
+    if (!typing && regions.cancel()) ev.preventDefault();
+    return;
+  }
+  // in a move field that shows what was applied (nothing typed since), Ctrl+Z undoes the morph;
+  // with text typed into it, it undoes the typing
+  if (typing && !dialog && ctrl && (key === "z" || key === "y") && moves.unedited(t)) {
+    ev.preventDefault();
+    if (key === "y" || ev.shiftKey) moves.redo(); else moves.undo();
+    return;
+  }
+  if (typing || dialog) return;
   if (ctrl && key === "z") { ev.preventDefault(); if (ev.shiftKey) moves.redo(); else moves.undo(); return; }
   if (ctrl && key === "y") { ev.preventDefault(); moves.redo(); return; }
   if (ctrl || ev.altKey) return;
@@ -325,8 +469,10 @@ $("api-key").addEventListener("change", () => {
   listMeshes();
 });
 listMeshes();
+loadFormats();
 drawHistogram();
 renderHistory(moves);
+brushSize();
 
 // Automation hooks for the browser tests (read-only views of the state, plus where things are
 // on screen so a test can use the real mouse).
@@ -344,6 +490,7 @@ window.tetmorph = {
   triadAxes: () => viewer.triadAxes(),
   surfaceColor: (i) => Array.from(meshView.surfGeom.getAttribute("color").array.slice(3 * i, 3 * i + 3)),
   qualityColors: QUALITY_COLORS,
+  showGizmo: (on) => { moves.helper.visible = on; viewer.draw(); },
   regions: () => state.regions.map((r) => ({ id: r.id, name: r.name, kind: r.kind, count: r.count, visible: r.visible,
     color: r.color, source: r.source })),
   spec: () => session.spec(),

@@ -6,7 +6,9 @@ import * as THREE from "three";
 import { cutTets, scaledJacobians, tetFaces } from "./quality.js";
 import { emit, state } from "./state.js";
 
-export const QUALITY_COLORS = { inverted: [0.85, 0.1, 0.1], poor: [1.0, 0.8, 0.0], good: [0.72, 0.8, 0.9] };
+// poor and inverted tets: magenta and near-black, colours the displacement rainbow (blue to red
+// through cyan, green and yellow) never takes, so the overlay reads on either colouring
+export const QUALITY_COLORS = { inverted: [0.12, 0.12, 0.12], poor: [0.85, 0.0, 0.85], good: [0.72, 0.8, 0.9] };
 export const NONE_COLOR = [0.78, 0.8, 0.83];
 
 /** Rainbow colour map (blue → cyan → green → yellow → red) of t in [0, 1], as CAE post-processors draw. */

@@ -97,6 +97,12 @@ export function explain(e) {
     case "network":
       text = "The service does not answer. Is it running?";
       break;
+    case "unknown_format":
+      // the service's message lists every format it knows, surfaces and API names included
+      text = `${d.filename ? `“${d.filename}”` : "This file"} is not a mesh file the editor reads.`;
+      hint = "Upload a volume mesh: Abaqus .inp, Gmsh .msh, VTK .vtu or .vtk, Medit .mesh, Nastran .bdf, " +
+        "or TetGen .node together with its .ele.";
+      return { text, hint, code, message: "", report: null, action };
     case "unreadable_file":
     case "unsupported_element":
     case "unsupported_format":

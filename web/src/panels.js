@@ -44,12 +44,55 @@ export function showError(e) {
   const b = $("error-sessions");
   if (b) b.addEventListener("click", () => emit("open-sessions"));
   state.error = x;
+  if (x.code === "network") watchService();
+}
+
+// While "the service does not answer" is shown, ask it every 2 s; the message goes when it answers.
+let watching = null;
+function watchService() {
+  if (watching) return;
+  watching = setInterval(async () => {
+    if (!state.error || state.error.code !== "network") { clearInterval(watching); watching = null; return; }
+    try {
+      const r = await fetch("/health", { cache: "no-store" });
+      if (!r.ok) return;
+    } catch { return; }
+    clearInterval(watching);
+    watching = null;
+    if (state.error && state.error.code === "network") clearError();
+  }, 2000);
 }
 
 export function clearError() {
   $("errors").hidden = true;
   $("error-text").textContent = "";
   state.error = null;
+}
+
+// ------------------------------------------------------------------ confirmation
+/**
+ * Ask before something that cannot be taken back: answers true when the user chose `ok`, false on
+ * Cancel, Esc or closing the dialog. Cancel has the focus, so Enter alone does not confirm.
+ */
+export function ask(text, ok = "OK") {
+  const dlg = $("confirm-dialog"), yes = $("confirm-ok"), no = $("confirm-cancel");
+  if (dlg.open) dlg.close();
+  $("confirm-text").textContent = text;
+  yes.textContent = ok;
+  return new Promise((resolve) => {
+    const done = (answer) => {
+      dlg.removeEventListener("close", closed);
+      yes.onclick = null; no.onclick = null;
+      if (dlg.open) dlg.close();
+      resolve(answer);
+    };
+    const closed = () => done(false);
+    yes.onclick = () => done(true);
+    no.onclick = () => done(false);
+    dlg.addEventListener("close", closed);
+    dlg.showModal();
+    no.focus();
+  });
 }
 
 // ------------------------------------------------------------------ status
@@ -97,6 +140,11 @@ export function showReport(rep) {
   if (state.sj)
     row("below", `tets with scaled Jacobian < ${fmt(state.threshold)}`, fmt(state.badCount || 0), state.badCount > 0);
   $("report").innerHTML = rows.join("");
+}
+
+/** The REPORT rows of the open mesh itself: its name and counts. */
+export function meshReport() {
+  return { mesh: state.meshName, elements: state.elements, vertices: state.V ? state.V.length / 3 : 0 };
 }
 
 /** Re-show the last REPORT (the counts it carries from the page changed). */

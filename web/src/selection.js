@@ -7,10 +7,10 @@ import * as THREE from "three";
 import { $, radio } from "./dom.js";
 import { emit, state } from "./state.js";
 
-/** Region colours by kind: blues for fixed, greens and violets for handles (never the poor-tet amber). */
+/** Region colours by kind: blues for fixed, greens, teal and olive for handles (far from the poor-tet magenta). */
 export const PALETTE = {
   fixed: [[0.16, 0.4, 0.85], [0.36, 0.3, 0.75], [0.1, 0.56, 0.78], [0.3, 0.36, 0.55]],
-  handle: [[0.12, 0.6, 0.28], [0.65, 0.22, 0.78], [0.0, 0.58, 0.58], [0.84, 0.24, 0.55]],
+  handle: [[0.12, 0.6, 0.28], [0.45, 0.5, 0.1], [0.0, 0.58, 0.58], [0.84, 0.24, 0.55]],
 };
 const KINDS = { 1: "fixed", 2: "handle" };
 const NAME_OK = /^[A-Za-z0-9_.:=-]{1,64}$/;
@@ -260,15 +260,18 @@ export class Regions {
     if (first) this.activate(first.id);
   }
 
-  /** Vertex ids of a SPEC selection, as the service resolves it (geometric ones on element vertices only). */
+  /**
+   * Vertex ids of a SPEC selection, as the service resolves it: a named set whole (its mid-side nodes
+   * follow the set), geometric selections on element vertices only.
+   */
   resolve(sel) {
     const V = state.V0, n = V.length / 3, out = [];
     const kind = Object.keys(sel).find((k) => k !== "boundary_only");
     const val = sel[kind];
     if (kind === "ids") {
       for (const i of val) if (i >= 0 && i < n && state.used[i]) out.push(i);
-    } else if (kind === "set") {
-      for (const i of state.sets[val] || []) if (state.used[i]) out.push(i);
+    } else if (kind === "set") {  // the whole set, mid-side nodes included, as Assign set makes it
+      for (const i of state.sets[val] || []) out.push(i);
     } else {
       const test = kind === "box" ? (x, y, z) => x >= val.min[0] && x <= val.max[0] && y >= val.min[1] &&
           y <= val.max[1] && z >= val.min[2] && z <= val.max[2]

@@ -7,7 +7,7 @@
 import { api, apiKey, getJson, headers, postJson } from "./api.js";
 import { decodeFrame } from "./binary.js";
 import { $ } from "./dom.js";
-import { clearError, setBusy, setProgress, setStatus, showError, showReport } from "./panels.js";
+import { ask, clearError, meshReport, setBusy, setProgress, setStatus, showError, showReport } from "./panels.js";
 import { emit, state } from "./state.js";
 import { Stream } from "./stream.js";
 
@@ -38,6 +38,7 @@ export class SessionControl {
   async create(after) {
     clearError();
     if (!state.meshId) { showError("open a mesh first"); return false; }
+    if (state.surface) { showError("this mesh is a surface: tetrahedralize it first (Session section)"); return false; }
     const handles = this.regions.handles();
     const fixed = state.regions.filter((r) => r.kind === "fixed" && r.count > 0);
     if (!fixed.length || !handles.length) { showError("select a fixed region and a handle region first"); return false; }
@@ -83,12 +84,14 @@ export class SessionControl {
     }
   }
 
-  /** Attach the gizmo and the stream to a ready session. */
+  /** Attach the gizmo and the stream to a ready session, which starts from the rest shape. */
   start(id, handleRegions) {
     this.dropBoundary();
     state.sessionId = id;
     state.specSent = this.spec();
     this.moves.attach(handleRegions);
+    this.meshView.applyPositions(state.V0);
+    showReport(meshReport());
     this.openStream();
     $("session-note").hidden = true;
   }
@@ -215,11 +218,42 @@ export class SessionControl {
   }
 
   openStream() {
-    state.ws = new Stream(state.sessionId, apiKey(), {
+    const id = state.sessionId;
+    const ws = new Stream(id, apiKey(), {
       onFrame: (f) => this.frame(f),
       onMessage: (msg) => this.message(msg),
-      onClose: () => { if (state.sessionId) { setStatus(`${$("session-status").textContent} · stream closed`); setBusy(null); } },
+      onClose: (ev) => {
+        if (state.ws !== ws) return;
+        // a MOVE still out is never answered: the handles go back to what the session showed last
+        if (state.lastSeq < state.seq) { this.moves.rejected(state.seq); state.lastSeq = state.seq; }
+        const code = { 4404: "session_not_found", 4410: "session_not_found", 4401: "unauthorized" }[ev.code];
+        if (code) showError({ body: { error: { code, message: ev.reason || "" } } });
+        setStatus(`session ${id} · stream closed${ev.reason ? ` (${ev.reason})` : ""}: moves cannot be sent; ` +
+          "reopen the session from Sessions, or create one");
+        setBusy(null);
+      },
+      onState: (what, info) => {
+        if (state.ws !== ws) return;
+        if (what === "reconnecting") {
+          this.reconnect = info;
+          this.reconnectStatus();
+        } else {
+          this.reconnect = null;
+          setStatus(`session ${id} · stream reconnected`);
+          if (state.error && state.error.code === "network") clearError();
+        }
+      },
     });
+    state.ws = ws;
+  }
+
+  /** The status while the stream is down: when it tries again, and whether a move waits for it. */
+  reconnectStatus() {
+    const r = this.reconnect;
+    if (!r) return;
+    const queued = state.lastSeq < state.seq ? "; the latest move is queued and goes out when it is back" : "";
+    setStatus(`session ${state.sessionId} · stream lost, reconnecting (try ${r.attempt}, ` +
+      `next in ${(r.delayMs / 1000).toFixed(1)} s)${queued}`);
   }
 
   frame({ header, data }) {
@@ -239,7 +273,7 @@ export class SessionControl {
     state.roundTripMs = rtt;
     const rep = header.report || {};
     this.moves.solved(header.seq, rep);
-    showReport({ seq: header.seq, dropped: header.dropped, ...rep, round_trip_ms: rtt, apply_ms: state.applyMs });
+    showReport({ mesh: state.meshName, seq: header.seq, dropped: header.dropped, ...rep, round_trip_ms: rtt, apply_ms: state.applyMs });
     setBusy(null);
     if (header.seq !== state.seq) setBusy("solving", 250); // newer MOVEs are still out
     if (rep.inverted_elements > 0 && this.policy() === "warn") {
@@ -265,7 +299,7 @@ export class SessionControl {
     const small = {};
     for (const k of ["inverted_elements", "degenerate_elements", "min_scaled_jacobian", "safe_fraction",
       "conflicting_constraints"]) if (rep[k] !== undefined) small[k] = rep[k];
-    showReport({ rejected: true, seq: msg.seq, ...small });
+    showReport({ mesh: state.meshName, rejected: true, seq: msg.seq, ...small });
   }
 
   /** Stream a MOVE; answers its seq, or null when there is no open stream. */
@@ -275,7 +309,7 @@ export class SessionControl {
     state.seq += 1;
     state.sentAt = performance.now();
     state.ws.send({ seq: state.seq, move, inversion: this.policy(), repair: this.repair() });
-    setBusy("solving", 250);
+    if (state.ws.reconnecting) this.reconnectStatus(); else setBusy("solving", 250);
     return state.seq;
   }
 
@@ -294,19 +328,38 @@ export class SessionControl {
       this.moves.rested(record);
       this.dropBoundary();
       this.meshView.applyPositions(state.V0);
-      showReport({ reset: true });
+      showReport({ ...meshReport(), max_displacement: 0, reset: true });
     } catch (e) { showError(e); }
   }
 
+  /** The format a download writes: the one chosen, else the mesh's own (VTU for a mesh sent as arrays). */
+  downloadFormat() {
+    return $("format").value || (state.meshFormat && state.meshFormat !== "arrays" ? state.meshFormat : "vtu");
+  }
+
+  /**
+   * Download the session's mesh. In its own format the file is the upload with only the coordinates
+   * changed; a format that cannot hold everything the mesh has (sets, element types) is written only
+   * after the user saw what it drops and agreed.
+   */
   async download() {
     if (!state.sessionId) { showError("create a session first"); return; }
-    const fmt = $("format").value;
+    const id = state.sessionId, fmt = this.downloadFormat();
+    const url = (lossy) => `/v1/sessions/${id}/mesh?format=${encodeURIComponent(fmt)}${lossy ? "&lossy=true" : ""}`;
     try {
-      const r = await api(`/v1/sessions/${state.sessionId}/mesh${fmt ? `?format=${fmt}` : ""}`);
+      let r;
+      try {
+        r = await api(url(false));
+      } catch (e) {
+        const err = e.body && e.body.error;
+        if (!err || err.code !== "lossy_write") throw e;
+        if (!await ask(lossText(fmt, (err.details && err.details.losses) || []), "Download without them")) return;
+        r = await api(url(true));
+      }
       const blob = await r.blob();
       const cd = r.headers.get("Content-Disposition") || "";
       const m = /filename="([^"]+)"/.exec(cd);
-      saveBlob(blob, m ? m[1] : `deformed.${fmt || "vtu"}`);
+      saveBlob(blob, m ? m[1] : `deformed.${fmt}`);
     } catch (e) { showError(e); }
   }
 
@@ -408,6 +461,22 @@ export class SessionControl {
     const t0 = performance.now();
     while (state.ws && !state.ws.open && performance.now() - t0 < ms) await new Promise((r) => setTimeout(r, 20));
   }
+}
+
+const LOSS_KINDS = { node_set: "node sets", element_set: "element sets", element_type: "element types" };
+
+/** What a lossy write drops, in words, one line per kind (the service lists some twice). */
+export function lossText(fmt, losses) {
+  const groups = new Map(), seen = new Set();
+  for (const l of losses) {
+    const key = `${l.kind}:${l.name}`;
+    if (seen.has(key)) continue;
+    seen.add(key);
+    if (!groups.has(l.kind)) groups.set(l.kind, []);
+    groups.get(l.kind).push(`${l.name} (${l.count.toLocaleString("en-US")})`);
+  }
+  const lines = [...groups].map(([k, names]) => `${LOSS_KINDS[k] || k.replace(/_/g, " ")}: ${names.join(", ")}`);
+  return `A ${fmt} file cannot hold everything this mesh has. Written as ${fmt}, it leaves out\n${lines.join("\n")}`;
 }
 
 export function saveBlob(blob, name) {

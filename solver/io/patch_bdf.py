@@ -44,7 +44,8 @@ def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
         Write a small-field card whose new coordinates do not fit its 8-column
         fields exactly as a large-field ``GRID*`` card (two lines, 16-column
         fields; ID, CP, CD, PS and SEID carried over). Cards whose values fit,
-        and cards of unmoved nodes, stay as they are.
+        cards of unmoved nodes, and cards with a continuation mark in field 10
+        stay as they are.
 
     Returns
     -------
@@ -71,7 +72,8 @@ def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
     if len(cards) != V.shape[0]:
         raise ValueError(f"the deck has {len(cards)} GRID cards, the positions {V.shape[0]} rows")
     for card, x in zip(cards, np.asarray(V, dtype=np.float64), strict=True):
-        if large and card.style == "small" and _needs_large(lines, card, x):
+        if large and card.style == "small" and not _continued(lines[card.spans[0][0]]) and \
+                _needs_large(lines, card, x):
             k = card.spans[0][0]
             lines[k] = _large_card(lines[k], x)
             continue
@@ -94,6 +96,11 @@ def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
                 body = body.ljust(b)  # a short line: its blank fields are there
             lines[k] = body[:a] + text + body[b:] + end
     return b"".join(lines)
+
+
+def _continued(line: bytes) -> bool:
+    """Whether a small-field line has a field 10 (a continuation mark), which a GRID* card could not keep."""
+    return bool(line.rstrip(b"\r\n")[72:].strip())
 
 
 def _needs_large(lines: list[bytes], card: GridCard, x: np.ndarray) -> bool:

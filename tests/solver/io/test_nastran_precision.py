@@ -29,20 +29,23 @@ def _real(field: str) -> float:
 
 
 def _grids(text: str) -> dict[int, tuple[np.ndarray, list[str]]]:
-    """GRID id -> (X1, X2, X3) and the card's lines, for small- and large-field cards."""
+    """GRID id -> (X1, X2, X3) and the card's lines, for small-, large- and free-field cards."""
     lines = text.splitlines()
     bulk = next(k for k, ln in enumerate(lines) if ln.startswith("BEGIN BULK"))
     out = {}
     k = bulk + 1
     while not lines[k].startswith("ENDDATA"):
         ln = lines[k]
-        if ln.startswith("GRID*"):
+        if ln.startswith("GRID,"):
+            f = ln.split(",")
+            out[int(f[1])] = (np.array([_real(v) for v in f[3:6]]), [ln])
+        elif ln.startswith("GRID*"):
             nxt = lines[k + 1]
             assert nxt.startswith("*")
             out[int(ln[8:24])] = (np.array([_real(ln[40:56]), _real(ln[56:72]), _real(nxt[8:24])]), [ln, nxt])
             k += 2
             continue
-        if ln.startswith("GRID"):
+        elif ln.startswith("GRID"):
             f = ln.ljust(48)
             out[int(f[8:16])] = (np.array([_real(f[24:32]), _real(f[32:40]), _real(f[40:48])]), [ln])
         k += 1
@@ -58,19 +61,32 @@ def _moved(V: np.ndarray) -> np.ndarray:
     return P
 
 
-def test_rounding_of_a_small_field_deck_is_reported(tmp_path):
-    mesh = read_mesh(SMALL)
+@pytest.mark.parametrize("name, low, high", [("bar_small.bdf", 1e-7, 1e-4), ("bar10_small.bdf", 1e-7, 1e-4),
+                                             ("bar_large.bdf", 1e-16, 1e-12), ("bar_free.bdf", 0.0, 0.0)])
+def test_rounding_of_a_deck_is_reported(tmp_path, name, low, high):
+    mesh = read_mesh(DATA / name)
     P = _moved(mesh.V)
     out = tmp_path / "bent.bdf"
     w = write_mesh(mesh, P, out)
     grids = _grids(out.read_text())
     ids = sorted(grids)
+    assert len(ids) == mesh.n
     X = np.array([grids[i][0] for i in ids])
     measured = float(np.abs(X - P).max())
     assert w.to_dict()["write_rounding"] == measured
-    assert 1e-7 < measured < 1e-4  # 8 columns on a 100 mm bar: some 1e-5 are left
+    assert low <= measured <= high  # 8 columns on a 100 mm bar: some 1e-5 are left; 16: some 1e-14
     # unmoved, it is exact
     assert write_mesh(mesh, mesh.V, tmp_path / "rest.bdf").write_rounding == 0.0
+
+
+def test_rounding_of_a_deck_written_from_another_format(tmp_path):
+    mesh = read_mesh(DATA / "bracket.inp")
+    P = mesh.V * (1 + 1 / 3)
+    out = tmp_path / "bracket.bdf"
+    w = write_mesh(mesh, P, out, lossy=True)  # a deck has no named sets
+    grids = _grids(out.read_text())
+    X = np.array([grids[i][0] for i in sorted(grids)])
+    assert not w.patched and w.write_rounding == float(np.abs(X - P).max()) and w.write_rounding < 1e-12
 
 
 def test_large_field_keeps_moved_nodes_and_the_text_of_the_rest(tmp_path):
@@ -108,6 +124,21 @@ def test_large_field_keeps_moved_nodes_and_the_text_of_the_rest(tmp_path):
     np.testing.assert_allclose(back.points, P, rtol=0, atol=1e-12 * 100)
     assert [c.type for c in back.cells] == [c.type for c in meshio.read(SMALL).cells]
     np.testing.assert_array_equal(read_mesh(out).T, mesh.T)
+
+
+def test_large_field_leaves_a_card_with_a_continuation_mark_small(tmp_path):
+    deck = (b"BEGIN BULK\nGRID    1               0.      0.      0.\n"
+            + b"GRID    2               1.      0.      0.".ljust(72) + b"+G2\n+G2\n"
+            + b"CTETRA  1       1       1       2       3       4\n"
+            b"GRID    3               0.      1.      0.\nGRID    4               0.      0.      1.\nENDDATA\n")
+    src = tmp_path / "t.bdf"
+    src.write_bytes(deck)
+    mesh = read_mesh(src)
+    P = mesh.V + 1 / 3
+    write_mesh(mesh, P, tmp_path / "out.bdf", nastran_large=True)
+    grids = _grids((tmp_path / "out.bdf").read_text())
+    assert [grids[i][1][0][:5] for i in (1, 2, 3, 4)] == ["GRID*", "GRID ", "GRID*", "GRID*"]
+    assert "+G2" in grids[2][1][0] and abs(grids[2][0] - P[1]).max() < 1e-6
 
 
 def test_large_field_is_listed_as_skipped_for_other_formats(tmp_path):

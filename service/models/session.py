@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
+import enum
 import json
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, StrictStr, field_validator
 
-from ..state.session import SessionStatus
 from .move import Move
 from .report import Report
 
-__all__ = ["SessionDoc", "SessionPatch", "Preset", "PresetDoc", "PRESETS_MAX", "PRESET_NAME_MAX",
+__all__ = ["SessionStatus", "SessionDoc", "SessionPatch", "Preset", "PresetDoc", "PRESETS_MAX", "PRESET_NAME_MAX",
            "PRESETS_MAX_BYTES"]
 
 #: Most presets a session keeps.
@@ -20,6 +20,23 @@ PRESETS_MAX = 100
 PRESET_NAME_MAX = 64
 #: Largest size of a session's presets as compact JSON (they are answered with every session document).
 PRESETS_MAX_BYTES = 1 << 20
+
+
+
+class SessionStatus(enum.StrEnum):
+    """Where a session is in its life.
+
+    ``stored``: known from the data directory, not built in this process yet;
+    ``building``: assembling and factoring; ``ready``: factorizations cached;
+    ``evicted``: dropped from the factorization cache, rebuilt on next use;
+    ``failed``: the build failed (``error`` says why).
+    """
+
+    stored = "stored"
+    building = "building"
+    ready = "ready"
+    evicted = "evicted"
+    failed = "failed"
 
 
 class Preset(BaseModel):

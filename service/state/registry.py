@@ -55,7 +55,8 @@ from .builder import Builder, small_report
 from .factor_cache import FactorCache
 from .mesh_cache import MeshCache
 from .session import Session, SessionStatus
-from .store import Store, new_id, open_store, valid_id
+from .store import Store, new_id, valid_id
+from .stores import open_store
 
 __all__ = ["Registry", "all_finite"]
 
@@ -103,7 +104,7 @@ class Registry:
     ----------
     settings : Settings
     store : Store, optional
-        Default: :func:`~service.state.store.open_store` of the settings.
+        Default: :func:`~service.state.stores.open_store` of the settings.
     """
 
     def __init__(self, settings: Settings, store: Store | None = None) -> None:

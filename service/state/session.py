@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import enum
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -12,23 +11,9 @@ import numpy as np
 
 from solver.deform.deformer import Deformer
 
+from ..models.session import SessionStatus
+
 __all__ = ["Session", "SessionStatus"]
-
-
-class SessionStatus(enum.StrEnum):
-    """Where a session is in its life.
-
-    ``stored``: known from the data directory, not built in this process yet;
-    ``building``: assembling and factoring; ``ready``: factorizations cached;
-    ``evicted``: dropped from the factorization cache, rebuilt on next use;
-    ``failed``: the build failed (``error`` says why).
-    """
-
-    stored = "stored"
-    building = "building"
-    ready = "ready"
-    evicted = "evicted"
-    failed = "failed"
 
 
 @dataclass(eq=False)

@@ -40,7 +40,7 @@ from solver.errors import InvalidMeshError
 from solver.io import read_mesh
 from solver.mesh import Mesh, mesh_from_arrays
 
-__all__ = ["Store", "FileStore", "open_store", "new_id", "valid_id", "read_mesh_files", "record_only"]
+__all__ = ["Store", "FileStore", "new_id", "valid_id", "read_mesh_files", "record_only"]
 
 _ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
@@ -181,15 +181,6 @@ def _surfaces(spec: dict[str, Any]) -> list[tuple[int, str]]:
     from ..models.spec import stored_surfaces
 
     return stored_surfaces(spec)
-
-
-def open_store(data_dir: str | os.PathLike[str], database_url: str | None = None) -> Store:
-    """The store of the settings: :class:`FileStore`, or PostgreSQL records when ``database_url`` is set."""
-    if database_url:
-        from .pg_store import PgStore
-
-        return PgStore(database_url, data_dir)
-    return FileStore(data_dir)
 
 
 def read_mesh_files(root: Path, meta: dict[str, Any]) -> Mesh:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..constraints.rows import REPORT_IDS
+from ..errors import MAX_IDS as REPORT_IDS
 from .midside import Placement, node_jacobians
 from .quality import DEGENERATE_TOL, edge_det_sj, element_jacobians, first_percentile
 

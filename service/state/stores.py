@@ -1,0 +1,22 @@
+"""The store a service runs on, chosen by its settings: files, or PostgreSQL records.
+
+Kept apart from both stores so that neither imports the other: :mod:`.pg_store`
+builds on :mod:`.store`'s file layout, and this module picks between them.
+"""
+
+from __future__ import annotations
+
+import os
+
+from .store import FileStore, Store
+
+__all__ = ["open_store"]
+
+
+def open_store(data_dir: str | os.PathLike[str], database_url: str | None = None) -> Store:
+    """The store of the settings: :class:`~.store.FileStore`, or PostgreSQL records when ``database_url`` is set."""
+    if database_url:
+        from .pg_store import PgStore
+
+        return PgStore(database_url, data_dir)
+    return FileStore(data_dir)

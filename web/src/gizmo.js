@@ -61,12 +61,17 @@ export class Moves {
     this.gizmo = new TransformControls(viewer.camera, viewer.canvas);
     this.gizmo.addEventListener("dragging-changed", (ev) => {
       viewer.orbit.enabled = !ev.value && radio("tool") === "orbit";
-      if (ev.value) this.refusedDrag = false;
+      if (ev.value) {
+        this.refusedDrag = false;
+        // snap targets: the nodes where they are drawn when the drag begins (free ones move with it)
+        this.snapV = $("snap-node").checked && state.V ? Float32Array.from(state.V) : null;
+      }
       if (!ev.value && this.dragged) { this.dragged = false; this.commit("drag", this.dragSeq); }
     });
     this.gizmo.addEventListener("objectChange", () => {
       if (!this.active) return;
       const before = this.snapshot();
+      this.snapToNode();
       this.storePivot();
       const seq = this.io.send(this.move());
       if (seq === null) {  // no stream: the handle stays where the session is
@@ -385,6 +390,30 @@ export class Moves {
     el.dataset.distance = String(dist);
     el.dataset.angle = String(angle);
     el.hidden = false;
+  }
+
+  /**
+   * With "to nodes" on, a gizmo translated to within 12 px of a node on the surface (not one of a
+   * handle, which moves with it) lands on that node exactly, where the node was when the drag
+   * began; of nodes drawn on the same pixel, the nearest to the camera.
+   */
+  snapToNode() {
+    if (!$("snap-node").checked || this.gizmo.mode !== "translate" || !state.V) return;
+    const V = this.snapV && this.snapV.length === state.V.length ? this.snapV : state.V;
+    const c = this.viewer.canvas, cw = c.clientWidth, ch = c.clientHeight, cam = this.viewer.camera;
+    const p = this.screen(this.pivot.position), v = new THREE.Vector3(), near = [];
+    for (let i = 0; i < state.boundary.length; i++) {
+      if (!state.boundary[i] || state.role[i] === 2) continue;
+      v.set(V[3 * i], V[3 * i + 1], V[3 * i + 2]).project(cam);
+      if (v.z < -1 || v.z > 1) continue;
+      const d = Math.hypot((v.x + 1) / 2 * cw - p.x, (1 - v.y) / 2 * ch - p.y);
+      if (d < 12) near.push([d, v.z, i]);
+    }
+    if (!near.length) return;
+    const dmin = Math.min(...near.map((x) => x[0]));
+    const [, , i] = near.filter((x) => x[0] <= dmin + 1).sort((a, b) => a[1] - b[1])[0];
+    this.pivot.position.set(V[3 * i], V[3 * i + 1], V[3 * i + 2]);
+    this.snappedTo = i;
   }
 
   /** Canvas pixels (x, y) of a world point. */

@@ -16,6 +16,7 @@ import { MeshView, QUALITY_COLORS } from "./meshview.js";
 import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshReport, setBusy, showError, showModel,
   showReport, unitText,
   thresholdPageX, wireThreshold } from "./panels.js";
+import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
@@ -30,18 +31,20 @@ const moves = new Moves(viewer, regions, {
   updatePresets: (change) => session.updatePresets(change),
 });
 session.moves = moves;
+const measure = new Measure(viewer, regions);
 session.openMesh = (id) => openMesh(id);
 regions.busy = () => moves.dragging;
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => drawLegend(meshView, state.regions);
-on("regions", () => { renderRegions(regions); legend(); });
+on("regions", () => { renderRegions(regions); legend(); showChoices(); });
 on("legend", legend);
 on("history", () => { renderHistory(moves); session.note(); });
 on("presets", () => renderPresets(moves));
 on("active-handle", () => renderHandleSelect(moves));
 on("open-sessions", () => openSessionsDialog());
 on("sessions-changed", () => offerMeshSessions());
+on("derived", () => { if (measure.picks.length) measure.show(); });
 wireRegions(regions);
 
 function fit() { if (state.V) viewer.fit(meshView.box()); }
@@ -93,6 +96,7 @@ async function openMesh(id) {
     moves.snapDefaults(state.diag);
     $("format").value = "";
     meshView.load();
+    showChoices();
     regions.reset();
     regions.changed();
     state.report = null;
@@ -100,6 +104,7 @@ async function openMesh(id) {
     viewer.fit(meshView.box(), new THREE.Vector3(1, -1, 1));
     $("welcome").hidden = true;
     renderFeatures(null);
+    measure.reset();
     showModel(header);
     showReport(meshReport());
     showSurface();
@@ -109,6 +114,34 @@ async function openMesh(id) {
   } finally {
     setBusy(null);
   }
+}
+
+// ------------------------------------------------------------------ hide, isolate, opacity
+/** The regions and named sets the view can hide or isolate. */
+function showChoices() {
+  const el = $("show-what"), cur = el.value;
+  el.innerHTML = '<option value="">— region or set —</option>' +
+    state.regions.filter((r) => r.count).map((r) => `<option value="region:${r.id}">region ${r.name}</option>`).join("") +
+    Object.keys(state.sets || {}).map((n) => `<option value="set:${n}">set ${n}</option>`).join("");
+  if ([...el.options].some((o) => o.value === cur)) el.value = cur;
+}
+
+/** Vertex mask of the choice: 1 for its vertices. */
+function choiceMask() {
+  const v = $("show-what").value, n = state.V ? state.V.length / 3 : 0, mask = new Uint8Array(n);
+  if (v.startsWith("set:")) for (const i of state.sets[v.slice(4)] || []) mask[i] = 1;
+  else if (v.startsWith("region:")) {
+    const r = state.regions.find((x) => x.id === Number(v.slice(7)));
+    if (r) for (const i of regions.idsOf(r)) mask[i] = 1;
+  }
+  return v ? mask : null;
+}
+
+function hideOrIsolate(isolate) {
+  const m = choiceMask();
+  if (!state.V || !m) { showError("choose a region or a named set to hide or isolate"); return; }
+  // hide: the triangles with all three corners in it go; isolate: only those stay
+  meshView.setFaceFilter(isolate ? (a, b, c) => m[a] && m[b] && m[c] : (a, b, c) => !(m[a] && m[b] && m[c]));
 }
 
 /** The brush's size beside its slider: percent of the model diagonal, and the radius in model units. */
@@ -327,7 +360,17 @@ async function readJsonFile(input) {
 
 // ------------------------------------------------------------------ view options
 function syncViewOptions() {
-  Object.assign(meshView.options, { clip: $("clip").checked, clipAxis: Number($("clip-axis").value),
+  const axis = $("clip-axis").value;
+  $("clip-normal").hidden = axis !== "n";
+  let normal = [0, 0, 0];
+  if (axis === "n") {
+    const v = $("clip-normal").value.trim().split(/[\s,;]+/).map(Number);
+    const len = v.length === 3 && v.every(Number.isFinite) ? Math.hypot(...v) : 0;
+    normal = len > 0 ? v.map((x) => x / len) : meshView.options.clipNormal;
+  } else {
+    normal[Number(axis)] = 1;
+  }
+  Object.assign(meshView.options, { clip: $("clip").checked, clipAxis: axis, clipNormal: normal,
     clipPos: Number($("clip-pos").value), bad: $("bad").checked });
   state.clip = $("clip").checked;
   meshView.refresh();
@@ -407,6 +450,25 @@ $("edges").addEventListener("change", () => meshView.setEdges($("edges").checked
 $("ghost").addEventListener("change", () => { meshView.setGhost($("ghost").checked); legend(); });
 $("color-by").addEventListener("change", () => meshView.setColorBy($("color-by").value));
 for (const id of ["clip", "clip-axis", "clip-pos", "bad"]) $(id).addEventListener("input", syncViewOptions);
+$("clip-normal").addEventListener("change", syncViewOptions);
+$("clip-from-view").addEventListener("click", () => {
+  // a section facing the camera: the part between the camera and the plane is cut away
+  const d = viewer.camera.position.clone().sub(viewer.orbit.target).normalize();
+  $("clip-normal").value = d.toArray().map((x) => Number(x.toFixed(4))).join(" ");
+  $("clip-axis").value = "n";
+  $("clip").checked = true;
+  syncViewOptions();
+});
+$("hide-sel").addEventListener("click", () => hideOrIsolate(false));
+$("isolate-sel").addEventListener("click", () => hideOrIsolate(true));
+$("show-all").addEventListener("click", () => { if (state.V) meshView.setFaceFilter(null); });
+$("opacity").addEventListener("input", () => meshView.setOpacity(Number($("opacity").value)));
+$("png").addEventListener("click", () => {
+  if (!state.V) { showError("open a mesh first"); return; }
+  viewer.draw();  // the drawing buffer is kept (preserveDrawingBuffer): the frame just drawn
+  const stem = (state.meshName || "view").replace(/\.[^.]+$/, "");
+  viewer.canvas.toBlob((blob) => saveBlob(blob, `${stem}.png`), "image/png");
+});
 $("units").addEventListener("change", () => {
   state.units = $("units").value;
   if (state.meshName) localStorage.setItem(`tetmorph-units:${state.meshName}`, state.units);
@@ -494,6 +556,7 @@ window.tetmorph = {
   regions: () => state.regions.map((r) => ({ id: r.id, name: r.name, kind: r.kind, count: r.count, visible: r.visible,
     color: r.color, source: r.source })),
   spec: () => session.spec(),
+  measure: () => measure.values(),
   ring: () => ({ visible: regions.ring.visible, position: regions.ring.position.toArray(), radius: regions.ring.scale.x }),
   ghostVisible: () => meshView.ghost.visible,
   dispMax: () => meshView.dispMax,

@@ -3,7 +3,7 @@
 // the poor and inverted tets drawn through the surface (clipped like it). Positions come
 // from the state (rest shape, then each streamed frame).
 import * as THREE from "three";
-import { cutTets, scaledJacobians, tetFaces } from "./quality.js";
+import { cutTetsAlong, scaledJacobians, tetFaces } from "./quality.js";
 import { emit, state } from "./state.js";
 
 // poor and inverted tets: magenta and near-black, colours the displacement rainbow (blue to red
@@ -28,7 +28,8 @@ export const css = (c) => `rgb(${Math.round(255 * c[0])}, ${Math.round(255 * c[1
 export class MeshView {
   constructor(viewer) {
     this.viewer = viewer;
-    this.options = { edges: true, clip: false, clipAxis: 2, clipPos: 0.5, bad: true,
+    // clipNormal: the section plane's unit normal (an axis, or any direction); clipPos: where along it, 0..1
+    this.options = { edges: true, clip: false, clipAxis: 2, clipNormal: [0, 0, 1], clipPos: 0.5, bad: true,
       colorBy: "regions", ghost: false };
     /** Colour of vertex i by region, or null when it is in none (set by the selection). */
     this.regionColor = () => null;
@@ -83,9 +84,44 @@ export class MeshView {
     this.ghostEdges = new THREE.LineSegments(this.indexed(rest, edgeIndex), this.ghostEdgeMat);
     this.ghost.add(this.ghostEdges);
     this.ghost.visible = this.options.ghost;
+    state.visibleFaces = state.F.length / 3;
+    this.faceFilter = null;
     state.sjRest = scaledJacobians(state.V0, state.T);
     state.sj = state.sjRest.slice();
     this.dispMax = 0;
+  }
+
+  /**
+   * Draw only the surface triangles `keep(a, b, c)` accepts (null: all of them), edges alike; hidden
+   * triangles cannot be picked either. Answers the number of triangles drawn.
+   */
+  setFaceFilter(keep) {
+    const F = state.F;
+    let idx = F;
+    if (keep) {
+      const out = [];
+      for (let f = 0; f < F.length; f += 3) if (keep(F[f], F[f + 1], F[f + 2])) out.push(F[f], F[f + 1], F[f + 2]);
+      idx = Uint32Array.from(out);
+    }
+    this.faceFilter = keep;
+    this.surfGeom.setIndex(new THREE.BufferAttribute(idx, 1));
+    const scene = this.viewer.scene;
+    if (this.edges) { scene.remove(this.edges); this.edges.geometry.dispose(); }
+    this.edges = new THREE.LineSegments(this.indexed(this.surfGeom.getAttribute("position"), this.edgeIndex(idx)),
+      this.edgeMat);
+    this.edges.visible = this.options.edges;
+    scene.add(this.edges);
+    state.visibleFaces = idx.length / 3;
+    return state.visibleFaces;
+  }
+
+  /** Surface opacity (1: opaque); below 1 the section and the poor tets show through. */
+  setOpacity(a) {
+    this.options.opacity = a;
+    this.surfMat.opacity = a;
+    this.surfMat.transparent = a < 1;
+    this.surfMat.depthWrite = a >= 1;
+    this.surfMat.needsUpdate = true;
   }
 
   setEdges(on) {
@@ -105,8 +141,8 @@ export class MeshView {
   }
 
   /** Unique surface edges as an index (pairs of vertex ids). */
-  edgeIndex() {
-    const F = state.F, n = state.V.length / 3;
+  edgeIndex(F = state.F) {
+    const n = state.V.length / 3;
     const seen = new Set(), idx = [];
     for (let f = 0; f < F.length; f += 3) {
       for (let k = 0; k < 3; k++) {
@@ -221,13 +257,17 @@ export class MeshView {
     // cross-section: the surface is clipped, the tets cut by the plane are drawn coloured by quality
     const planes = o.clip ? [this.clipPlane] : [];
     if (o.clip) {
-      const axis = o.clipAxis;
+      const n = o.clipNormal, V = state.V;
       let lo = Infinity, hi = -Infinity;
-      for (let i = axis; i < state.V.length; i += 3) { lo = Math.min(lo, state.V[i]); hi = Math.max(hi, state.V[i]); }
+      for (let i = 0; i < V.length; i += 3) {
+        const d = n[0] * V[i] + n[1] * V[i + 1] + n[2] * V[i + 2];
+        if (d < lo) lo = d;
+        if (d > hi) hi = d;
+      }
       const c = lo + o.clipPos * (hi - lo);
-      this.clipPlane.normal.set(0, 0, 0).setComponent(axis, -1);
+      this.clipPlane.normal.set(-n[0], -n[1], -n[2]);
       this.clipPlane.constant = c;
-      const tets = cutTets(state.V, state.T, axis, c);
+      const tets = cutTetsAlong(V, state.T, n, c);
       state.cut = tets.length;
       this.trianglesOf(tets, this.cutGeom);
     } else {

@@ -42,6 +42,20 @@ export function histogram(sj, bins) {
   return h;
 }
 
+/** Tets with vertices on both sides of the plane n . x = c, n a unit [nx, ny, nz] (the crinkle cross-section). */
+export function cutTetsAlong(V, T, n, c) {
+  const m = T.length / 4, out = [];
+  for (let t = 0; t < m; t++) {
+    let below = 0;
+    for (let k = 0; k < 4; k++) {
+      const v = 3 * T[4 * t + k];
+      if (n[0] * V[v] + n[1] * V[v + 1] + n[2] * V[v + 2] < c) below++;
+    }
+    if (below > 0 && below < 4) out.push(t);
+  }
+  return out;
+}
+
 /** Tets with vertices on both sides of the plane x[axis] = c (the crinkle cross-section). */
 export function cutTets(V, T, axis, c) {
   const m = T.length / 4;

@@ -437,7 +437,7 @@ export class Regions {
 
   down(ev) {
     const tool = this.tool();
-    if (tool === "orbit" || ev.button !== 0 || !state.V || this.busy()) return;
+    if ((tool !== "box" && tool !== "brush") || ev.button !== 0 || !state.V || this.busy()) return;
     this.drag = { x: ev.offsetX, y: ev.offsetY };
     this.viewer.canvas.setPointerCapture(ev.pointerId);
     if (tool === "brush") this.brushAt(ev.clientX, ev.clientY, ev);

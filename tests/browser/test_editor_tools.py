@@ -1,0 +1,164 @@
+"""The editor's tools a morphing user reaches for: node picking and measuring, snapping the gizmo to
+nodes, a section plane at any orientation and a PNG of the view, driven in a real browser.
+
+Every test here failed on the editor before its tool was added (run against that build once).
+"""
+
+from __future__ import annotations
+
+import httpx
+import numpy as np
+from PIL import Image
+
+from solver import read_mesh
+from tests.browser.conftest import BRACKET, bracket_session, differs, load_bracket, rest, settle
+
+
+def test_the_view_is_saved_as_a_png(page, tmp_path):
+    load_bracket(page)
+    with page.expect_download() as dl:
+        page.click("#png")
+    assert dl.value.suggested_filename == "bracket.png"
+    path = tmp_path / "view.png"
+    dl.value.save_as(path)
+    img = Image.open(path)
+    size = page.eval_on_selector("#canvas", "c => [c.width, c.height]")
+    assert img.format == "PNG" and list(img.size) == size
+    px = np.asarray(img.convert("RGB"), dtype=np.int16)
+    background = np.array([0xF4, 0xF5, 0xF7])
+    assert (np.abs(px - background).max(axis=2) > 20).sum() > 0.1 * px.shape[0] * px.shape[1]  # the model is in it
+
+
+def test_picked_nodes_read_out_coordinates_distance_and_angle(page):
+    load_bracket(page)
+    mesh = read_mesh(BRACKET)
+    V = mesh.V
+    load = mesh.sets["LOAD"]  # the x = 100 end face, facing the camera of the first view
+    a = load[np.argmin(V[load, 1] + V[load, 2])]
+    b = load[np.argmax(V[load, 1] - V[load, 2])]
+    c = load[np.argmax(V[load, 1] + V[load, 2])]
+    page.check("input[name=tool][value='pick']")
+    for i in (a, b, c):
+        p = page.evaluate("(i) => window.tetmorph.screenOf(i)", int(i))
+        page.mouse.move(p["x"], p["y"])
+        page.wait_for_selector("#pick-tip:not([hidden])")
+        assert page.inner_text("#pick-tip").startswith(f"vertex {i} ")
+        page.mouse.click(p["x"], p["y"])
+    got = page.evaluate("window.tetmorph.measure()")
+    assert got["vertices"] == [int(a), int(b), int(c)]
+    ab, cb = V[a] - V[b], V[c] - V[b]
+    dist = float(np.linalg.norm(V[b] - V[a]))
+    angle = float(np.degrees(np.arccos(ab @ cb / np.linalg.norm(ab) / np.linalg.norm(cb))))
+    assert abs(got["distance"] - dist) < 1e-4 and abs(got["angle"] - angle) < 1e-3
+    assert f"{float(f'{dist:.6g}'):g}" in page.inner_text("#measure [data-key=distance]").replace(",", "")
+    assert f"{angle:.3f}°" in page.inner_text("#measure [data-key=angle]")
+    assert f"vertex {a}" in page.inner_text("#measure [data-key=node0]")
+    page.click("#measure-clear")
+    assert page.evaluate("window.tetmorph.measure()")["vertices"] == []
+
+
+def _drag_to(pg, x: float, y: float) -> None:
+    c = pg.evaluate("window.tetmorph.pivotScreen()")
+    pg.mouse.move(c["x"], c["y"])
+    pg.mouse.down()
+    for k in range(1, 13):
+        pg.mouse.move(c["x"] + (x - c["x"]) * k / 12, c["y"] + (y - c["y"]) * k / 12)
+    pg.mouse.up()
+
+
+def test_the_gizmo_snaps_to_nodes(page):
+    bracket_session(page)
+    mesh = read_mesh(BRACKET)
+    handle = set(mesh.sets["LOAD"].tolist())
+    c = page.evaluate("window.tetmorph.pivotScreen()")
+    # a surface node of the fixed part about 120 px from the gizmo
+    cand = [int(i) for i in np.flatnonzero(mesh.boundary) if i not in handle]
+    pts = page.evaluate("(ids) => ids.map((i) => window.tetmorph.screenOf(i))", cand)
+    d = np.array([np.hypot(p["x"] - c["x"], p["y"] - c["y"]) for p in pts])
+    j = int(np.argmin(np.abs(d - 120)))
+    target = pts[j]
+    page.check("#snap-node")
+    _drag_to(page, target["x"] + 2, target["y"] + 1)
+    settle(page)
+    pivot = np.array(page.evaluate("window.tetmorph.pivot()")["position"])
+    V = rest(page)  # where the nodes were when the drag began
+    k = int(np.argmin(np.linalg.norm(V - pivot, axis=1)))
+    assert np.linalg.norm(V[k] - pivot) < 1e-9  # exactly on a node
+    assert k not in handle and mesh.boundary[k]
+    s = pts[cand.index(k)]
+    assert np.hypot(s["x"] - target["x"] - 2, s["y"] - target["y"] - 1) < 13
+    # and the session moved the handle's centre there
+    sid = page.evaluate("window.tetmorph.state.sessionId")
+    last = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]
+    h = next(iter(last["handles"].values()))
+    np.testing.assert_allclose(np.array(h["pivot"]) + np.array(h["translation"]), V[k], atol=1e-5)
+    # without snapping, the same drag leaves the gizmo between nodes
+    page.uncheck("#snap-node")
+    page.click("#reset")
+    page.click("#confirm-ok")
+    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    _drag_to(page, target["x"] + 2, target["y"] + 1)
+    settle(page)
+    pivot = np.array(page.evaluate("window.tetmorph.pivot()")["position"])
+    assert np.linalg.norm(rest(page) - pivot, axis=1).min() > 1e-3
+
+
+def test_a_section_plane_at_any_orientation(page):
+    load_bracket(page)
+    V = rest(page).astype(np.float64)
+    T = read_mesh(BRACKET).T
+
+    def expected(n):
+        n = np.asarray(n, float) / np.linalg.norm(n)
+        d = V @ n
+        c = d.min() + 0.5 * (d.max() - d.min())
+        below = (d[T] < c).sum(axis=1)
+        return int(((below > 0) & (below < 4)).sum())
+
+    page.check("#clip")
+    page.select_option("#clip-axis", "n")
+    page.fill("#clip-normal", "1 1 0")
+    page.press("#clip-normal", "Enter")
+    page.wait_for_function("window.tetmorph.state.cut > 0")
+    assert page.evaluate("window.tetmorph.state.cut") == expected([1, 1, 0])
+    assert "tets in the section" in page.inner_text("#cut-count")
+    # a plane facing the camera
+    page.click("[data-view=iso]")
+    page.click("#clip-from-view")
+    n = [float(x) for x in page.input_value("#clip-normal").split()]
+    cam = page.evaluate("window.tetmorph.camera()")
+    view = np.array(cam["position"]) - np.array(cam["target"])
+    np.testing.assert_allclose(n, view / np.linalg.norm(view), atol=1e-4)
+    page.wait_for_function(f"window.tetmorph.state.cut === {expected(n)}")
+
+
+def test_hide_isolate_show_and_opacity(page):
+    load_bracket(page)
+    mesh = read_mesh(BRACKET)
+    F = mesh.F
+    inside = np.zeros(mesh.n, bool)
+    inside[mesh.sets["LOAD"]] = True
+    whole = inside[F].all(axis=1)
+    assert 0 < whole.sum() < len(F)
+    visible = lambda: page.evaluate("window.tetmorph.state.visibleFaces")  # noqa: E731
+    assert visible() == len(F)
+    page.select_option("#show-what", "set:LOAD")
+    page.click("#hide-sel")
+    assert visible() == len(F) - whole.sum()
+    page.click("#isolate-sel")
+    assert visible() == whole.sum()
+    isolated = shot_of(page)
+    page.click("#show-all")
+    assert visible() == len(F)
+    page.focus("#opacity")  # the slider, with the keys
+    page.keyboard.press("Home")
+    assert page.evaluate("window.tetmorph.viewOptions().opacity") == 0.1
+    seen = shot_of(page)
+    page.keyboard.press("End")
+    assert page.evaluate("window.tetmorph.viewOptions().opacity") == 1
+    opaque = shot_of(page)
+    assert differs(seen, opaque) > 2000 and differs(isolated, opaque) > 2000
+
+
+def shot_of(pg) -> bytes:
+    return pg.locator("#canvas").screenshot()

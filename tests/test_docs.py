@@ -36,9 +36,23 @@ def test_every_relative_link_of_the_readme_points_to_a_file():
     assert not missing, f"README.md links to missing files: {missing}"
 
 
-def test_the_readme_library_example_runs(monkeypatch):
-    monkeypatch.chdir(ROOT)
-    (ROOT / "out").mkdir(exist_ok=True)
+@pytest.fixture
+def checkout(tmp_path, monkeypatch) -> Path:
+    """A working directory that reads like the repository's root, with an ``out/`` of its own.
+
+    The pages use the repository's paths (``tests/data/...``, ``out/...``); their files go to a
+    private ``out/``, so that runs of other tests writing ``out/`` cannot meet them.
+    """
+    work = tmp_path / "checkout"
+    work.mkdir()
+    for name in ("tests", "examples", "docs"):
+        (work / name).symlink_to(ROOT / name, target_is_directory=True)
+    (work / "out").mkdir()
+    monkeypatch.chdir(work)
+    return work
+
+
+def test_the_readme_library_example_runs(checkout):
     (code,) = _blocks(README, "python")
     scope: dict = {}
     exec(compile(code, "README.md", "exec"), scope)  # noqa: S102 - the README's own example
@@ -145,26 +159,25 @@ def _needs_ccx(page: Path) -> bool:
 
 def _marks(page: Path) -> list:
     marks = [pytest.mark.ccx] if _needs_ccx(page) else []
-    if any("serve_process" in c for c in _blocks(page, "python")):
-        marks.append(pytest.mark.slow)  # a real server process: make test, not make check
+    if any("serve_process" in c for c in _blocks(page, "python")) or any("--engine ray" in s
+                                                                          for s in _blocks(page, "sh")):
+        marks.append(pytest.mark.slow)  # a real server process or a Ray cluster: make test, not make check
     return marks
 
 
 @pytest.mark.parametrize("page", [pytest.param(p, marks=_marks(p)) for p in TUTORIALS],
                          ids=[p.stem for p in TUTORIALS])
-def test_every_block_of_a_tutorial_runs_as_written(page, monkeypatch):
+def test_every_block_of_a_tutorial_runs_as_written(page, checkout, monkeypatch):
     """The page's Python and shell blocks run in the order they appear, sharing the environment."""
-    monkeypatch.chdir(ROOT)  # the pages' paths are the repository's
     monkeypatch.setenv("PATH", f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")  # venv on
     monkeypatch.setenv("TETMORPH_URL", "")  # a page may set it for its shell blocks; restored afterwards
-    (ROOT / "out").mkdir(exist_ok=True)
     scope: dict = {}
     try:
         for lang, code in re.findall(r"```(python|sh)\n(.*?)```", page.read_text(), re.S):
             if lang == "python":
                 exec(compile(code, f"{page.name}", "exec"), scope)  # noqa: S102 - the page's own code
                 continue
-            r = subprocess.run(["bash", "-euo", "pipefail", "-c", code], cwd=ROOT, capture_output=True, text=True,
+            r = subprocess.run(["bash", "-euo", "pipefail", "-c", code], cwd=checkout, capture_output=True, text=True,
                                timeout=600, env=dict(os.environ))
             assert r.returncode == 0, f"{page.name}:\n{code}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
     finally:  # a server or a client the page opened is closed even when a block fails

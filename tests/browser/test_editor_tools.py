@@ -11,6 +11,7 @@ import numpy as np
 from PIL import Image
 
 from solver import read_mesh
+from solver.constraints.features import feature_candidates
 from tests.browser.conftest import BRACKET, bracket_session, differs, load_bracket, rest, settle
 
 
@@ -162,3 +163,55 @@ def test_hide_isolate_show_and_opacity(page):
 
 def shot_of(pg) -> bytes:
     return pg.locator("#canvas").screenshot()
+
+
+def test_a_feature_candidate_shows_what_it_selects_under_the_pointer(page):
+    load_bracket(page)
+    page.click("#find-features")
+    page.wait_for_selector("#features li button")
+    expected = next(c for c in feature_candidates(read_mesh(BRACKET), 30, 1e-3) if c.name == "hole_1")
+    ids = expected.to_dict()["selection"]["ids"]
+    before = page.evaluate("(i) => window.tetmorph.surfaceColor(i)", ids[0])
+    page.hover("#features li:has-text('hole_1') .name")
+    shown = page.evaluate("(ids) => ids.map((i) => window.tetmorph.surfaceColor(i))", ids)
+    assert all(np.allclose(c, shown[0]) for c in shown) and not np.allclose(shown[0], before, atol=0.05)
+    others = np.setdiff1d(np.flatnonzero(read_mesh(BRACKET).boundary), ids)[:50]
+    for c in page.evaluate("(ids) => ids.map((i) => window.tetmorph.surfaceColor(i))", others.tolist()):
+        assert np.allclose(c, before, atol=1e-6)  # only the candidate's vertices
+    page.mouse.move(5, 5)  # off the list: the colours are back
+    page.wait_for_function(f"Math.abs(window.tetmorph.surfaceColor({ids[0]})[0] - {before[0]}) < 1e-6")
+
+
+def test_local_axes_from_three_picked_nodes_drive_the_numeric_moves(page):
+    bracket_session(page)
+    mesh = read_mesh(BRACKET)
+    V = mesh.V
+    load = mesh.sets["LOAD"]
+    a = load[np.argmin(V[load, 1] + V[load, 2])]
+    b = load[np.argmax(V[load, 1] - V[load, 2])]
+    c = load[np.argmax(V[load, 1] + V[load, 2])]
+    page.check("input[name=tool][value='pick']")
+    for i in (a, b, c):
+        p = page.evaluate("(i) => window.tetmorph.screenOf(i)", int(i))
+        page.mouse.click(p["x"], p["y"])
+    assert page.evaluate("window.tetmorph.measure()")["vertices"] == [int(a), int(b), int(c)]
+    page.click("#csys-from-picks")
+    assert page.is_checked("#local")
+    e1 = (V[b] - V[a]) / np.linalg.norm(V[b] - V[a])
+    e3 = np.cross(e1, V[c] - V[a])
+    e3 /= np.linalg.norm(e3)
+    e2 = np.cross(e3, e1)
+    np.testing.assert_allclose(page.evaluate("window.tetmorph.csys()"), [e1, e2, e3], atol=1e-6)
+    page.check("input[name=tool][value='orbit']")
+    page.fill("#tx", "5")
+    page.fill("#ty", "0")
+    page.fill("#tz", "2")
+    page.click("#apply-move")
+    settle(page)
+    sid = page.evaluate("window.tetmorph.state.sessionId")
+    h = next(iter(httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"].values()))
+    np.testing.assert_allclose(h["translation"], 5 * e1 + 2 * e3, atol=1e-5)
+    assert [page.input_value(f"#{k}") for k in ("tx", "ty", "tz")] == ["5", "0", "2"]
+    page.uncheck("#local")  # the same move in global axes
+    shown = [float(page.input_value(f"#{k}")) for k in ("tx", "ty", "tz")]
+    np.testing.assert_allclose(shown, 5 * e1 + 2 * e3, atol=1e-4)

@@ -324,8 +324,9 @@ export class Moves {
     const h = state.transforms[this.active];
     if (!h) return;
     const { angle, axis } = axisAngle(h.q);
-    const vals = { tx: h.t[0], ty: h.t[1], tz: h.t[2], angle, scale: h.s };
-    if (axis) Object.assign(vals, { ax: axis[0], ay: axis[1], az: axis[2] });
+    const t = this.toLocal(h.t);
+    const vals = { tx: t[0], ty: t[1], tz: t[2], angle, scale: h.s };
+    if (axis) { const a = this.toLocal(axis); Object.assign(vals, { ax: a[0], ay: a[1], az: a[2] }); }
     for (const [id, v] of Object.entries(vals)) {
       const el = $(id);
       if (!all && document.activeElement === el && !this.dragging) continue;
@@ -334,6 +335,40 @@ export class Moves {
       this.shown[id] = [text, v];
     }
     this.updateLabel();
+  }
+
+  // ---------------------------------------------------------------- local axes
+  /**
+   * Local axes for the move fields: from three nodes A, B, C (x along AB, z normal to ABC, y = z × x),
+   * or null for the global ones. The fields (t, axis, by, about) are read and shown in them.
+   */
+  setCsys(points) {
+    if (!points) { this.csys = null; } else {
+      const [A, B, C] = points.map((p) => new THREE.Vector3(...p));
+      const e1 = B.clone().sub(A), e3 = e1.clone().cross(C.clone().sub(A));
+      if (e1.lengthSq() === 0 || e3.lengthSq() === 0) return false;
+      e1.normalize(); e3.normalize();
+      const e2 = e3.clone().cross(e1);
+      this.csys = { origin: A.toArray(), axes: [e1, e2, e3] };
+    }
+    this.syncFields(true);
+    return true;
+  }
+
+  /** Use the local axes (when set) for the fields. */
+  useLocal(on) { this.local = on; this.syncFields(true); }
+
+  frame() { return this.local && this.csys ? this.csys.axes : null; }
+
+  toLocal(v) {
+    const e = this.frame();
+    return e ? e.map((a) => a.x * v[0] + a.y * v[1] + a.z * v[2]) : v.slice();
+  }
+
+  toGlobal(v) {
+    const e = this.frame();
+    if (!e) return v.slice();
+    return [0, 1, 2].map((k) => e[0].getComponent(k) * v[0] + e[1].getComponent(k) * v[1] + e[2].getComponent(k) * v[2]);
   }
 
   /** A field's value: the exact transform behind it when the user did not change what it shows. */
@@ -351,12 +386,12 @@ export class Moves {
   applyFields() {
     if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
     const h = state.transforms[this.active], before = this.snapshot();
-    const axis = new THREE.Vector3(this.field("ax"), this.field("ay"), this.field("az"));
+    const axis = new THREE.Vector3(...this.toGlobal([this.field("ax"), this.field("ay"), this.field("az")]));
     const q = new THREE.Quaternion();
     const ang = this.field("angle");
     if (axis.lengthSq() > 0 && ang) q.setFromAxisAngle(axis.normalize(), THREE.MathUtils.degToRad(ang));
     const s = this.field("scale");
-    h.t = [this.field("tx"), this.field("ty"), this.field("tz")];
+    h.t = this.toGlobal([this.field("tx"), this.field("ty"), this.field("tz")]);
     h.q = q;
     h.s = s > 0 ? s : 1;
     this.loadPivot();
@@ -368,10 +403,10 @@ export class Moves {
   moveBy() {
     if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
     const h = state.transforms[this.active], before = this.snapshot();
-    const d = [Number($("dx").value) || 0, Number($("dy").value) || 0, Number($("dz").value) || 0];
+    const d = this.toGlobal([Number($("dx").value) || 0, Number($("dy").value) || 0, Number($("dz").value) || 0]);
     const deg = Number($("dangle").value) || 0;
     for (const id of ["dx", "dy", "dz", "dangle"]) this.shown[id] = [$(id).value, Number($(id).value) || 0];
-    const axis = new THREE.Vector3().setComponent(Number($("daxis").value), 1);
+    const axis = new THREE.Vector3(...this.toGlobal([0, 1, 2].map((k) => (k === Number($("daxis").value) ? 1 : 0))));
     h.t = [h.t[0] + d[0], h.t[1] + d[1], h.t[2] + d[2]];
     if (deg) h.q = new THREE.Quaternion().setFromAxisAngle(axis, THREE.MathUtils.degToRad(deg)).multiply(h.q);
     this.loadPivot();

@@ -55,13 +55,14 @@ export function wireRegions(regions) {
   });
 }
 
-export function renderFeatures(list, onPick) {
+export function renderFeatures(list, onPick, onHover = () => {}) {
   const el = $("features");
+  onHover(null);
   if (!list) { el.innerHTML = ""; return; }
   if (!list.length) { el.innerHTML = '<li class="muted">no feature candidates found</li>'; return; }
   el.innerHTML = list.map((f, k) => {
     const what = f.kind === "hole" || f.kind === "boss" ? ` r ${fmt(f.radius)}` : "";
-    return `<li><span class="name" title="${esc(f.kind)}, ${fmt(f.vertices)} vertices">${esc(f.name)}${what}
+    return `<li data-k="${k}"><span class="name" title="${esc(f.kind)}, ${fmt(f.vertices)} vertices">${esc(f.name)}${what}
       <span class="muted">${fmt(f.vertices)}</span></span>
       <button data-k="${k}" data-kind="fixed" title="a fixed region from it">fixed</button>
       <button data-k="${k}" data-kind="handle" title="a handle region from it">handle</button></li>`;
@@ -70,6 +71,12 @@ export function renderFeatures(list, onPick) {
     const b = ev.target.closest("button[data-k]");
     if (b) onPick(list[Number(b.dataset.k)], b.dataset.kind);
   };
+  // the pointer on a candidate shows on the model what it would select
+  el.onmouseover = (ev) => {
+    const li = ev.target.closest("li[data-k]");
+    if (li && li.dataset.k !== el.dataset.hover) { el.dataset.hover = li.dataset.k; onHover(list[Number(li.dataset.k)]); }
+  };
+  el.onmouseleave = () => { delete el.dataset.hover; onHover(null); };
 }
 
 export function renderHistory(moves) {

@@ -92,6 +92,10 @@ async function openMesh(id) {
     // nothing of the mesh before stays: colouring, move fields, snap step, download choice
     $("color-by").value = "regions";
     meshView.options.colorBy = "regions";
+    moves.setCsys(null);
+    $("local").checked = false;
+    moves.useLocal(false);
+    $("csys-text").textContent = "global x y z";
     moves.resetFields();
     moves.snapDefaults(state.diag);
     $("format").value = "";
@@ -103,7 +107,7 @@ async function openMesh(id) {
     meshView.refresh();
     viewer.fit(meshView.box(), new THREE.Vector3(1, -1, 1));
     $("welcome").hidden = true;
-    renderFeatures(null);
+    renderFeatures(null, null, () => meshView.setPreview(null));
     measure.reset();
     showModel(header);
     showReport(meshReport());
@@ -409,7 +413,8 @@ $("find-features").addEventListener("click", async () => {
   try {
     const list = await getJson(`/v1/meshes/${state.meshId}/features?ids=true`);
     state.features = list;
-    renderFeatures(list, (f, kind) => regions.fromIds(f.name, kind, regions.resolve(f.selection), null));
+    renderFeatures(list, (f, kind) => regions.fromIds(f.name, kind, regions.resolve(f.selection), null),
+      (f) => meshView.setPreview(f ? regions.resolve(f.selection) : null));
   } catch (e) { showError(e); } finally { setBusy(null); }
 });
 $("spec-view").addEventListener("click", openSpecDialog);
@@ -459,6 +464,16 @@ $("clip-from-view").addEventListener("click", () => {
   $("clip").checked = true;
   syncViewOptions();
 });
+$("csys-from-picks").addEventListener("click", () => {
+  const v = measure.values();
+  if (v.vertices.length !== 3) { showError("pick three nodes first (pick tool): A the origin, B along x, C in the xy plane"); return; }
+  if (!moves.setCsys(v.vertices.map((i) => measure.point(i).toArray()))) { showError("the three picked nodes are on one line"); return; }
+  const e = moves.csys.axes.map((a) => a.toArray().map((x) => fmt(Number(x.toFixed(4)))).join(" "));
+  $("csys-text").textContent = `x (${e[0]}) · y (${e[1]}) · z (${e[2]}), from vertices ${v.vertices.join(", ")}`;
+  $("local").checked = true;
+  moves.useLocal(true);
+});
+$("local").addEventListener("change", () => moves.useLocal($("local").checked));
 $("hide-sel").addEventListener("click", () => hideOrIsolate(false));
 $("isolate-sel").addEventListener("click", () => hideOrIsolate(true));
 $("show-all").addEventListener("click", () => { if (state.V) meshView.setFaceFilter(null); });
@@ -557,6 +572,7 @@ window.tetmorph = {
     color: r.color, source: r.source })),
   spec: () => session.spec(),
   measure: () => measure.values(),
+  csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
   ring: () => ({ visible: regions.ring.visible, position: regions.ring.position.toArray(), radius: regions.ring.scale.x }),
   ghostVisible: () => meshView.ghost.visible,
   dispMax: () => meshView.dispMax,

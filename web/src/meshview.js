@@ -10,6 +10,8 @@ import { emit, state } from "./state.js";
 // through cyan, green and yellow) never takes, so the overlay reads on either colouring
 export const QUALITY_COLORS = { inverted: [0.12, 0.12, 0.12], poor: [0.85, 0.0, 0.85], good: [0.72, 0.8, 0.9] };
 export const NONE_COLOR = [0.78, 0.8, 0.83];
+/** The vertices a feature candidate would select, while the pointer is on it in the list. */
+export const PREVIEW_COLOR = [0.95, 0.45, 0.05];
 
 /** Rainbow colour map (blue → cyan → green → yellow → red) of t in [0, 1], as CAE post-processors draw. */
 export function rainbow(t) {
@@ -192,7 +194,16 @@ export class MeshView {
         col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
       }
     }
+    if (this.preview) {
+      for (const i of this.preview) { col[3 * i] = PREVIEW_COLOR[0]; col[3 * i + 1] = PREVIEW_COLOR[1]; col[3 * i + 2] = PREVIEW_COLOR[2]; }
+    }
     this.surfGeom.getAttribute("color").needsUpdate = true;
+  }
+
+  /** Show these vertices in the preview colour over any colouring (null: none). */
+  setPreview(ids) {
+    this.preview = ids && ids.length ? ids : null;
+    this.recolor();
   }
 
   /** Boundary positions of a boundary-first frame (boundary vertices in ascending order): the surface only. */

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import httpx
 import numpy as np
+import pytest
 from PIL import Image
 
 from solver import read_mesh
 from solver.constraints.features import feature_candidates
-from tests.browser.conftest import BRACKET, bracket_session, differs, load_bracket, rest, settle
+from tests.browser.conftest import BRACKET, bracket_session, differs, load_bracket, positions, rest, settle
 
 
 def test_the_view_is_saved_as_a_png(page, tmp_path):
@@ -215,3 +216,40 @@ def test_local_axes_from_three_picked_nodes_drive_the_numeric_moves(page):
     page.uncheck("#local")  # the same move in global axes
     shown = [float(page.input_value(f"#{k}")) for k in ("tx", "ty", "tz")]
     np.testing.assert_allclose(shown, 5 * e1 + 2 * e3, atol=1e-4)
+
+
+def rotation(axis, deg) -> np.ndarray:
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    a = np.radians(deg)
+    return np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K
+
+
+def test_a_turn_about_an_axis_and_a_pivot_picked_on_the_model(page):
+    bracket_session(page)
+    mesh = read_mesh(BRACKET)
+    V = mesh.V
+    load = mesh.sets["LOAD"]
+    a = load[np.argmin(V[load, 1] + V[load, 2])]
+    b = load[np.argmax(V[load, 1] - V[load, 2])]
+    page.check("input[name=tool][value='pick']")
+    for i in (a, b):
+        p = page.evaluate("(i) => window.tetmorph.screenOf(i)", int(i))
+        page.mouse.click(p["x"], p["y"])
+    assert page.evaluate("window.tetmorph.measure()")["vertices"] == [int(a), int(b)]
+    page.check("input[name=tool][value='orbit']")
+    page.fill("#dangle", "30")
+    page.select_option("#daxis", "AB")
+    page.select_option("#dpivot", "A")
+    page.click("#move-by")
+    settle(page)
+    sid = page.evaluate("window.tetmorph.state.sessionId")
+    h = next(iter(httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"].values()))
+    w, x, y, z = h["rotation"]["quaternion"]
+    ab = (V[b] - V[a]) / np.linalg.norm(V[b] - V[a])
+    np.testing.assert_allclose(np.array([x, y, z]) / np.sin(np.radians(15)), ab, atol=1e-6)
+    assert np.degrees(2 * np.arccos(w)) == pytest.approx(30, abs=1e-6)
+    c = np.array(h["pivot"])  # the handle's centre: it turned about the line AB through A
+    np.testing.assert_allclose(c + np.array(h["translation"]), V[a] + rotation(ab, 30) @ (c - V[a]), atol=1e-5)
+    # and node A, on the axis, stays where it was
+    np.testing.assert_allclose(positions(page)[a], V[a], atol=1e-4)

@@ -337,6 +337,9 @@ export class Moves {
     this.updateLabel();
   }
 
+  /** Set by the wiring: the picked nodes' positions [A, B, C] (pick tool). */
+  picked() { return []; }
+
   // ---------------------------------------------------------------- local axes
   /**
    * Local axes for the move fields: from three nodes A, B, C (x along AB, z normal to ABC, y = z × x),
@@ -399,16 +402,32 @@ export class Moves {
     this.sendAndCommit("numeric", before);
   }
 
-  /** Relative move: translate by (dx, dy, dz) and turn by dθ about an axis through the handle's current centre. */
+  /**
+   * Relative move: turn by dθ about an axis (x, y, z, or the line AB of two picked nodes) through a
+   * pivot (the handle's current centre, or the picked node A), then translate by (dx, dy, dz).
+   */
   moveBy() {
     if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
     const h = state.transforms[this.active], before = this.snapshot();
     const d = this.toGlobal([Number($("dx").value) || 0, Number($("dy").value) || 0, Number($("dz").value) || 0]);
     const deg = Number($("dangle").value) || 0;
     for (const id of ["dx", "dy", "dz", "dangle"]) this.shown[id] = [$(id).value, Number($(id).value) || 0];
-    const axis = new THREE.Vector3(...this.toGlobal([0, 1, 2].map((k) => (k === Number($("daxis").value) ? 1 : 0))));
-    h.t = [h.t[0] + d[0], h.t[1] + d[1], h.t[2] + d[2]];
-    if (deg) h.q = new THREE.Quaternion().setFromAxisAngle(axis, THREE.MathUtils.degToRad(deg)).multiply(h.q);
+    const picked = this.picked(), about = $("daxis").value, through = $("dpivot").value;
+    if ((about === "AB" && picked.length < 2) || (through === "A" && picked.length < 1)) {
+      this.io.refuse(`pick ${about === "AB" ? "two nodes, A and B," : "a node A"} first (pick tool)`);
+      return;
+    }
+    const axis = about === "AB"
+      ? new THREE.Vector3(...picked[1]).sub(new THREE.Vector3(...picked[0])).normalize()
+      : new THREE.Vector3(...this.toGlobal([0, 1, 2].map((k) => (k === Number(about) ? 1 : 0))));
+    if (deg && !(axis.lengthSq() > 0)) { this.io.refuse("the nodes A and B are the same point"); return; }
+    const qd = new THREE.Quaternion().setFromAxisAngle(axis, THREE.MathUtils.degToRad(deg));
+    const c = new THREE.Vector3(...h.centroid), uc = c.clone().add(new THREE.Vector3(...h.t));
+    const P = through === "A" ? new THREE.Vector3(...picked[0]) : uc.clone();
+    // u'(x) = P + Rd (u(x) - P) + d: the handle's centre goes to P + Rd (uc - P) + d
+    const ucNew = uc.clone().sub(P).applyQuaternion(qd).add(P).add(new THREE.Vector3(...d));
+    h.t = ucNew.sub(c).toArray();
+    if (deg) h.q = qd.multiply(h.q);
     this.loadPivot();
     this.syncFields(true);
     this.sendAndCommit(`by (${d.map(fmt).join(", ")})${deg ? ` ${fmt(deg)}°` : ""}`, before);

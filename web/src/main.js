@@ -473,6 +473,7 @@ $("csys-from-picks").addEventListener("click", () => {
   $("local").checked = true;
   moves.useLocal(true);
 });
+moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
 $("local").addEventListener("change", () => moves.useLocal($("local").checked));
 $("hide-sel").addEventListener("click", () => hideOrIsolate(false));
 $("isolate-sel").addEventListener("click", () => hideOrIsolate(true));

@@ -88,6 +88,23 @@ def test_the_site_builds_with_warnings_as_errors(site):
         assert (site / "tutorials" / page.stem / "index.html").is_file()
 
 
+def test_the_benchmark_plot_is_drawn_from_the_scaling_table(site):
+    sys.path.insert(0, str(ROOT / "docs" / "scripts"))
+    import benchmark_plots
+
+    page = (ROOT / "docs" / "benchmarks.md").read_text()
+    scaling = page.split("\n## Scaling", 1)[1]
+    first_table = re.search(r"(?:^\|.*\n)+", scaling, re.M).group()  # the section's first table
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in first_table.splitlines()
+            if re.match(r"\| [\d,]+ \|", line)]
+    expected = [(float(r[0].replace(",", "")), float(r[-1])) for r in rows]
+    assert len(expected) >= 3
+    assert sorted(benchmark_plots.series(page)["scaling run"]) == sorted(expected)
+    svg = (site / "img" / "benchmark-update-ratio.svg").read_text()
+    assert svg.startswith("<?xml") and "<svg" in svg
+    assert 'src="../img/benchmark-update-ratio.svg"' in _page(site, "benchmarks")
+
+
 def test_every_setting_is_on_the_settings_page_with_its_variable_and_default(site):
     from service.settings import Settings
 

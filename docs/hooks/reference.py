@@ -7,7 +7,8 @@
   from every code the ``solver`` and ``service`` packages raise, each with the HTTP status
   :func:`service.errors.status_of` gives it, its meaning and its fix;
 * ``reference/rest.md`` from the app's OpenAPI document (one section per route);
-* ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES.
+* ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES;
+* ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``).
 
 A note or a meaning kept for a setting or a code that no longer exists is a warning, which
 ``mkdocs build --strict`` turns into an error.
@@ -33,13 +34,19 @@ import reference_text as text  # noqa: E402 - beside this hook
 log = logging.getLogger("mkdocs.hooks.reference")
 ROOT = Path(__file__).resolve().parents[2]
 BOUND_SIGNS = {"gt": ">", "ge": "≥", "lt": "<", "le": "≤"}
+PLOT = "img/benchmark-update-ratio.svg"  # drawn from the tables of benchmarks.md
 PAGES = ("reference/settings.md", "reference/errors.md", "reference/rest.md", "reference/documents.md")
 
 
 def on_files(files: Files, config: Any) -> Files:
-    """Add the generated reference pages to the site."""
+    """Add the generated reference pages, and the plot of the benchmark tables, to the site."""
     for uri, make in zip(PAGES, (settings_page, errors_page, rest_page, documents_page), strict=True):
         files.append(File.generated(config, uri, content=make()))
+    sys.path.insert(0, str(ROOT / "docs" / "scripts"))
+    import benchmark_plots
+
+    page = Path(config["docs_dir"]) / "benchmarks.md"
+    files.append(File.generated(config, PLOT, content=benchmark_plots.update_ratio_svg(page.read_text())))
     return files
 
 

@@ -13,7 +13,8 @@ from PIL import Image
 
 from solver import read_mesh
 from solver.constraints.features import feature_candidates
-from tests.browser.conftest import BRACKET, bracket_session, differs, load_bracket, positions, rest, settle
+from solver.validity.quality import aspect_ratios, dihedral_angles, scaled_jacobians
+from tests.browser.conftest import BRACKET, bracket_session, differs, image, load_bracket, positions, rest, settle
 
 
 def test_the_view_is_saved_as_a_png(page, tmp_path):
@@ -253,3 +254,27 @@ def test_a_turn_about_an_axis_and_a_pivot_picked_on_the_model(page):
     np.testing.assert_allclose(c + np.array(h["translation"]), V[a] + rotation(ab, 30) @ (c - V[a]), atol=1e-5)
     # and node A, on the axis, stays where it was
     np.testing.assert_allclose(positions(page)[a], V[a], atol=1e-4)
+
+
+def test_an_element_quality_contour_with_a_choice_of_metric(page):
+    load_bracket(page)
+    mesh = read_mesh(BRACKET)
+    per_tet = {"scaled_jacobian": (scaled_jacobians(mesh.V, mesh.T), False),
+               "aspect_ratio": (aspect_ratios(mesh.V, mesh.T), True),
+               "min_dihedral_deg": (dihedral_angles(mesh.V, mesh.T).min(axis=1), False)}
+    before = image(page.locator("#canvas").screenshot())
+    page.select_option("#color-by", "quality")
+    for metric, (q, high_is_bad) in per_tet.items():
+        page.select_option("#quality-metric", metric)
+        page.wait_for_selector("#legend [data-key=q-worst]")
+        worst = float(page.inner_text("#legend [data-key=q-worst]").replace(",", ""))
+        best = float(page.inner_text("#legend [data-key=q-best]").replace(",", ""))
+        assert worst == pytest.approx(q.max() if high_is_bad else q.min(), rel=1e-3), metric
+        assert best == pytest.approx(q.min() if high_is_bad else q.max(), rel=1e-3), metric
+        # the node of the worst element is drawn in the map's worst colour (red)
+        t = int(np.argmax(q) if high_is_bad else np.argmin(q))
+        node = next(int(i) for i in mesh.T[t] if mesh.boundary[i]) if mesh.boundary[mesh.T[t]].any() else None
+        if node is not None:
+            c = page.evaluate(f"window.tetmorph.surfaceColor({node})")
+            np.testing.assert_allclose(c, [1, 0, 0], atol=1e-6)
+    assert (np.abs(image(page.locator("#canvas").screenshot()) - before).max(axis=2) > 30).sum() > 2000

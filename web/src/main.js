@@ -91,6 +91,7 @@ async function openMesh(id) {
       header.sets.map((s) => `<option>${s}</option>`).join("");
     // nothing of the mesh before stays: colouring, move fields, snap step, download choice
     $("color-by").value = "regions";
+    $("quality-metric").hidden = true;
     meshView.options.colorBy = "regions";
     moves.setCsys(null);
     $("local").checked = false;
@@ -453,7 +454,11 @@ $("fit").addEventListener("click", fit);
 for (const b of document.querySelectorAll("[data-view]")) b.addEventListener("click", () => view(b.dataset.view));
 $("edges").addEventListener("change", () => meshView.setEdges($("edges").checked));
 $("ghost").addEventListener("change", () => { meshView.setGhost($("ghost").checked); legend(); });
-$("color-by").addEventListener("change", () => meshView.setColorBy($("color-by").value));
+$("color-by").addEventListener("change", () => {
+  $("quality-metric").hidden = $("color-by").value !== "quality";
+  meshView.setColorBy($("color-by").value);
+});
+$("quality-metric").addEventListener("change", () => meshView.setQualityMetric($("quality-metric").value));
 for (const id of ["clip", "clip-axis", "clip-pos", "bad"]) $(id).addEventListener("input", syncViewOptions);
 $("clip-normal").addEventListener("change", syncViewOptions);
 $("clip-from-view").addEventListener("click", () => {

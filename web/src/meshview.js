@@ -3,7 +3,7 @@
 // the poor and inverted tets drawn through the surface (clipped like it). Positions come
 // from the state (rest shape, then each streamed frame).
 import * as THREE from "three";
-import { cutTetsAlong, scaledJacobians, tetFaces } from "./quality.js";
+import { cutTetsAlong, scaledJacobians, tetFaces, tetMetric } from "./quality.js";
 import { emit, state } from "./state.js";
 
 // poor and inverted tets: magenta and near-black, colours the displacement rainbow (blue to red
@@ -32,7 +32,7 @@ export class MeshView {
     this.viewer = viewer;
     // clipNormal: the section plane's unit normal (an axis, or any direction); clipPos: where along it, 0..1
     this.options = { edges: true, clip: false, clipAxis: 2, clipNormal: [0, 0, 1], clipPos: 0.5, bad: true,
-      colorBy: "regions", ghost: false };
+      colorBy: "regions", ghost: false, qualityMetric: "scaled_jacobian" };
     /** Colour of vertex i by region, or null when it is in none (set by the selection). */
     this.regionColor = () => null;
     this.clipPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 0);
@@ -174,7 +174,9 @@ export class MeshView {
     if (!state.V) return;
     const col = this.surfGeom.getAttribute("color").array;
     const n = state.V.length / 3;
-    if (this.options.colorBy === "displacement") {
+    if (this.options.colorBy === "quality") {
+      this.colorByQuality(col, n);
+    } else if (this.options.colorBy === "displacement") {
       const V = state.V, V0 = state.V0;
       let max = 0;
       const d = this.dispScratch && this.dispScratch.length === n ? this.dispScratch : (this.dispScratch = new Float32Array(n));
@@ -198,6 +200,41 @@ export class MeshView {
       for (const i of this.preview) { col[3 * i] = PREVIEW_COLOR[0]; col[3 * i + 1] = PREVIEW_COLOR[1]; col[3 * i + 2] = PREVIEW_COLOR[2]; }
     }
     this.surfGeom.getAttribute("color").needsUpdate = true;
+  }
+
+  /**
+   * Quality contour: each node coloured by the worst element at it (the lowest scaled Jacobian or
+   * dihedral angle, the highest aspect ratio), blue for the best element of the mesh to red for the
+   * worst; `qualityRange` is [min, max] over the tets.
+   */
+  colorByQuality(col, n) {
+    const metric = this.options.qualityMetric, T = state.T;
+    const q = this.qualityValues = tetMetric(state.V, T, metric, this.qualityValues);
+    const high = metric === "aspect_ratio";  // high is bad
+    const node = this.nodeQuality && this.nodeQuality.length === n ? this.nodeQuality : (this.nodeQuality = new Float64Array(n));
+    node.fill(high ? -Infinity : Infinity);
+    let lo = Infinity, hi = -Infinity;
+    for (let t = 0; t < q.length; t++) {
+      const v = q[t];
+      if (v < lo) lo = v;
+      if (v > hi) hi = v;
+      for (let k = 0; k < 4; k++) {
+        const i = T[4 * t + k];
+        if (high ? v > node[i] : v < node[i]) node[i] = v;
+      }
+    }
+    this.qualityRange = [lo, hi];
+    const span = hi - lo || 1;
+    for (let i = 0; i < n; i++) {
+      const v = node[i];
+      const c = Number.isFinite(v) ? rainbow(high ? (v - lo) / span : (hi - v) / span) : NONE_COLOR;
+      col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
+    }
+  }
+
+  setQualityMetric(metric) {
+    this.options.qualityMetric = metric;
+    if (this.options.colorBy === "quality") { this.recolor(); emit("legend"); }
   }
 
   /** Show these vertices in the preview colour over any colouring (null: none). */
@@ -235,7 +272,7 @@ export class MeshView {
     this.surfGeom.computeBoundingSphere();
     state.sj = scaledJacobians(state.V, state.T, state.sj);
     state.frames += 1;
-    if (this.options.colorBy === "displacement") { this.recolor(); emit("legend"); }
+    if (this.options.colorBy === "displacement" || this.options.colorBy === "quality") { this.recolor(); emit("legend"); }
     this.refresh();
     state.applyMs = performance.now() - t0;
   }

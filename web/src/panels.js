@@ -248,7 +248,15 @@ export function drawLegend(meshView, regions) {
   if (!state.V) { el.hidden = true; return; }
   const o = meshView.options, items = [];
   const sw = (c, extra = "") => `<span class="sw" style="background:${typeof c === "string" ? c : css(c)}${extra}"></span>`;
-  if (o.colorBy === "displacement") {
+  if (o.colorBy === "quality" && meshView.qualityRange) {
+    const [lo, hi] = meshView.qualityRange, high = o.qualityMetric === "aspect_ratio";
+    const name = { scaled_jacobian: "scaled Jacobian", aspect_ratio: "aspect ratio", min_dihedral_deg: "min dihedral angle (°)" }[o.qualityMetric];
+    const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => `${css(rainbow(t))} ${100 * t}%`).join(", ");
+    const best = high ? lo : hi, worst = high ? hi : lo;
+    items.push(`<div class="lg-title">${name}, worst element at each node</div>`,
+      `<div class="ramp" style="background:linear-gradient(to right, ${stops})"></div>`,
+      `<div class="ramp-ticks"><span data-key="q-best">${fmt(best)}</span><span data-key="q-worst">${fmt(worst)}</span></div>`);
+  } else if (o.colorBy === "displacement") {
     const max = meshView.dispMax;
     const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => `${css(rainbow(t))} ${100 * t}%`).join(", ");
     items.push(`<div class="lg-title">displacement magnitude${unitText() ? ` (${state.units})` : ""}</div>`,

@@ -14,7 +14,7 @@ Meshes: the CAD bracket of ``tests/data/make_bracket.py`` at gmsh sizes
 ``harmonic``       the peer
 ``mixed``          tetmorph's default (single-precision interior factor, residual checked)
 ``pardiso``        ``mixed`` with PARDISO's and CHOLMOD's own solves at every size
-                   (``TETMORPH_SUPERNODAL=0``; the default back-substitutes by the
+                   (``SolveOptions(sweeps=False)``; the default back-substitutes by the
                    supernodal sweeps of :mod:`solver.linalg.supernodal`)
 ``exact``          tetmorph with ``precision: "exact"`` (double-precision interior factor)
 ``many``           tetmorph ``solve_many`` of the same moves, per-move cost
@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import resource
 import subprocess
 import sys
@@ -83,7 +82,6 @@ class Harmonic:
     """The peer: one CHOLMOD factor of the harmonic system, three right-hand sides per update."""
 
     def __init__(self, deck: Path) -> None:
-        os.environ["TETMORPH_SUPERNODAL"] = "0"  # the peer's solve is CHOLMOD's own, not tetmorph's sweeps
         from solver import read_mesh
         from solver.constraints.move import parse_move
         from solver.linalg import factorization as fz
@@ -140,16 +138,15 @@ def run_harmonic(deck: Path, k: int) -> dict:
 
 
 def run_tetmorph(deck: Path, k: int, case: str) -> dict:
-    from solver import load_kernels, precompute, read_mesh
+    from solver import SolveOptions, load_kernels, precompute, read_mesh
 
-    if case == "pardiso":
-        os.environ["TETMORPH_SUPERNODAL"] = "0"
+    options = SolveOptions(sweeps=False) if case == "pardiso" else None
     mesh = read_mesh(deck)
     spec = {**SPEC, "precision": "exact" if case == "exact" else "mixed"}
     t0 = time.perf_counter()
     load_kernels()  # tetmorph's per-process load: numba's runtime and the cached kernels
     t1 = time.perf_counter()
-    d = precompute(mesh, spec)
+    d = precompute(mesh, spec, options=options)
     setup = time.perf_counter() - t1
     moves = _moves(k)
     out: dict = {"load_s": t1 - t0, "setup_s": setup}
@@ -193,7 +190,7 @@ def run_tetmorph(deck: Path, k: int, case: str) -> dict:
     out["peak_rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
     del d, pos
     t0 = time.perf_counter()
-    precompute(mesh, spec)  # a second set-up in the same process: compiled kernels loaded, as in a service
+    precompute(mesh, spec, options=options)  # a second set-up in this process: kernels loaded, as in a service
     out["setup_warm_s"] = time.perf_counter() - t0
     return out
 

@@ -406,7 +406,7 @@ def interior() -> None:
 def supernodal() -> None:
     import copy
 
-    from solver import precompute, read_mesh
+    from solver import SolveOptions, precompute, read_mesh
     from solver.linalg import factorization as fz
     from solver.linalg import pardiso as pm
     from solver.linalg.supernodal import cholmod_supernodal, lu_supernodal
@@ -422,11 +422,8 @@ def supernodal() -> None:
     print("|---|---:|---|---|---:|---:|---:|---:|")
     for size in (0.95, 0.7):
         mesh = read_mesh(deck("bracket", size))
-        os.environ["TETMORPH_SUPERNODAL"] = "0"  # the precompute only builds the matrix; PARDISO is quicker
-        try:
-            M = precompute(mesh, end_spec(mesh)).data.positions.Mff.tocsc()
-        finally:
-            del os.environ["TETMORPH_SUPERNODAL"]
+        # the precompute only builds the matrix; PARDISO is quicker
+        M = precompute(mesh, end_spec(mesh), options=SolveOptions(sweeps=False)).data.positions.Mff.tocsc()
         B = np.random.default_rng(0).standard_normal((M.shape[0], 3))
         label = f"bracket {size} ({len(mesh.T):,} tets)"
         for single in (True, False):
@@ -450,11 +447,7 @@ def supernodal() -> None:
     print("|---|---:|---:|---:|---:|---:|")
     for size in (0.95, 0.44):
         mesh = read_mesh(deck("bracket", size))
-        os.environ["TETMORPH_SUPERNODAL"] = "0"
-        try:
-            d = precompute(mesh, end_spec(mesh))
-        finally:
-            del os.environ["TETMORPH_SUPERNODAL"]
+        d = precompute(mesh, end_spec(mesh), options=SolveOptions(sweeps=False))
         chol = d.data.positions.system._f  # CHOLMOD's own factor of the reduced system
         Lm = chol._f.L()
         Hr = (Lm @ Lm.T).tocsc()

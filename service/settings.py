@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import os
 import socket
+from dataclasses import replace
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+from solver import options as solver_options
+from solver.options import SolveOptions
 
 __all__ = ["Settings"]
 
@@ -55,6 +59,10 @@ class Settings(BaseSettings):
     solve_workers: int = Field(0, ge=0, description="Threads that solve MOVEs at once (0: one per core). "
                                "Each solve shares the cores free when it starts with the solves in flight, so "
                                "more workers mean fewer threads per solve, never more threads than cores.")
+    solve_backend: Literal["auto", "cholmod", "pardiso", "scipy"] | None = Field(
+        None, description="Symmetric solver backend of every session (default: TETMORPH_SOLVER, else auto).")
+    solve_reference: bool = Field(False, description="Build every session on the plain reference path: the "
+                                  "backends' own solves, no supernodal sweeps, no column basis.")
     solver_threads: int = Field(0, ge=0, description="Most threads one solve uses (0: every free core; 1: "
                                 "serial solves, for hosts that run other work on every core).")
     demo: bool = Field(False, description="Load the demo beam and session at start-up.")
@@ -96,6 +104,12 @@ class Settings(BaseSettings):
                                    "may ask for less.")
     bounds_time_limit_s: float = Field(30.0, gt=0,
                                        description="POST /v1/sessions/{id}/bounds stops after this (422).")
+
+    def solve_options(self) -> SolveOptions:
+        """The :class:`~solver.options.SolveOptions` every session is built with."""
+        base = solver_options.current()
+        backend = self.solve_backend or base.backend
+        return SolveOptions.reference(backend) if self.solve_reference else replace(base, backend=backend)
 
     @field_validator("api_keys", mode="before")
     @classmethod

@@ -29,11 +29,12 @@ from .errors import (
 from .io import mesh_from_meshio, read_mesh, write_mesh
 from .kernels import load_kernels
 from .mesh import Mesh, mesh_from_arrays
+from .options import SolveOptions
 
 __all__ = [
     "Deformer", "DeformResult", "precompute", "Mesh", "mesh_from_arrays", "mesh_from_meshio",
     "read_mesh", "write_mesh", "Move", "Spec", "parse_move", "parse_spec", "SolverError",
     "InvalidMeshError", "UnsupportedElementError", "SpecError", "ConstraintError",
-    "FactorizationError", "InversionError", "load_kernels",
+    "FactorizationError", "InversionError", "load_kernels", "SolveOptions",
 ]
 __version__ = "0.1.0"

@@ -32,6 +32,7 @@ from .documents import dump_json, load_json
 from .errors import InversionError, SolverError
 from .io import read_mesh, write_mesh
 from .ops.unique import unique
+from .options import add_solve_arguments, from_arguments
 
 __all__ = ["main", "EXIT_OK", "EXIT_ERROR", "EXIT_USAGE", "EXIT_REJECTED"]
 
@@ -113,7 +114,7 @@ def cmd_morph(args: argparse.Namespace) -> int:
         if len(moves) > 1 and "{i}" not in args.output:
             raise SolverError("with several moves, --output needs '{i}' (e.g. out_{i}.vtu)",
                               code="usage")
-    deformer = Deformer(mesh, spec, progress=_progress())
+    deformer = Deformer(mesh, spec, progress=_progress(), options=from_arguments(args))
     quality = "full" if args.quality else "basic"
     stacked: list[Any] | None = None
     if len(moves) > 1:  # one multi-column back-substitution for all of them
@@ -244,6 +245,7 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
                     "everything the input carries (sets, element types, data); what is dropped is listed")
     pm.add_argument("--nastran-large", action="store_true", help="Nastran decks: write moved nodes whose "
                     "coordinates do not fit 8 columns exactly as large-field GRID* cards (16 columns)")
+    add_solve_arguments(pm)
     pm.set_defaults(func=cmd_morph)
     pf = sub.add_parser("features", help="form-feature candidates (holes, bosses, planes) or the "
                         "min-cut feature region inside a band")

@@ -18,6 +18,7 @@ from typing import Any, TypeVar
 from solver.deform.deformer import Deformer
 from solver.errors import SolverError
 from solver.mesh import Mesh
+from solver.options import SolveOptions
 
 from .session import Session, SessionStatus
 
@@ -44,11 +45,14 @@ class Builder:
     ----------
     build_workers, solve_workers : int
         Threads that assemble and factor; threads that back-substitute.
+    options : SolveOptions, optional
+        What every session's precompute is built with (default: those in effect).
     """
 
-    def __init__(self, build_workers: int, solve_workers: int) -> None:
+    def __init__(self, build_workers: int, solve_workers: int, options: SolveOptions | None = None) -> None:
         self.build_workers = build_workers
         self.solve_workers = solve_workers
+        self.options = options
         self.closed = True
         self._queued = {"build": 0, "solve": 0}
         #: Called with the seconds of every finished build (the metrics set it).
@@ -132,7 +136,7 @@ class Builder:
             mesh = await mesh_of(s)
             spec = await spec_of(s) if spec_of is not None else s.spec
             t0 = time.perf_counter()
-            d = await self.run(Deformer, mesh, spec, progress)
+            d = await self.run(Deformer, mesh, spec, progress, self.options)
             self.observe_build(time.perf_counter() - t0)
             if s.last_move is not None and s.positions is None:
                 r = await self.solve(d.solve, s.last_move, "warn")

@@ -112,7 +112,7 @@ class Registry:
         self.store: Store = store if store is not None else open_store(settings.data_dir, settings.database_url)
         self.meshes = MeshCache()
         self.factors = FactorCache(settings.cache_budget_bytes)
-        self.builder = Builder(settings.build_workers, settings.solve_pool_size)
+        self.builder = Builder(settings.build_workers, settings.solve_pool_size, settings.solve_options())
         self.sessions: dict[str, Session] = {}
         self._boxes: dict[int, tuple[Mesh, list[float], list[float]]] = {}
         #: Called with the seconds of every solved MOVE (the metrics set it).

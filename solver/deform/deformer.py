@@ -20,6 +20,7 @@ from ..constraints.move import Move, parse_move, scaled_move
 from ..constraints.spec import Spec, parse_spec
 from ..linalg.threads import solving
 from ..mesh import Mesh
+from ..options import SolveOptions
 from ..validity.quality import element_quality, summarize_quality
 from ..validity.safe_fraction import SAFE_TOL
 from .policy import move_safe_fraction
@@ -48,6 +49,9 @@ class Deformer:
     spec : Spec or dict
     progress : callable, optional
         ``progress(stage, fraction)`` as set-up advances (:func:`~solver.deform.precompute.deform_precompute`).
+    options : SolveOptions, optional
+        Backend, sweeps and column basis (default: those in effect, :func:`solver.options.current`;
+        :meth:`SolveOptions.reference() <solver.options.SolveOptions.reference>` is the plain path).
 
     Raises
     ------
@@ -67,8 +71,9 @@ class Deformer:
     """
 
     def __init__(self, mesh: Mesh, spec: Spec | dict[str, Any],
-                 progress: Callable[[str, float], None] | None = None) -> None:
-        self.data: DeformData = deform_precompute(mesh, spec if isinstance(spec, Spec) else parse_spec(spec), progress)
+                 progress: Callable[[str, float], None] | None = None, options: SolveOptions | None = None) -> None:
+        self.data: DeformData = deform_precompute(mesh, spec if isinstance(spec, Spec) else parse_spec(spec), progress,
+                                                  options)
         cs = self.data.constraints
         self.mesh, self.spec, self.handle_names = mesh, self.data.spec, cs.handle_names
         self.setup_timings, self.factorizations = self.data.setup_timings, self.data.factorizations
@@ -188,6 +193,10 @@ class Deformer:
         return interior_basis(self.data, [self.parse_move(m) for m in moves])
 
 
-def precompute(mesh: Mesh, spec: Spec | dict[str, Any]) -> Deformer:
-    """Assemble and factor the deformation of ``mesh`` under ``spec``; call ``.solve(move)`` per update."""
-    return Deformer(mesh, spec)
+def precompute(mesh: Mesh, spec: Spec | dict[str, Any], options: SolveOptions | None = None) -> Deformer:
+    """Assemble and factor the deformation of ``mesh`` under ``spec``; call ``.solve(move)`` per update.
+
+    ``options`` (:class:`~solver.options.SolveOptions`) choose the backend, the
+    supernodal sweeps and the column basis; default: those in effect.
+    """
+    return Deformer(mesh, spec, options=options)

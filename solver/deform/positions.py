@@ -22,7 +22,7 @@ the rest shape).
 
 from __future__ import annotations
 
-import os
+import contextvars
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -41,6 +41,8 @@ from ..linalg.products import combination, offset_product, product, shifted_prod
 from ..linalg.residual import block_residual, corrected, coupled_residual_norms
 from ..linalg.threads import one_blas_thread
 from ..mesh import Mesh
+from ..options import SolveOptions
+from ..options import current as current_options
 from .constraint_set import ConstraintSet
 from .operators import Operators, csr
 from .rhs import RightHandSides
@@ -141,6 +143,8 @@ class Positions:
         MOVE is solved for its change from them (:meth:`boundary_many`). None:
         the rest does not solve it (a tie the rest misses, for instance), and
         the positions are solved for directly.
+    options : SolveOptions
+        The options the factors were made with (those in effect at set-up).
     """
 
     system: ConstrainedSolver | None
@@ -152,6 +156,7 @@ class Positions:
     factorizations: int
     rest_c: np.ndarray | None = None
     rest_d: np.ndarray | None = None
+    options: SolveOptions = field(default_factory=current_options)
 
     mode = "joint"
 
@@ -394,7 +399,7 @@ class SplitPositions(Positions):
     def uses_basis(self, k: int) -> bool:
         """Whether a stacked solve of ``k`` arrays goes through a column basis (:func:`_use_basis`)."""
         return (self.interior is not None and self.interior_precision == "single"
-                and _use_basis(self.free_interior.size, k))
+                and _use_basis(self.free_interior.size, k, self.options.basis))
 
     def _scales(self, D: np.ndarray) -> np.ndarray | None:
         """Per-column norms of ``D`` floored at round-off of the coordinates; None when ``D`` is not finite.
@@ -487,12 +492,13 @@ BASIS_TOL = 1e-10
 BASIS_GAIN = 0.75
 
 
-def _use_basis(free: int, k: int) -> bool:
+def _use_basis(free: int, k: int, allowed: bool = True) -> bool:
     """Whether a stacked solve of ``k`` arrays on ``free`` interior vertices tries the column basis.
 
-    ``TETMORPH_COLUMN_BASIS=0`` keeps the direct stacked solve.
+    ``allowed`` is the precompute's :attr:`~solver.options.SolveOptions.basis`
+    (False keeps the direct stacked solve).
     """
-    return k >= 3 and free >= BASIS_MIN and os.environ.get("TETMORPH_COLUMN_BASIS", "1").strip() != "0"
+    return allowed and k >= 3 and free >= BASIS_MIN
 
 
 RhsFor = Callable[[Move, np.ndarray], RightHandSides]
@@ -561,7 +567,9 @@ def interior_start(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators) ->
     Mfi = csr(ops.Mi[fi])
     Mff = csr(Mfi[:, fi])
     pool = ThreadPoolExecutor(1, thread_name_prefix="tetmorph-interior-lu")
-    lu = pool.submit(fz.lu, Mff.tocsc(), "interior mean-value system", single=spec.precision == "mixed")
+    # in the set-up's context: the factor follows the SolveOptions in effect here, not the thread's default
+    lu = pool.submit(contextvars.copy_context().run, fz.lu, Mff.tocsc(), "interior mean-value system",
+                     single=spec.precision == "mixed")
     pool.shutdown(wait=False)  # the thread ends with its one task
     return InteriorStart(fi, Mfi, Mff, lu)
 

@@ -20,6 +20,7 @@ from ..constraints.move import Move
 from ..constraints.spec import Spec
 from ..mesh import Mesh
 from ..ops.unique import unique
+from ..options import SolveOptions, using
 from ..validity.check import ElementCheck, SurfaceCheck
 from ..validity.midside import MidsideNodes
 from .constraint_set import ConstraintSet, constraint_set
@@ -116,7 +117,8 @@ def _surface_check(mesh: Mesh) -> SurfaceCheck:
     return SurfaceCheck(mesh.V, F, shell, closed)
 
 
-def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) -> DeformData:
+def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None,
+                      options: SolveOptions | None = None) -> DeformData:
     """Assemble and factor the deformation of ``mesh`` under a parsed ``spec``.
 
     Parameters
@@ -128,6 +130,9 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) 
         ``"constraints"`` (selections resolved and checked: every SPEC error
         has been raised by then), ``"assembly"``, ``"rotation"``,
         ``"positions"``, ``"done"``.
+    options : SolveOptions, optional
+        Backend, sweeps and column basis (default: those in effect,
+        :func:`solver.options.current`).
 
     Returns
     -------
@@ -137,6 +142,11 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None) 
     ------
     SpecError, ConstraintError, FactorizationError
     """
+    with using(options):
+        return _precompute(mesh, spec, progress)
+
+
+def _precompute(mesh: Mesh, spec: Spec, progress: Progress | None) -> DeformData:
     t0 = time.perf_counter()
     report: Progress = progress or (lambda stage, fraction: None)
     _touch_topology(mesh)

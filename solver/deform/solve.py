@@ -15,6 +15,7 @@ from ..constraints.rows import REPORT_IDS
 from ..linalg import factorization as fz
 from ..ops.displacement import max_displacement
 from ..ops.unique import union
+from ..options import using
 from ..validity.check import CheckResult, SurfaceCheck
 from ..validity.midside import Placement
 from .positions import InteriorBasis, PositionSolve
@@ -151,6 +152,12 @@ def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move)
     return Solved(P, rhs.U, rhs.d, pinned_at, placement, ps.interior_residual, ps.refined)
 
 
+def _backend(data: DeformData) -> str:
+    """The symmetric backend the precompute's options resolve to (whatever is in effect at solve time)."""
+    with using(data.positions.options):
+        return fz.backend()
+
+
 def _images_set(P: np.ndarray, mapped: list, constrained: np.ndarray) -> np.ndarray:
     """Free corner slaves of mirror and cyclic entries set to the images of their master points, exactly.
 
@@ -225,7 +232,7 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         conflicting_constraints=cons.conflicting,
         max_displacement=max_disp,
         solve_method=data.spec.method, solve_mode=data.positions.mode, refine_steps=data.positions.refine_steps,
-        backend=fz.backend(), lu_backend=data.positions.lu_backend,
+        backend=_backend(data), lu_backend=data.positions.lu_backend,
         finite=finite, midside_relaxed=relaxed,
         interior_precision=data.positions.interior_precision, mean_value_residual=solved.interior_residual,
         interior_refined=solved.interior_refined if solved.interior_residual is not None else None,

@@ -24,7 +24,7 @@ Backends, in order of preference:
     to two orders of magnitude slower on large meshes.
 
 Falling back from CHOLMOD emits a :class:`PerformanceWarning` once.
-``TETMORPH_SOLVER=cholmod|pardiso|scipy`` forces the symmetric backend
+``SolveOptions(backend=...)`` (:mod:`solver.options`; ``TETMORPH_SOLVER`` at start-up) forces the symmetric backend
 (``scipy`` also forces SuperLU for the non-symmetric one).
 
 Process-wide counters (:data:`STATS`: ``"factorizations"``, ``"solves"`` of CHOLMOD and SuperLU) are
@@ -48,6 +48,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import FactorizationError
+from ..options import current as current_options
 from .multifrontal import lu_multifrontal
 from .pardiso import PardisoFactor, mkl_runtime
 from .supernodal import Unsuitable, cholmod_supernodal
@@ -80,7 +81,8 @@ class Factor(Protocol):
         ...
 
 
-_BACKEND: str | None = None
+#: The backend each ``SolveOptions.backend`` resolved to (``auto``: the first installed).
+_BACKEND: dict[str, str] = {}
 BACKENDS = ("cholmod", "pardiso", "scipy")
 
 
@@ -95,42 +97,44 @@ def _importable(module: str) -> bool:
 
 
 def backend() -> str:
-    """Name of the backend for symmetric positive definite systems.
+    """Name of the backend for symmetric positive definite systems, under the options in effect.
 
     Returns
     -------
     str
-        ``"cholmod"``, ``"pardiso"`` or ``"scipy"``.
+        ``"cholmod"``, ``"pardiso"`` or ``"scipy"``: the one
+        :func:`solver.options.current` names, or for ``auto`` the first
+        installed of those (a warning when it is not CHOLMOD).
 
     Raises
     ------
     FactorizationError
-        If ``TETMORPH_SOLVER`` names an unknown or unavailable backend.
+        ``unknown_backend`` when the options name an unknown or unavailable backend.
     """
-    global _BACKEND
-    if _BACKEND is None:
-        wanted = os.environ.get("TETMORPH_SOLVER", "").strip().lower()
-        if wanted and wanted not in BACKENDS:
-            raise FactorizationError(
-                f"TETMORPH_SOLVER={wanted!r} is not a backend; use one of {list(BACKENDS)}",
-                code="unknown_backend")
-        modules = {"cholmod": "sksparse.cholmod", "pardiso": "mkl", "scipy": "scipy"}
-        if wanted:
-            if not _importable(modules[wanted]):
-                raise FactorizationError(f"TETMORPH_SOLVER={wanted!r} but {modules[wanted]} "
-                                         "is not installed", code="unknown_backend")
-            _BACKEND = wanted
-        else:
-            _BACKEND = next(b for b in BACKENDS if _importable(modules[b]))
-            if _BACKEND != "cholmod":
-                warnings.warn(
-                    f"CHOLMOD (scikit-sparse) is not installed: tetmorph uses {_BACKEND} for "
-                    "symmetric systems, which is slower on large meshes. Run 'make install' as "
-                    "root on Debian/Ubuntu to get CHOLMOD.", PerformanceWarning, stacklevel=2)
-    return _BACKEND
+    wanted = current_options().backend
+    if wanted in _BACKEND:
+        return _BACKEND[wanted]
+    modules = {"cholmod": "sksparse.cholmod", "pardiso": "mkl", "scipy": "scipy"}
+    if wanted != "auto":
+        if wanted not in BACKENDS:
+            raise FactorizationError(f"solver backend {wanted!r} (TETMORPH_SOLVER or SolveOptions) is not a "
+                                     f"backend; use one of {list(BACKENDS)}", code="unknown_backend")
+        if not _importable(modules[wanted]):
+            raise FactorizationError(f"solver backend {wanted!r} but {modules[wanted]} is not installed",
+                                     code="unknown_backend")
+        _BACKEND[wanted] = wanted
+    else:
+        found = next(b for b in BACKENDS if _importable(modules[b]))
+        if found != "cholmod":
+            warnings.warn(
+                f"CHOLMOD (scikit-sparse) is not installed: tetmorph uses {found} for "
+                "symmetric systems, which is slower on large meshes. Run 'make install' as "
+                "root on Debian/Ubuntu to get CHOLMOD.", PerformanceWarning, stacklevel=2)
+        _BACKEND[wanted] = found
+    return _BACKEND[wanted]
 
 
-_LU_BACKEND: str | None = None
+_LU_BACKEND: dict[str, str] = {}
 #: Square systems up to this size use SuperLU even when PARDISO is there: on small
 #: systems PARDISO's solve costs more, while SuperLU's factorization grows much faster
 #: with size than the others'. Measured on interior mean-value systems:
@@ -143,26 +147,26 @@ LU_SMALL = 5_000
 #: solve, whose cost is near the factor's memory traffic there. Square mean-value systems above
 #: ``LU_SMALL`` get the sweeps at every size, factored by :mod:`solver.linalg.multifrontal`.
 #: ``benchmarks/measure_choices.py --only supernodal`` measures both sides.
-#: ``TETMORPH_SUPERNODAL=0`` keeps PARDISO and CHOLMOD at every size.
+#: ``SolveOptions(sweeps=False)`` (or ``TETMORPH_SUPERNODAL=0``) keeps PARDISO and CHOLMOD at every size.
 SUPERNODAL_MAX = 40_000
 
 
 def _sweeps_on() -> bool:
-    """Whether the supernodal sweeps are on (``TETMORPH_SUPERNODAL=0`` turns them off)."""
-    return os.environ.get("TETMORPH_SUPERNODAL", "1").strip() != "0"
+    """Whether the supernodal sweeps are on (:attr:`solver.options.SolveOptions.sweeps`)."""
+    return current_options().sweeps
 
 
 def _supernodal(n: int) -> bool:
-    """Whether an ``n``-unknown system gets the supernodal sweeps (``SUPERNODAL_MAX``, ``TETMORPH_SUPERNODAL``)."""
+    """Whether an ``n``-unknown system gets the supernodal sweeps (``SUPERNODAL_MAX``, the options' ``sweeps``)."""
     return LU_SMALL < n <= SUPERNODAL_MAX and _sweeps_on()
 
 
 def lu_backend() -> str:
     """Name of the backend for square non-symmetric systems (``"pardiso"`` or ``"scipy"``)."""
-    global _LU_BACKEND
-    if _LU_BACKEND is None:
-        _LU_BACKEND = "pardiso" if backend() != "scipy" and _importable("mkl") else "scipy"
-    return _LU_BACKEND
+    b = backend()
+    if b not in _LU_BACKEND:
+        _LU_BACKEND[b] = "pardiso" if b != "scipy" and _importable("mkl") else "scipy"
+    return _LU_BACKEND[b]
 
 
 def _check_finite(M: sp.spmatrix, what: str) -> None:

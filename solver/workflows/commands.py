@@ -29,6 +29,7 @@ from ..documents import dump_json, load_json
 from ..errors import SolverError
 from ..io import read_mesh
 from ..mesh import Mesh
+from ..options import add_solve_arguments, from_arguments
 from .batch_memory import keep_freed_memory
 from .bounds import MAX_VALUE, TOL, shape_bounds
 from .doe import BLOCK, deck_writer, run_doe, write_summary
@@ -60,7 +61,7 @@ def _setup(args: argparse.Namespace) -> tuple[Mesh, Deformer, Shapes]:
     spec = load_json(args.spec, "SPEC")
     shapes_doc = load_json(args.shapes, "SHAPES")
     mesh = read_mesh(args.mesh, args.format)
-    deformer = precompute(mesh, spec)
+    deformer = precompute(mesh, spec, options=from_arguments(args))
     return mesh, deformer, parse_shapes(shapes_doc, deformer)
 
 
@@ -174,6 +175,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--shapes", required=True, help="SHAPES.json: {\"shapes\": {NAME: MOVE, ...}}, each MOVE "
                    "at parameter value 1")
     p.add_argument("--format", help="input meshio format name when the extension does not tell")
+    add_solve_arguments(p)
 
 
 def _assignments(items: list[str] | None, what: str, pair: bool) -> dict[str, Any]:

@@ -50,6 +50,10 @@ def _commands(tmp):
         "sensitivities": ([str(PLATE), *common, "--output", str(tmp / "sens.vtu")], None),
         "study": ([str(PLATE), *common, "--plan", str(plan), "--output", str(tmp / "st" / "{i}" / "deck.inp"),
                    "--solver", "true", "--response", str(resp), "--table", "-"], _csv),
+        "optimize": ([str(PLATE), *common, "--output", str(tmp / "opt" / "{i}" / "deck.inp"), "--solver", "true",
+                      "--response", str(resp), "--objective", "lines", "--bounds", "bend=-0.5:0.5",
+                      "--bounds", "hole1_x=-1:1", "--bounds", "hole2_y=-1:1", "--bounds", "upper_x=-1:1",
+                      "--max-evaluations", "3", "--history", "-"], _csv),
     }
 
 

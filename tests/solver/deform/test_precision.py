@@ -8,13 +8,14 @@ and the positions are compared with the double-precision solve.
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
-from solver import precompute, read_mesh
+from solver import SolveOptions, precompute, read_mesh
 from solver.deform.positions import MIXED_TOL
 from solver.ops.mvc_matrix import mvc_matrix
 from tests.conftest import DATA, bend_move, bend_spec, load
@@ -99,10 +100,9 @@ def test_stacked_solves_through_the_column_basis_match_separate_solves(backend, 
     """
     from solver.deform import positions
 
-    if backend == "pardiso":
-        monkeypatch.setenv("TETMORPH_SUPERNODAL", "0")
+    options = SolveOptions(sweeps=backend != "pardiso")
     mesh = load("tet/cube_big_tetra.mesh")
-    d = precompute(mesh, bend_spec(mesh))
+    d = precompute(mesh, bend_spec(mesh), options=options)
     assert d.data.positions.lu_backend == backend
     moves = [bend_move(mesh, angle=a, frac=f) for a, f in  # (0, 0): a row at rest, columns of round-off
              [(20, 0.03), (-10, 0.01), (5, -0.02), (15, 0.0), (0, 0.02), (-20, -0.03), (8, 0.015), (0, 0.0)]]
@@ -137,6 +137,6 @@ def test_stacked_solves_through_the_column_basis_match_separate_solves(backend, 
         assert r.report["interior_refined"] is False  # met by the basis solve itself, not by a refinement step
         assert np.array_equal(r.V[fixed], mesh.V[fixed])
         assert r.report["inverted_elements"] == one.report["inverted_elements"]
-    monkeypatch.setenv("TETMORPH_COLUMN_BASIS", "0")
-    d.solve_many(moves)
+    off = precompute(mesh, bend_spec(mesh), options=dataclasses.replace(options, basis=False))
+    off.solve_many(moves)
     assert len(ranks) == calls  # switched off

@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from solver import precompute
+from solver import SolveOptions, precompute
 from solver.linalg import factorization as fz
 from solver.linalg.pardiso import PardisoFactor, nested_dissection
 from solver.linalg.supernodal import SupernodalFactor, Unsuitable, lu_supernodal
@@ -125,15 +125,14 @@ def test_not_structurally_symmetric_is_refused():
         lu_supernodal(A)
 
 
-def test_interior_backend_choice_leaves_positions_unchanged(monkeypatch):
+def test_interior_backend_choice_leaves_positions_unchanged():
     """The 25k-unknown interior of cube_big_tetra: supernodal and PARDISO exact solves agree to round-off."""
     mesh = load("tet/cube_big_tetra.mesh")
     spec = {**bend_spec(mesh), "precision": "exact"}
     move = bend_move(mesh, angle=15.0, frac=0.02)
     ours = precompute(mesh, spec)
     assert ours.data.positions.lu_backend == "supernodal"
-    monkeypatch.setenv("TETMORPH_SUPERNODAL", "0")
-    peer = precompute(mesh, spec)
+    peer = precompute(mesh, spec, options=SolveOptions(sweeps=False))
     assert peer.data.positions.lu_backend == "pardiso"
     a, b = ours.solve(move), peer.solve(move)
     disp = np.abs(b.V - mesh.V).max()

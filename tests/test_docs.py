@@ -158,6 +158,17 @@ def test_every_route_is_on_the_rest_page(site):
             assert f"{method.upper()} <code>{path}</code>" in page, (method, path)
 
 
+def test_every_format_is_on_the_formats_page_with_what_it_keeps(site):
+    from service.formats import capabilities
+
+    page = _page(site, "reference/formats")
+    for f in capabilities():
+        cells = re.findall(r"<td>(.*?)</td>", _row(page, f"<code>{f['name']}</code>"))
+        assert f"<code>{f['extension']}</code>" in cells[1], f["name"]
+        marks = ["yes" if f[k] else "no" for k in ("read", "write", "sets", "quadratic", "mixed")]
+        assert cells[2:7] == marks, (f["name"], cells)
+
+
 def test_every_field_of_spec_move_and_report_is_on_the_documents_page(site):
     from service.models.move import Move
     from service.models.report import Report

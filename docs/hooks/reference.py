@@ -8,6 +8,7 @@
   :func:`service.errors.status_of` gives it, its meaning and its fix;
 * ``reference/rest.md`` from the app's OpenAPI document (one section per route);
 * ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES;
+* ``reference/formats.md`` from the measured table of ``service/format_table.py`` (``GET /v1/formats``);
 * ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``).
 
 A note or a meaning kept for a setting or a code that no longer exists is a warning, which
@@ -35,12 +36,13 @@ log = logging.getLogger("mkdocs.hooks.reference")
 ROOT = Path(__file__).resolve().parents[2]
 BOUND_SIGNS = {"gt": ">", "ge": "≥", "lt": "<", "le": "≤"}
 PLOT = "img/benchmark-update-ratio.svg"  # drawn from the tables of benchmarks.md
-PAGES = ("reference/settings.md", "reference/errors.md", "reference/rest.md", "reference/documents.md")
+PAGES = ("reference/settings.md", "reference/errors.md", "reference/rest.md", "reference/documents.md",
+         "reference/formats.md")
 
 
 def on_files(files: Files, config: Any) -> Files:
     """Add the generated reference pages, and the plot of the benchmark tables, to the site."""
-    for uri, make in zip(PAGES, (settings_page, errors_page, rest_page, documents_page), strict=True):
+    for uri, make in zip(PAGES, (settings_page, errors_page, rest_page, documents_page, formats_page), strict=True):
         files.append(File.generated(config, uri, content=make()))
     sys.path.insert(0, str(ROOT / "docs" / "scripts"))
     import benchmark_plots
@@ -312,6 +314,26 @@ def rest_page() -> str:
             out.append(table(["status", "answer", "content"], rows))
     out.append(text.REST_STREAM)
     return "".join(out)
+
+
+# ---------------------------------------------------------------------------------------------- formats
+
+def formats_page() -> str:
+    """Every mesh format: what is read, written and kept, as measured by round trips."""
+    from service.format_table import TABLE
+    from service.formats import SURFACE_FORMATS, capabilities
+
+    def mark(v: Any) -> str:
+        return "yes" if v else "no"
+
+    rows = [[code(f["name"]), code(f["extension"]), mark(f["read"]), mark(f["write"]), mark(f["sets"]),
+             mark(f["quadratic"]), mark(f["mixed"]), code(f["needs"]) if f["needs"] else "",
+             mark(f["available"])] for f in capabilities()]
+    surfaces = ", ".join(f"{code(ext)} ({name})" for name, ext in SURFACE_FORMATS.items())
+    return (text.FORMATS_INTRO.format(meshio=TABLE.get("meshio", ""))
+            + table(["format", "extension", "read", "write", "keeps node sets", "keeps tetra10",
+                     "keeps mixed elements", "needs", "offered here"], rows)
+            + f"\nTriangle surfaces (targets of `SPEC.targets`, inputs of `tetrahedralize`): {surfaces}.\n")
 
 
 # -------------------------------------------------------------------------------------------- documents

@@ -334,6 +334,20 @@ session, 4410 expired session, 4429 more open streams than `MAX_CONNECTIONS_PER_
 1009 a frame over `MAX_FRAME_KB`, 1011 a fault of the server.
 """
 
+# ------------------------------------------------------------------------------------------------ formats
+
+FORMATS_INTRO = """# Mesh formats
+
+Generated when the site is built from `service/format_table.py`, the table that
+`python -m service.formats` measures by round trips of tiny meshes through meshio
+{meshio} (a node set, a tetra10 element, a pyramid on a hexahedron) and that
+`GET /v1/formats` answers. "Offered here" is this installation: a format whose
+Python package is missing is listed but not offered. Files written back to the
+format they were read from are patched in place instead; what each conversion
+keeps, and what it refuses, is in the guide's [formats](../guide/formats.md) page.
+
+"""
+
 # ---------------------------------------------------------------------------------------------- documents
 
 DOCUMENTS_INTRO = """# Documents: SPEC, MOVE, REPORT, SHAPES

@@ -278,3 +278,28 @@ def test_an_element_quality_contour_with_a_choice_of_metric(page):
             c = page.evaluate(f"window.tetmorph.surfaceColor({node})")
             np.testing.assert_allclose(c, [1, 0, 0], atol=1e-6)
     assert (np.abs(image(page.locator("#canvas").screenshot()) - before).max(axis=2) > 30).sum() > 2000
+
+
+def test_the_undo_history_survives_a_reload_and_reopening(page):
+    bracket_session(page)
+    shapes = []
+    for tz in (2, 4, 6):
+        page.fill("#tz", str(tz))
+        page.click("#apply-move")
+        settle(page)
+        shapes.append(positions(page))
+    sid = page.evaluate("window.tetmorph.state.sessionId")
+    page.reload()
+    page.wait_for_function("window.tetmorph !== undefined")
+    page.click("#sessions-btn")
+    page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
+    page.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}' && window.tetmorph.state.ws.open")
+    assert page.locator("#history li").count() == 4 and not page.is_disabled("#undo")
+    np.testing.assert_allclose(positions(page), shapes[2], atol=1e-4)
+    page.click("#undo")
+    settle(page)
+    np.testing.assert_allclose(positions(page), shapes[1], atol=1e-5)
+    assert page.input_value("#tz") == "4"
+    page.click("#redo")
+    settle(page)
+    np.testing.assert_allclose(positions(page), shapes[2], atol=1e-5)

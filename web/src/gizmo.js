@@ -223,6 +223,18 @@ export class Moves {
     this.syncFields(true);
   }
 
+  /** True when two MOVEs put every handle at the same transform (null: rest). */
+  sameMove(a, b) {
+    for (const [name, h] of Object.entries(state.transforms)) {
+      const p = parseHandleMove(a && a.handles && a.handles[name], h.centroid);
+      const q = parseHandleMove(b && b.handles && b.handles[name], h.centroid);
+      const dt = Math.hypot(p.t[0] - q.t[0], p.t[1] - q.t[1], p.t[2] - q.t[2]);
+      if (dt > 1e-7 * Math.max(1, state.diag) || Math.abs(Math.abs(p.q.dot(q.q)) - 1) > 1e-9 ||
+        Math.abs(p.s - q.s) > 1e-9) return false;
+    }
+    return true;
+  }
+
   /** The MOVE scaled by f, as the service's clamp applies it: f t, f θ, s^f. */
   static scaled(move, f) {
     const handles = {};

@@ -39,7 +39,7 @@ regions.busy = () => moves.dragging;
 const legend = () => drawLegend(meshView, state.regions);
 on("regions", () => { renderRegions(regions); legend(); showChoices(); });
 on("legend", legend);
-on("history", () => { renderHistory(moves); session.note(); });
+on("history", () => { renderHistory(moves); session.note(); session.keepHistory(); });
 on("presets", () => renderPresets(moves));
 on("active-handle", () => renderHandleSelect(moves));
 on("open-sessions", () => openSessionsDialog());

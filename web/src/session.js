@@ -13,6 +13,8 @@ import { Stream } from "./stream.js";
 
 // where editors before the service kept presets kept them in this browser (moved to the service on open)
 const legacyPresetKey = (id) => `tetmorph-presets:${id}`;
+// the undo history of a session, kept in this browser
+const historyKey = (id) => `tetmorph-history:${id}`;
 
 export class SessionControl {
   constructor(meshView, regions) {
@@ -139,13 +141,20 @@ export class SessionControl {
       state.specSent = doc.spec;
       this.dropBoundary();
       this.meshView.applyPositions(data);
-      if (doc.last_move) {
-        state.history.push({ label: "last MOVE on the service", move: doc.last_move });
-        state.historyIndex = 1;
-        state.moves = [doc.last_move];
-        state.lastMove = doc.last_move;
-        this.moves.setFromMove(doc.last_move);
+      const kept = this.keptHistory(id);
+      if (kept) {  // this browser's history of the session: its current entry is what the session holds
+        state.history = kept.history;
+        state.historyIndex = kept.index;
       }
+      const cur = state.history[state.historyIndex].move;
+      if (!this.moves.sameMove(cur, doc.last_move)) {  // moved elsewhere since: the service's state comes last
+        state.history.splice(state.historyIndex + 1);
+        state.history.push({ label: "last MOVE on the service", move: doc.last_move });
+        state.historyIndex = state.history.length - 1;
+      }
+      state.moves = state.history.slice(1).map((e) => e.move);
+      state.lastMove = doc.last_move || null;
+      if (doc.last_move) this.moves.setFromMove(doc.last_move);
       state.presets = doc.presets || [];
       emit("history"); emit("presets");
       showReport({ ...(doc.last_report || {}), mesh: state.meshName });
@@ -190,11 +199,38 @@ export class SessionControl {
     }
     this.own.delete(id);
     localStorage.removeItem(legacyPresetKey(id));
+    localStorage.removeItem(historyKey(id));
     emit("sessions-changed");
     return true;
   }
 
   async list() { return getJson("/v1/sessions"); }
+
+  // ---------------------------------------------------------------- history kept in this browser
+  /**
+   * Keep the open session's history (up to 200 entries) in this browser, so that reopening the
+   * session, or reloading the page, brings back Undo and Redo.
+   */
+  keepHistory() {
+    const id = state.sessionId;
+    if (!id || state.history.length <= 1) return;
+    const start = Math.max(0, state.history.length - 200);
+    const doc = { history: state.history.slice(start).map((e) => ({ label: e.label, move: e.move })),
+      index: state.historyIndex - start };
+    if (doc.index < 0) return;
+    if (start > 0) doc.history[0] = { label: "earlier moves", move: doc.history[0].move };
+    try { localStorage.setItem(historyKey(id), JSON.stringify(doc)); } catch { /* storage full: not kept */ }
+  }
+
+  /** The history this browser kept for a session, or null. */
+  keptHistory(id) {
+    try {
+      const doc = JSON.parse(localStorage.getItem(historyKey(id)) || "null");
+      if (!doc || !Array.isArray(doc.history) || !doc.history.length) return null;
+      const index = Math.min(Math.max(0, doc.index | 0), doc.history.length - 1);
+      return { history: doc.history, index };
+    } catch { return null; }
+  }
 
   // ---------------------------------------------------------------- stream
   /** Before each paint: the boundary frame that came since the last one, if its full frame did not. */

@@ -70,7 +70,7 @@ def cmd_doe(args: argparse.Namespace) -> int:
     plan = _plan_for(args, "out_{i}.inp")
     _one_stdout(summary=args.summary, report=args.report)
     mesh, deformer, shapes = _setup(args)
-    writer = deck_writer(mesh, args.output, args.output_format)
+    writer = deck_writer(mesh, args.output, args.output_format, args.nastran_large)
 
     def output(row: int, res: Any) -> str | None:
         path = writer(row, res)
@@ -138,7 +138,8 @@ def cmd_study(args: argparse.Namespace) -> int:
               file=sys.stderr)
 
     rows = run_study(mesh, deformer, shapes, plan, output=args.output, solver=args.solver, response=response,
-                     timeout=args.timeout, block=args.block, inversion=args.inversion, progress=progress)
+                     timeout=args.timeout, block=args.block, inversion=args.inversion, progress=progress,
+                     nastran_large=args.nastran_large)
     write_table(rows, shapes.names, args.table)
     ok = sum(r.status == "ok" for r in rows)
     print(f"{ok} of {len(rows)} rows solved; table {args.table}", file=sys.stderr)
@@ -159,6 +160,12 @@ def _plan_options(p: argparse.ArgumentParser, output_help: str) -> None:
     p.add_argument("--plan", required=True, help="PLAN.csv: header of shape names, one variant per row")
     p.add_argument("--output", required=True, help=output_help)
     p.add_argument("--block", type=int, default=BLOCK, help=f"rows per stacked solve (default {BLOCK})")
+    _nastran_option(p)
+
+
+def _nastran_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--nastran-large", action="store_true", help="Nastran decks: write moved nodes whose "
+                   "coordinates do not fit 8-column fields as large-field GRID* cards")
 
 
 def _one_stdout(**paths: str | None) -> None:
@@ -227,7 +234,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     result = run_optimize(mesh, deformer, shapes, output=args.output, solver=args.solver, response=response,
                           objective=args.objective, constraints=conditions, maximize=args.maximize, bounds=bounds,
                           start=start, method=args.method, max_evaluations=args.max_evaluations, step=args.step,
-                          timeout=args.timeout, gradient=gradient, progress=progress)
+                          timeout=args.timeout, gradient=gradient, progress=progress,
+                          nastran_large=args.nastran_large)
     write_history(result, shapes.names, args.objective, args.history)
     if args.plot:
         write_plot(result, args.objective, args.plot)
@@ -315,6 +323,7 @@ def add_commands(subparsers: Any) -> None:
     po.add_argument("--step", type=float, default=STEP, help=f"forward-difference step, as a fraction of each "
                     f"shape's range (default {STEP:g})")
     po.add_argument("--output", required=True, help="deck per evaluation; '{i}' is the evaluation (from 1)")
+    _nastran_option(po)
     po.add_argument("--history", required=True, help="HISTORY.csv ('-': standard output): evaluation, "
                     "iteration, role, parameters, status, objective, feasible, slacks, responses, deck")
     po.add_argument("--plot", help="an SVG chart of the objective against the iterations")

@@ -265,7 +265,7 @@ def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOC
     return DoeResult(shapes.names, variants, plan.rows, stopped, block, timings)
 
 
-def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None) -> Output:
+def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None, nastran_large: bool = False) -> Output:
     """An ``output`` callback writing each variant with :func:`~solver.io.write_mesh`, as ``morph`` does.
 
     Parameters
@@ -277,6 +277,9 @@ def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None) -> Out
         Output path; ``{i}`` becomes the plan row (from 1).
     file_format : str, optional
         meshio format name (default: the extension).
+    nastran_large : bool
+        Nastran decks: moved nodes that do not fit their 8-column fields as
+        large-field ``GRID*`` cards (:func:`~solver.io.write_mesh`).
 
     Returns
     -------
@@ -286,7 +289,7 @@ def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None) -> Out
     def write(row: int, res: DeformResult) -> str:
         path = pattern.replace("{i}", str(row))
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-        write_mesh(mesh, res.V, path, file_format)
+        write_mesh(mesh, res.V, path, file_format, nastran_large=nastran_large)
         return path
 
     return write

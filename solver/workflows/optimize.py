@@ -216,7 +216,7 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
                  bounds: np.ndarray, start: np.ndarray | None = None, method: str = "slsqp",
                  max_evaluations: int = 40, step: float = STEP, timeout: float = DEFAULT_TIMEOUT_S,
                  gradient: Callable[[Any], dict[str, Any]] | None = None,
-                 progress: Callable[[Evaluation], None] | None = None) -> OptimizeResult:
+                 progress: Callable[[Evaluation], None] | None = None, nastran_large: bool = False) -> OptimizeResult:
     """Minimize (or maximize) a response over the shape parameters, subject to response constraints.
 
     Parameters
@@ -246,6 +246,8 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
         (``slsqp`` only); chained with ``dX/dtheta`` instead of differences.
     progress : callable, optional
         Called with each evaluation when it is done.
+    nastran_large : bool
+        As for :func:`~solver.workflows.doe.deck_writer`.
 
     Returns
     -------
@@ -292,7 +294,7 @@ def run_optimize(mesh: Mesh, deformer: Deformer, shapes: Shapes, *, output: str,
         t = theta(u)
         plan = parse_plan([dict(zip(shapes.names, t.tolist(), strict=True))])
         row = run_study(mesh, deformer, shapes, plan, output=output.replace("{i}", str(k)), solver=solver,
-                        response=response, timeout=timeout)[0]
+                        response=response, timeout=timeout, nastran_large=nastran_large)[0]
         row.row = k
         # an iterate's point belongs to the iteration it starts; probes to the iterate they difference
         ev = Evaluation(k, int(state["iteration"]) + (state["role"] == "iterate"), str(state["role"]), row)

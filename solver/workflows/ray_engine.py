@@ -130,7 +130,8 @@ class DoeWorker:
         return self._basis[1]
 
     def solve(self, plan: Plan, start: int, block: int, output: str | None, file_format: str | None,
-              inversion: str | None, quality: str, folder: str | None) -> tuple[list[Variant], list[tuple[str, str]]]:
+              inversion: str | None, quality: str, folder: str | None,
+              nastran_large: bool = False) -> tuple[list[Variant], list[tuple[str, str]]]:
         """Rows ``[start, start + block)``: their variants, and ``(written, final)`` deck paths."""
         stop = min(start + block, plan.rows)
         part = Plan(plan.columns, plan.values[start:stop], plan.lines[start:stop] if plan.lines else None)
@@ -138,7 +139,8 @@ class DoeWorker:
         out = None
         if output is not None and folder is not None:
             os.makedirs(folder, exist_ok=True)
-            write = deck_writer(self.deformer.mesh, os.path.join(folder, os.path.basename(output)), file_format)
+            write = deck_writer(self.deformer.mesh, os.path.join(folder, os.path.basename(output)), file_format,
+                                nastran_large)
 
             def out(row: int, res: DeformResult) -> str:
                 final = output.replace("{i}", str(row + start))
@@ -161,7 +163,7 @@ def run_doe_ray(mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any], pl
                 inversion: str | None = None, quality: str = "basic", actors: int = 2,
                 address: str | None = None, progress: Callable[[int, int], None] | None = None,
                 cancelled: Callable[[], bool] | None = None, name: str | None = None,
-                num_cpus: float = 1.0) -> DoeResult:
+                num_cpus: float = 1.0, nastran_large: bool = False) -> DoeResult:
     """Morph every row of ``plan`` on Ray actors; the result :func:`run_doe` gives, bit for bit.
 
     Parameters
@@ -191,6 +193,8 @@ def run_doe_ray(mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any], pl
     name : str, optional
         The actors are ``{name}-{k}`` in namespace :data:`NAMESPACE` (default random).
     num_cpus : float
+    nastran_large : bool
+        As for :func:`~solver.workflows.doe.deck_writer`.
 
     Returns
     -------
@@ -239,7 +243,7 @@ def run_doe_ray(mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any], pl
                 start, attempt = todo.popleft()
                 folder = tmp_root / f"{start}-{attempt}" if tmp_root is not None else None
                 ref = pool[k].solve.remote(plan_ref, start, block, output, file_format, inversion, quality,
-                                           None if folder is None else str(folder))
+                                           None if folder is None else str(folder), nastran_large)
                 inflight[ref] = (k, start, attempt, folder)
 
         while todo or inflight:
@@ -310,7 +314,8 @@ def cmd_doe_ray(args: argparse.Namespace) -> int:
     ray, started = connect(args.address)
     try:
         result = run_doe_ray(mesh, spec, shapes_doc, plan, output=args.output, file_format=args.output_format,
-                             block=args.block, inversion=args.inversion, actors=args.actors)
+                             block=args.block, inversion=args.inversion, actors=args.actors,
+                             nastran_large=args.nastran_large)
     finally:
         if started:
             ray.shutdown()

@@ -60,7 +60,7 @@ def _run_in_worker(deck_name: str, deck: bytes, template: str, row: int, timeout
 def run_study_ray(mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any], plan: Plan, *, output: str,
                   solver: str, response: Response, timeout: float = DEFAULT_TIMEOUT_S, block: int = BLOCK,
                   inversion: str | None = "reject", actors: int = 2, address: str | None = None,
-                  progress: Callable[[StudyRow], None] | None = None) -> list[StudyRow]:
+                  progress: Callable[[StudyRow], None] | None = None, nastran_large: bool = False) -> list[StudyRow]:
     """:func:`~solver.workflows.study.run_study` on Ray: the morphs on actors, each solver run a task.
 
     Parameters
@@ -71,7 +71,7 @@ def run_study_ray(mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any], 
         Deck path per row (``{i}`` the plan row) on a location the driver and the actors reach.
     solver, response, timeout, inversion
         As for :func:`~solver.workflows.study.run_study`.
-    block, actors, address
+    block, actors, address, nastran_large
         As for :func:`~solver.workflows.ray_engine.run_doe_ray`.
     progress : callable, optional
         Called with each row when it is done (in the order the runs finish).
@@ -84,7 +84,7 @@ def run_study_ray(mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any], 
     check_solver(solver)
     ray, _ = connect(address)
     result = run_doe_ray(mesh, spec, shapes_doc, plan, output=output, block=block, inversion=inversion,
-                         actors=actors)
+                         actors=actors, nastran_large=nastran_large)
     rows = []
     for v in result.variants:
         r = StudyRow(v.row, v.parameters, v.status, v.inverted, v.min_scaled_jacobian, v.max_displacement, v.file)
@@ -151,7 +151,7 @@ def cmd_study_ray(args: argparse.Namespace) -> int:
     try:
         rows = run_study_ray(mesh, spec, shapes_doc, plan, output=args.output, solver=args.solver,
                              response=response, timeout=args.timeout, block=args.block, inversion=args.inversion,
-                             actors=args.actors, progress=progress)
+                             actors=args.actors, progress=progress, nastran_large=args.nastran_large)
     finally:
         if started:
             ray.shutdown()

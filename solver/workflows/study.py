@@ -260,7 +260,7 @@ def read_run(row: StudyRow, deck: Path, returncode: int, log: str, response: Res
 
 def morph_rows(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, output: str,
                file_format: str | None = None, block: int = BLOCK, inversion: str | None = "reject",
-               cancelled: Callable[[], bool] | None = None) -> list[StudyRow]:
+               cancelled: Callable[[], bool] | None = None, nastran_large: bool = False) -> list[StudyRow]:
     """Morph every plan row and write its deck: the rows of a study, not solved yet.
 
     Parameters
@@ -273,13 +273,15 @@ def morph_rows(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, ou
         meshio format name of the decks (default: the extension).
     block, inversion, cancelled
         As for :func:`~solver.workflows.doe.run_doe` (default policy ``reject``).
+    nastran_large : bool
+        As for :func:`~solver.workflows.doe.deck_writer`.
 
     Returns
     -------
     list of StudyRow
         In plan order; rows that are not ``ok`` say why in ``message``.
     """
-    result = run_doe(deformer, shapes, plan, block=block, output=deck_writer(mesh, output, file_format),
+    result = run_doe(deformer, shapes, plan, block=block, output=deck_writer(mesh, output, file_format, nastran_large),
                      inversion=inversion, cancelled=cancelled)
     rows = []
     for v in result.variants:
@@ -298,8 +300,8 @@ def solve_row(row: StudyRow, solver: str, response: Response, timeout: float = D
 
 def run_study(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, output: str, solver: str,
               response: Response, timeout: float = DEFAULT_TIMEOUT_S, block: int = BLOCK,
-              inversion: str | None = "reject",
-              progress: Callable[[StudyRow], None] | None = None) -> list[StudyRow]:
+              inversion: str | None = "reject", progress: Callable[[StudyRow], None] | None = None,
+              nastran_large: bool = False) -> list[StudyRow]:
     """Morph every plan row, write its deck, run the solver on it and read its responses.
 
     Parameters
@@ -318,6 +320,8 @@ def run_study(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, out
         The morph's inversion policy (default ``reject``: an inverting row is not solved).
     progress : callable, optional
         Called with each row when it is done.
+    nastran_large : bool
+        As for :func:`~solver.workflows.doe.deck_writer`.
 
     Returns
     -------
@@ -325,7 +329,8 @@ def run_study(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, out
         In plan order.
     """
     check_solver(solver)
-    rows = morph_rows(mesh, deformer, shapes, plan, output=output, block=block, inversion=inversion)
+    rows = morph_rows(mesh, deformer, shapes, plan, output=output, block=block, inversion=inversion,
+                      nastran_large=nastran_large)
     for r in rows:
         solve_row(r, solver, response, timeout)
         if progress is not None:

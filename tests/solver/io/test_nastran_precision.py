@@ -13,7 +13,7 @@ import meshio
 import numpy as np
 import pytest
 
-from solver import read_mesh, write_mesh
+from solver import precompute, read_mesh, write_mesh
 from solver.cli import main
 from tests.conftest import DATA
 
@@ -169,3 +169,38 @@ def test_cli_morph_reports_the_rounding_and_writes_large_field(tmp_path, large):
         assert (err <= 1e-12 * 100) if large else (1e-8 < err < 1e-4)
     rounding = json.loads(rep.read_text())["written"]["write_rounding"]
     assert (rounding <= 1e-12 * 100) if large else (1e-8 < rounding < 1e-4)
+
+
+def test_doe_rows_written_large_field_keep_their_moved_nodes(tmp_path):
+    """``tetmorph doe --nastran-large``: each row's moved nodes to 1e-12, read back from its deck here."""
+    spec = {"selections": {"root": {"box": {"min": [-1, -1, -1], "max": [0.01, 21, 11]}},
+                           "tip": {"box": {"min": [99.99, -1, -1], "max": [101, 21, 11]}}},
+            "fixed": ["root"], "handles": {"tip": "tip"}}
+    shapes = {"shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 1.0 / 3.0]}}}}}
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    (tmp_path / "shapes.json").write_text(json.dumps(shapes))
+    (tmp_path / "plan.csv").write_text("bend\n1\n2.5\n")
+    out = {}
+    for large in (False, True):
+        folder = tmp_path / ("large" if large else "small")
+        args = ["doe", str(SMALL), "--spec", str(tmp_path / "spec.json"), "--shapes", str(tmp_path / "shapes.json"),
+                "--plan", str(tmp_path / "plan.csv"), "--output", str(folder / "{i}.bdf"),
+                "--summary", str(folder / "summary.csv")]
+        assert main(args + (["--nastran-large"] if large else [])) == 0
+        out[large] = [_grids((folder / f"{i}.bdf").read_text()) for i in (1, 2)]
+    src = _grids(SMALL.read_text())
+    mesh = read_mesh(SMALL)
+    d = precompute(mesh, spec)
+    ids = sorted(src)
+    for theta, small_row, large_row in zip((1.0, 2.5), out[False], out[True], strict=True):
+        P = d.solve({"handles": {"tip": {"translation": [0, 0, theta / 3.0]}}}).V  # the row's positions
+        X = np.array([large_row[i][0] for i in ids])
+        moved = (P != mesh.V).any(axis=1)
+        assert moved.any() and (np.abs(X - P)[moved] <= 1e-12 * np.abs(P).max()).all()
+        for k, i in enumerate(ids):
+            if not moved[k]:
+                assert large_row[i][1] == src[i][1]  # unmoved: the card's text
+        big = [i for i in ids if large_row[i][1][0].startswith("GRID*")]
+        assert big  # some moved nodes needed large field
+        err_small = max(np.abs(small_row[i][0] - large_row[i][0]).max() for i in big)
+        assert 1e-9 < err_small < 1e-4  # what the 8-column fields rounded away

@@ -105,6 +105,21 @@ def test_the_benchmark_plot_is_drawn_from_the_scaling_table(site):
     assert 'src="../img/benchmark-update-ratio.svg"' in _page(site, "benchmarks")
 
 
+def test_the_bracket_picture_is_the_first_tutorials_morph(site):
+    import ast
+
+    sys.path.insert(0, str(ROOT / "docs" / "scripts"))
+    import pictures
+
+    page = (ROOT / "docs" / "tutorials" / "morph-a-deck.md").read_text()
+    spec = ast.literal_eval(re.search(r"^spec = (\{.*?^\})", page, re.S | re.M).group(1))
+    move = ast.literal_eval(re.search(r"deformer\.solve\((\{.*?\})\)", page).group(1))
+    assert (spec, move) == (pictures.BRACKET_SPEC, pictures.BRACKET_MOVE)
+    png = (site / "img" / "tutorial-bracket-displacement.png").read_bytes()
+    assert png.startswith(b"\x89PNG") and len(png) > 10_000
+    assert 'src="../../img/tutorial-bracket-displacement.png"' in _page(site, "tutorials/morph-a-deck")
+
+
 def test_every_setting_is_on_the_settings_page_with_its_variable_and_default(site):
     from service.settings import Settings
 

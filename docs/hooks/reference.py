@@ -9,7 +9,9 @@
 * ``reference/rest.md`` from the app's OpenAPI document (one section per route);
 * ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES;
 * ``reference/formats.md`` from the measured table of ``service/format_table.py`` (``GET /v1/formats``);
-* ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``).
+* ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``);
+* ``img/tutorial-bracket-displacement.png``, the first tutorial's morph solved and rendered
+  (``docs/scripts/pictures.py``).
 
 A note or a meaning kept for a setting or a code that no longer exists is a warning, which
 ``mkdocs build --strict`` turns into an error.
@@ -36,6 +38,7 @@ log = logging.getLogger("mkdocs.hooks.reference")
 ROOT = Path(__file__).resolve().parents[2]
 BOUND_SIGNS = {"gt": ">", "ge": "≥", "lt": "<", "le": "≤"}
 PLOT = "img/benchmark-update-ratio.svg"  # drawn from the tables of benchmarks.md
+BRACKET_PICTURE = "img/tutorial-bracket-displacement.png"  # the first tutorial's morph, solved at build
 PAGES = ("reference/settings.md", "reference/errors.md", "reference/rest.md", "reference/documents.md",
          "reference/formats.md")
 
@@ -46,9 +49,11 @@ def on_files(files: Files, config: Any) -> Files:
         files.append(File.generated(config, uri, content=make()))
     sys.path.insert(0, str(ROOT / "docs" / "scripts"))
     import benchmark_plots
+    import pictures
 
     page = Path(config["docs_dir"]) / "benchmarks.md"
     files.append(File.generated(config, PLOT, content=benchmark_plots.update_ratio_svg(page.read_text())))
+    files.append(File.generated(config, BRACKET_PICTURE, content=pictures.bracket_displacement_png()))
     return files
 
 

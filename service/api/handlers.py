@@ -8,6 +8,7 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from solver.errors import SolverError
 
@@ -42,6 +43,21 @@ def validation_envelope(errors: Sequence[Any]) -> dict[str, Any]:
                     "RequestValidationError")
 
 
+#: The methods a route of the API may have.
+_METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE")
+
+
+def allowed_methods(request: Request) -> list[str]:
+    """Every method some route answers on the request's path (routers nest, so each method is tried)."""
+    routes = request.app.router.routes
+    allowed = []
+    for method in _METHODS:
+        scope = {**request.scope, "method": method}
+        if any(route.matches(scope)[0] is Match.FULL for route in routes):
+            allowed.append(method)
+    return allowed
+
+
 def install_handlers(app: FastAPI) -> None:
     """Register the envelope for service, solver, HTTP, validation and unexpected errors."""
 
@@ -59,8 +75,12 @@ def install_handlers(app: FastAPI) -> None:
         msg = e.detail if isinstance(e.detail, str) else code.replace("_", " ")
         if e.status_code == 404 and msg == "Not Found":
             msg = f"no route {request.method} {request.url.path}"
-        return JSONResponse(envelope(e.status_code, code, msg), status_code=e.status_code,
-                            headers=getattr(e, "headers", None))
+        headers = getattr(e, "headers", None)
+        if e.status_code == 405:  # every route of the path, not only the first that matched it
+            allowed = allowed_methods(request)
+            headers = {**(headers or {}), "Allow": ", ".join(allowed)}
+            msg = f"{request.method} is not allowed on {request.url.path}; allowed: {', '.join(allowed)}"
+        return JSONResponse(envelope(e.status_code, code, msg), status_code=e.status_code, headers=headers)
 
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, e: RequestValidationError) -> JSONResponse:

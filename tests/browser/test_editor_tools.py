@@ -14,7 +14,19 @@ from PIL import Image
 from solver import read_mesh
 from solver.constraints.features import feature_candidates
 from solver.validity.quality import aspect_ratios, dihedral_angles, scaled_jacobians
-from tests.browser.conftest import BRACKET, bracket_session, differs, image, load_bracket, positions, rest, settle
+from tests.browser.conftest import (
+    BRACKET,
+    assign_set,
+    bracket_session,
+    create,
+    differs,
+    image,
+    load_bracket,
+    numeric_move,
+    positions,
+    rest,
+    settle,
+)
 
 
 def test_the_view_is_saved_as_a_png(page, tmp_path):
@@ -303,3 +315,45 @@ def test_the_undo_history_survives_a_reload_and_reopening(page):
     page.click("#redo")
     settle(page)
     np.testing.assert_allclose(positions(page), shapes[2], atol=1e-5)
+
+
+def test_a_mirror_plane_from_the_section_goes_into_the_spec_and_is_drawn(page):
+    load_bracket(page)
+    assign_set(page, "FIXED", 1)
+    assign_set(page, "LOAD", 2)
+    page.click("#sec-symmetry summary")
+    page.check("#clip")
+    page.select_option("#clip-axis", "1")  # y, half way: y = 10 on the bracket (0 <= y <= 20)
+    page.uncheck("#clip")
+    page.click("#sym-from-section")
+    assert "section plane" in page.inner_text("#sym-note")  # clip off: nothing to take
+    page.check("#clip")
+    page.fill("#sym-tol", "0.1")
+    page.click("#sym-from-section")
+    page.uncheck("#clip")
+    V = rest(page)
+    mid = (V.min(0) + V.max(0)) / 2
+    sym = page.evaluate("window.tetmorph.spec()")["symmetry"]
+    assert [s["name"] for s in sym] == ["mirror1"] and sym[0]["tolerance"] == 0.1
+    np.testing.assert_allclose(sym[0]["plane"]["normal"], [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(sym[0]["plane"]["point"], mid, atol=1e-5)
+    drawn = page.locator("#canvas").screenshot()
+    page.click("#sym-list li button")
+    assert "symmetry" not in page.evaluate("window.tetmorph.spec()")
+    assert differs(drawn, page.locator("#canvas").screenshot()) > 2000  # the plane was on screen
+    page.fill("#sym-point", "50 10 5")
+    page.fill("#sym-normal", "0 2 0")
+    page.click("#sym-add")
+    create(page)
+    sid = page.evaluate("window.tetmorph.state.sessionId")
+    stored = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["spec"]["symmetry"]
+    assert stored == [{"name": "mirror1", "plane": {"point": [50, 10, 5], "normal": [0, 1, 0]}, "tolerance": 0.1}]
+    numeric_move(page, t=(0, 0, 5))
+    settle(page)
+    page.reload()  # reopened, the session's mirror plane is back in the panel
+    page.wait_for_function("window.tetmorph !== undefined")
+    page.click("#sessions-btn")
+    page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
+    page.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}'")
+    assert page.locator("#sym-list li").count() == 1
+    assert page.evaluate("window.tetmorph.spec()")["symmetry"] == stored

@@ -18,6 +18,7 @@ import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshRep
   thresholdPageX, wireThreshold } from "./panels.js";
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
+import { SymmetryPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
 import { Viewer } from "./viewer.js";
@@ -32,12 +33,13 @@ const moves = new Moves(viewer, regions, {
 });
 session.moves = moves;
 const measure = new Measure(viewer, regions);
+const symmetry = new SymmetryPanel(viewer, meshView, regions);
 session.openMesh = (id) => openMesh(id);
 regions.busy = () => moves.dragging;
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => drawLegend(meshView, state.regions);
-on("regions", () => { renderRegions(regions); legend(); showChoices(); });
+on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); });
 on("legend", legend);
 on("history", () => { renderHistory(moves); session.note(); session.keepHistory(); });
 on("presets", () => renderPresets(moves));

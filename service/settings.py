@@ -43,6 +43,11 @@ class Settings(BaseSettings):
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list,
         description="Accepted API keys (comma separated). Empty: no authentication, one tenant.")
+    allowed_origins: Annotated[list[str], NoDecode] = Field(
+        default_factory=list,
+        description="Web origins (scheme://host:port, comma separated) whose pages may open a session's "
+                    "stream, besides the service's own. A browser's WebSocket from any other page is closed "
+                    "with 4403; clients that send no Origin (scripts, the Python client) are not affected.")
     max_upload_mb: float = Field(200.0, gt=0, description="Largest request body (413 above).")
     max_elements: int = Field(5_000_000, gt=0, description="Most volume elements per mesh (422 above).")
     max_sessions: int = Field(64, gt=0, description="Most live sessions per API key (429 above).")
@@ -111,7 +116,7 @@ class Settings(BaseSettings):
         backend = self.solve_backend or base.backend
         return SolveOptions.reference(backend) if self.solve_reference else replace(base, backend=backend)
 
-    @field_validator("api_keys", mode="before")
+    @field_validator("api_keys", "allowed_origins", mode="before")
     @classmethod
     def _split_keys(cls, v: Any) -> Any:
         if isinstance(v, str):

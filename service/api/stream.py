@@ -19,9 +19,10 @@ interior solve: its ``full`` frame is not sent and the MOVE is not committed.
 Under the ``reject`` inversion policy no boundary frame is sent (the check,
 which may refuse the MOVE, comes only with the full solve).
 
-Close codes: 4401 no or unknown API key, 4404 unknown session, 4410 expired
-session, 4429 too many connections of the key, 1009 frame over the size
-limit, 1011 server fault, each with a reason.
+Close codes: 4401 no or unknown API key, 4403 a browser page of another
+origin (``TETMORPH_ALLOWED_ORIGINS`` lists the ones allowed), 4404 unknown
+session, 4410 expired session, 4429 too many connections of the key, 1009
+frame over the size limit, 1011 server fault, each with a reason.
 """
 
 from __future__ import annotations
@@ -96,6 +97,20 @@ async def _close(ws: WebSocket, code: int, reason: str) -> None:
             pass
 
 
+def origin_allowed(origin: str, host: str, allowed: list[str]) -> bool:
+    """Whether a browser page of ``origin`` may open a stream: the service's own origin, or a listed one.
+
+    A page of another site could otherwise drive a session on a service that
+    trusts the network it listens on (no API keys): browsers send ``Origin``
+    with every WebSocket handshake and do not apply the same-origin policy to it.
+    """
+    o = origin.strip().rstrip("/").lower()
+    if o in {a.strip().rstrip("/").lower() for a in allowed}:
+        return True
+    scheme, sep, rest = o.partition("://")
+    return bool(sep) and scheme in ("http", "https") and rest == host.strip().lower()
+
+
 @router.websocket("/sessions/{session_id}/stream")
 async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "displacements"] =
                  "positions", dtype: Literal["float32", "float64"] = "float32",
@@ -103,6 +118,11 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
     """Solve streamed MOVEs, dropping stale ones (close codes in the module docstring)."""
     state = ws.app.state
     reg: Registry = state.registry
+    origin = ws.headers.get("origin")
+    if origin is not None and not origin_allowed(origin, ws.headers.get("host", ""), state.settings.allowed_origins):
+        await ws.accept()  # then close, so that the page reads why
+        await _close(ws, 4403, f"origin {origin[:60]!r} may not open streams (TETMORPH_ALLOWED_ORIGINS)")
+        return
     try:
         owner = state.auth.owner(ws.headers, ws.query_params)
         s = reg.session(owner, session_id)

@@ -99,3 +99,23 @@ def test_stream_refusals_reach_a_real_client_as_close_codes(tmp_path):
             assert e.value.rcvd.code == 4429
             first.send(json.dumps({"seq": 1, "move": MOVES[1]}))
             decode_frame(first.recv(timeout=30))  # the first stream still serves
+
+
+def test_a_page_of_another_origin_cannot_open_a_stream(tmp_path):
+    """A browser sends Origin with the handshake: another site's page is closed with 4403, the service's
+    own page and a listed origin are served, and a client that sends no Origin is not affected."""
+    from websockets.exceptions import ConnectionClosed
+
+    port = free_port()
+    with server(tmp_path, port, ("TETMORPH_ALLOWED_ORIGINS", "https://cae.example:8443")) as url:
+        with Client(url) as c:
+            sid = c.create_session(c.upload_mesh(BRACKET)["id"], BRACKET_SPEC)["id"]
+        path = url.replace("http", "ws") + f"/v1/sessions/{sid}/stream"
+        for origin in ("http://evil.example", f"http://127.0.0.1:{port + 1}", "null"):
+            with connect(path, origin=origin) as ws, pytest.raises(ConnectionClosed) as e:
+                ws.recv(timeout=10)
+            assert e.value.rcvd is not None and e.value.rcvd.code == 4403 and "origin" in e.value.rcvd.reason
+        for origin in (url, "https://cae.example:8443", None):
+            with connect(path, origin=origin) as ws:
+                ws.send(json.dumps({"seq": 1, "move": MOVES[1]}))
+                assert decode_frame(ws.recv(timeout=30))  # served

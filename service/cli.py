@@ -48,6 +48,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
     from .app import create_app
+    from .http_protocol import bounded_protocol
     from .observability import configure_logging
     from .settings import Settings
 
@@ -67,7 +68,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
               "-H 'content-type: application/json' "
               "-d '{\"handles\": {\"tip\": {\"translation\": [0, 0, 0.2]}}}'", flush=True)
     uvicorn.run(app, host=args.host, port=args.port, workers=1, log_level=args.log_level, log_config=None,
-                access_log=False, ws_max_size=settings.max_frame_bytes + 1024)
+                access_log=False, ws_max_size=settings.max_frame_bytes + 1024,
+                http=bounded_protocol(settings.head_timeout_s) or "auto")
     return 0
 
 

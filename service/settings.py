@@ -49,6 +49,8 @@ class Settings(BaseSettings):
                     "stream, besides the service's own. A browser's WebSocket from any other page is closed "
                     "with 4403; clients that send no Origin (scripts, the Python client) are not affected.")
     max_upload_mb: float = Field(200.0, gt=0, description="Largest request body (413 above).")
+    head_timeout_s: float = Field(10.0, gt=0, description="Longest a client may take to send a request's "
+                                  "line and headers; a slower connection is closed (tetmorph serve).")
     max_elements: int = Field(5_000_000, gt=0, description="Most volume elements per mesh (422 above).")
     max_sessions: int = Field(64, gt=0, description="Most live sessions per API key (429 above).")
     rate_limit_per_s: float = Field(200.0, ge=0,

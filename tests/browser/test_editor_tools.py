@@ -6,6 +6,9 @@ Every test here failed on the editor before its tool was added (run against that
 
 from __future__ import annotations
 
+import io
+import zipfile
+
 import httpx
 import numpy as np
 import pytest
@@ -357,3 +360,49 @@ def test_a_mirror_plane_from_the_section_goes_into_the_spec_and_is_drawn(page):
     page.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}'")
     assert page.locator("#sym-list li").count() == 1
     assert page.evaluate("window.tetmorph.spec()")["symmetry"] == stored
+
+
+def test_presets_are_shapes_with_sliders_and_a_plan_runs_as_a_doe(page, tmp_path):
+    bracket_session(page)
+    numeric_move(page, t=(0, 0, 5))
+    settle(page)
+    lifted = positions(page)
+    page.fill("#preset-name", "lift")
+    page.click("#preset-save")
+    page.wait_for_function("window.tetmorph.state.presets.length === 1")
+    numeric_move(page, t=(0, 0, 0), axis=(1, 0, 0), angle=20)
+    settle(page)
+    page.fill("#preset-name", "twist")
+    page.click("#preset-save")
+    page.wait_for_function("window.tetmorph.state.presets.length === 2")
+    page.click("#reset")
+    page.click("#confirm-ok")
+    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    for name, presses in (("lift", 10), ("twist", 20)):  # lift 0.5, twist 1 with the keys on the sliders
+        page.focus(f"#shapes input[data-shape={name}]")
+        for _ in range(presses):
+            page.keyboard.press("ArrowRight")
+    assert page.inner_text("#shapes [data-val=lift]") == "0.5" and page.inner_text("#shapes [data-val=twist]") == "1"
+    settle(page)
+    sid = page.evaluate("window.tetmorph.state.sessionId")
+    h = next(iter(httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"].values()))
+    np.testing.assert_allclose(h["translation"], [0, 0, 2.5], atol=1e-9)  # translations add, weighted
+    w, x, y, z = h["rotation"]["quaternion"]  # rotations add as logarithms: twist's 20 degrees about x
+    np.testing.assert_allclose([w, x, y, z], [np.cos(np.radians(10)), np.sin(np.radians(10)), 0, 0], atol=1e-9)
+    combined = positions(page)
+    # the same shapes and values as a DOE of the session
+    page.click("#sec-doe summary")
+    assert page.input_value("#doe-plan").splitlines()[:2] == ["lift,twist", "0.5,1"]
+    page.fill("#doe-plan", "lift,twist\n0.5,1\n1,0\n")
+    page.click("#doe-run")
+    page.wait_for_selector("#doe-decks li[data-name='summary.csv']", timeout=120000)
+    listed = page.locator("#doe-decks li[data-name]").evaluate_all("els => els.map((e) => e.dataset.name)")
+    job = page.evaluate("window.tetmorph.doeJob()")
+    z = httpx.get(f"{page.base}/v1/sessions/{sid}/batch/{job}/result").content
+    zf = zipfile.ZipFile(io.BytesIO(z))
+    assert sorted(listed) == sorted(zf.namelist())
+    decks = sorted(n for n in zf.namelist() if n.endswith(".inp"))
+    assert len(decks) == 2
+    for name, expected in zip(decks, (combined, lifted), strict=True):
+        (tmp_path / name).write_bytes(zf.read(name))
+        np.testing.assert_allclose(read_mesh(tmp_path / name).V, expected, atol=1e-4)

@@ -18,6 +18,7 @@ import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshRep
   thresholdPageX, wireThreshold } from "./panels.js";
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
+import { ShapesPanel } from "./shapes.js";
 import { SymmetryPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
@@ -34,6 +35,8 @@ const moves = new Moves(viewer, regions, {
 session.moves = moves;
 const measure = new Measure(viewer, regions);
 const symmetry = new SymmetryPanel(viewer, meshView, regions);
+const shapes = new ShapesPanel(moves, session);
+$("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
 regions.busy = () => moves.dragging;
 
@@ -42,7 +45,7 @@ const legend = () => drawLegend(meshView, state.regions);
 on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); });
 on("legend", legend);
 on("history", () => { renderHistory(moves); session.note(); session.keepHistory(); });
-on("presets", () => renderPresets(moves));
+on("presets", () => { renderPresets(moves); shapes.render(); });
 on("active-handle", () => renderHandleSelect(moves));
 on("open-sessions", () => openSessionsDialog());
 on("sessions-changed", () => offerMeshSessions());
@@ -580,6 +583,7 @@ window.tetmorph = {
     color: r.color, source: r.source })),
   spec: () => session.spec(),
   measure: () => measure.values(),
+  doeJob: () => state.doeJob,
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
   ring: () => ({ visible: regions.ring.visible, position: regions.ring.position.toArray(), radius: regions.ring.scale.x }),
   ghostVisible: () => meshView.ghost.visible,

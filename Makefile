@@ -42,7 +42,7 @@ check: lint web
 	$(BIN)/python -m pytest -q -p no:cacheprovider -m "not slow and not fuzz and not ccx" -n auto \
 	  --ignore=tests/browser --ignore=tests/cluster --ignore=tests/service/state/test_pg_registry.py
 
-# The local cluster (README, "Cluster"): Debian's PostgreSQL (initdb under CLUSTER_DIR, run as an
+# The local cluster (docs/guide/cluster.md): Debian's PostgreSQL (initdb under CLUSTER_DIR, run as an
 # unprivileged user), 3 `tetmorph serve` replicas and HAProxy, all on 127.0.0.1; balancer on :8100.
 CLUSTER_DIR ?= /tmp/tetmorph-cluster
 CLUSTER_STAMP := $(VENV)/.cluster-installed

@@ -41,7 +41,7 @@ CODE_STATUS: dict[str, int] = {
     "method_not_allowed": 405,
     # 409: the resource's state forbids the request
     "mesh_in_use": 409, "session_exists": 409, "job_finished": 409,
-    "version_conflict": 409,  # another replica committed first: retry (README, "Cluster")
+    "version_conflict": 409,  # another replica committed first: retry (docs/guide/cluster.md)
     "job_not_finished": 409,
     # 410: a session removed after its idle time
     "session_expired": 410,

@@ -68,7 +68,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
     plan = plan_of(body.plan, settings.batch_max_rows)
     if body.engine == "ray" and not settings.ray_address:
         raise ServiceError("engine_unavailable", "engine 'ray' needs a Ray cluster: start the service with "
-                           "TETMORPH_RAY_ADDRESS (README, 'Batches on Ray')", field="engine")
+                           "TETMORPH_RAY_ADDRESS (docs/guide/batches.md, 'Batches on Ray')", field="engine")
     fmt, ext, stem = _deck_format(reg, s, body.format)
     shapes_doc = body.shapes_doc()
     async with s.lock:

@@ -192,7 +192,7 @@ async def mesh_features(
     ids: Annotated[bool, Query(description="include each candidate's vertex ids (a SPEC selection)")
                    ] = False,
 ) -> list[dict[str, Any]]:
-    """Boundary patches between sharp edges fitted as hole / boss / plane / other (see README)."""
+    """Boundary patches between sharp edges fitted as hole / boss / plane / other (docs/guide/features.md)."""
     mesh = await reg.mesh(meta)
     cands = await reg.run(feature_candidates, mesh, angle, tol)
     out = [c.to_dict() for c in cands]

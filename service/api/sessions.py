@@ -125,7 +125,7 @@ def result_response(V: np.ndarray, V0: np.ndarray, report: dict[str, Any], resul
 
 
 _DEFORM_200 = {"model": DeformJSON, "content": {MEDIA_TYPE: {"schema": {"type": "string", "format": "binary"}}},
-               "description": "the REPORT and the result (JSON, the binary frame of the README, or a mesh file)"}
+               "description": "the REPORT and the result (JSON, the binary frame of the service guide, or a mesh)"}
 
 
 @router.post("/sessions/{session_id}/deform", summary="Apply a MOVE",
@@ -139,7 +139,7 @@ async def deform(
     s: SessionDep, reg: RegistryDep,
     move: Annotated[Move, Body(description="the MOVE document")],
     result: Annotated[Literal["json", "binary", "report", "mesh"] | None, Query(
-        description="json (report + array), binary (frame, see README), report only, or a mesh "
+        description="json (report + array), binary (frame: docs/guide/service.md), report only, or a mesh "
                     "file; default json, or binary when Accept is application/octet-stream")] = None,
     kind: Annotated[Kind, Query()] = "positions",
     dtype: Annotated[Dtype, Query()] = "float64",

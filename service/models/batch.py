@@ -3,7 +3,7 @@
 A batch morphs every row of a PLAN through a session's factorization (the
 ``tetmorph doe`` of the service); bounds search each shape's largest values
 that invert nothing (``tetmorph bounds``). Shapes are MOVE documents at
-parameter value 1 (README, "Shape variables").
+parameter value 1 (docs/guide/workflows.md).
 """
 
 from __future__ import annotations

@@ -72,7 +72,7 @@ class TargetMove(BaseModel):
 
 
 class Move(BaseModel):
-    """Where the handles go (README, 'Documents: MOVE').
+    """Where the handles go (docs/guide/documents.md).
 
     A handle the MOVE does not name is at its rest position (identity
     transform), not where an earlier MOVE put it: every MOVE is absolute.

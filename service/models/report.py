@@ -1,4 +1,4 @@
-"""The REPORT of an update (README, 'Documents')."""
+"""The REPORT of an update (docs/reference/documents.md)."""
 
 from __future__ import annotations
 

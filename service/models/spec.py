@@ -1,4 +1,4 @@
-"""The SPEC document (README, 'Documents'): strict types, unknown fields refused.
+"""The SPEC document (docs/guide/documents.md): strict types, unknown fields refused.
 
 The solver checks what needs the names and the mesh (selections that exist,
 handles that do not overlap, ...); these models make sure that what reaches
@@ -233,7 +233,7 @@ class Target(BaseModel):
 
 
 class Spec(BaseModel):
-    """What is fixed, what moves, and how to solve (README, 'Documents: SPEC')."""
+    """What is fixed, what moves, and how to solve (docs/guide/documents.md)."""
 
     model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [{
         "selections": {"root": {"set": "FIXED"}, "tip": {"set": "LOAD"}},

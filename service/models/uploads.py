@@ -53,4 +53,4 @@ class SessionCreate(BaseModel):
 
     model_config = ConfigDict(extra="forbid", strict=True)
     mesh_id: StrictStr = Field(..., max_length=64, description="id from POST /v1/meshes")
-    spec: Spec = Field(..., description="the SPEC document (README, 'SPEC')")
+    spec: Spec = Field(..., description="the SPEC document (docs/guide/documents.md)")

@@ -457,7 +457,7 @@ def parse_spec(doc: Any) -> Spec:
         "constraints": {"method": ..., "penalty_weight": ...}, "solve": ...,
         "rotation": ..., "inversion": ..., "points": [...], "relative": [...],
         "features": [...], "motion": [...], "sliding": [...], "conflicts": ...}``;
-        the README's "Hard constraints" section gives each form.
+        docs/guide/constraints.md gives each form.
 
     Returns
     -------

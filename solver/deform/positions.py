@@ -9,7 +9,7 @@
     optimum is: boundary vertices from the boundary rows alone, then interior
     vertices from the square mean-value system. Interior vertices that are
     constrained (fixed volumes) keep their known positions and their rows are
-    dropped -- see the README for the measured difference to ``joint``.
+    dropped -- see docs/benchmarks.md for the measured difference to ``joint``.
 
 Each is one immutable object holding its factorizations (:class:`SplitPositions`:
 the boundary system and the interior LU; :class:`JointPositions`: one

@@ -1,7 +1,7 @@
 """The REPORT of one update: validity, constraint residuals, redundancy and conflicts, timings.
 
 :class:`Report` is a dataclass; :meth:`Report.to_dict` gives the JSON
-document the CLI writes and the service returns (keys in the README's REPORT
+document the CLI writes and the service returns (keys in docs/reference/documents.md, the REPORT
 table). :func:`constraint_report` measures the hard constraints of a solve:
 the residual is a distance (metres, not a per-coordinate maximum) over every
 constrained node, mid-side nodes included, and every hard row.

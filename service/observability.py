@@ -30,6 +30,31 @@ _SANE_ID = re.compile(r"^[A-Za-z0-9._-]{1,64}$")
 #: pages (clickjacking), no referrer with ids in it sent elsewhere.
 SECURITY_HEADERS = ((b"x-content-type-options", b"nosniff"), (b"x-frame-options", b"DENY"),
                     (b"referrer-policy", b"no-referrer"))
+#: The Content-Security-Policy of every answer that sets none of its own (JSON, files): nothing may load
+#: or run from it, and no page may frame it. The editor's page sets its own (:func:`editor_csp`); the
+#: Swagger and ReDoc pages, which load their assets from a CDN with inline scripts, are left without.
+API_CSP = b"default-src 'none'; frame-ancestors 'none'; base-uri 'none'"
+_NO_CSP_PATHS = ("/docs", "/redoc")
+
+
+def editor_csp(index_html: str) -> str:
+    """The editor page's Content-Security-Policy: its own files, plus each inline script by its hash.
+
+    The page's one inline script is its import map; a hash (not ``'unsafe-inline'``) lets it and nothing
+    else run, so a script injected into the page is refused. Inline ``style`` attributes are allowed:
+    they cannot run code.
+    """
+    import base64
+    import hashlib
+
+    hashes = []
+    for attrs, body in re.findall(r"<script([^>]*)>(.*?)</script>", index_html, re.S):
+        if "src=" not in attrs:
+            digest = base64.b64encode(hashlib.sha256(body.encode()).digest()).decode()
+            hashes.append(f"'sha256-{digest}'")
+    return ("default-src 'self'; script-src 'self' " + " ".join(hashes) + "; style-src 'self' 'unsafe-inline'; "
+            "img-src 'self' data: blob:; connect-src 'self'; worker-src 'self' blob:; object-src 'none'; "
+            "base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
 #: ``name=value`` pairs of a query string, alone or inside a logged line (after ``?``, ``&``, ``;`` or a space).
 _PAIR = re.compile(r"(^|[?&;\s])([^=&;?\s]+)=([^&;\s]*)")
 SECRET_NAMES = frozenset({"api_key"})
@@ -166,8 +191,13 @@ class RequestContext:
             nonlocal status
             if msg["type"] == "http.response.start":
                 status = msg["status"]
-                msg["headers"] = [*msg.get("headers", []), (b"x-request-id", rid.encode()),
-                                  (b"x-tetmorph-replica", self.replica), *SECURITY_HEADERS]
+                headers = [*msg.get("headers", []), (b"x-request-id", rid.encode()),
+                           (b"x-tetmorph-replica", self.replica), *SECURITY_HEADERS]
+                path = str(scope.get("path", ""))
+                if (not any(k.lower() == b"content-security-policy" for k, _ in headers) and path != "/"
+                        and not path.startswith(_NO_CSP_PATHS)):
+                    headers.append((b"content-security-policy", API_CSP))
+                msg["headers"] = headers
             elif msg["type"] == "websocket.accept":
                 msg["headers"] = [*msg.get("headers", []), (b"x-tetmorph-replica", self.replica)]
             await send(msg)

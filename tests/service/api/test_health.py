@@ -57,6 +57,26 @@ def test_every_response_says_no_sniffing_no_framing_no_referrer(tc):
         assert h["referrer-policy"] == "no-referrer", path
 
 
+def test_every_api_answer_has_a_content_security_policy_that_loads_nothing(tc):
+    for path in ("/health", "/editor/main.js", "/v1/sessions/s_nope", "/openapi.json", "/v1/nosuch"):
+        csp = tc.get(path).headers["content-security-policy"]
+        assert "default-src 'none'" in csp and "frame-ancestors 'none'" in csp, path
+    assert "content-security-policy" not in tc.get("/docs").headers  # Swagger UI's CDN assets and inline script
+
+
+def test_the_editor_policy_allows_only_the_pages_own_inline_script():
+    import base64
+    import hashlib
+
+    from service.observability import editor_csp
+
+    page = '<script type="importmap">{"imports": {}}</script><script type="module" src="/editor/main.js"></script>'
+    csp = {d.split()[0]: d.split()[1:] for d in editor_csp(page).split("; ")}
+    digest = base64.b64encode(hashlib.sha256(b'{"imports": {}}').digest()).decode()
+    assert csp["script-src"] == ["'self'", f"'sha256-{digest}'"]
+    assert csp["frame-ancestors"] == ["'none'"] and csp["object-src"] == ["'none'"]
+
+
 def test_ready_says_what_fails(tc):
     import os
     import stat

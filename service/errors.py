@@ -51,7 +51,7 @@ CODE_STATUS: dict[str, int] = {
     "too_many_elements": 422, "too_many_triangles": 422, "non_finite_result": 422,
     "out_of_range": 422, "index_out_of_range": 422, "job_time_limit": 422,
     "surface_not_found": 422, "not_a_surface": 422, "too_many_rows": 422, "engine_unavailable": 422,
-    "result_too_large": 422, "bounds_time_limit": 422, "solver_unavailable": 422,
+    "result_too_large": 422, "bounds_time_limit": 422, "solver_unavailable": 422, "duplicate_file_name": 422,
     # 429: limits per key
     "rate_limited": 429, "session_limit": 429, "connection_limit": 429,
     # 5xx: faults of the server, never of the request

@@ -60,9 +60,15 @@ async def upload_mesh(
     if not main.lower().endswith(ext):
         main = f"{main}{ext}"
     files = {main: await file.read()}  # body size already bounded by the BodyLimit middleware
+    given = {main: file.filename}
     for c in companions or []:
         if c.filename:
-            files[safe_name(c.filename, "companion")] = await c.read()
+            clean = safe_name(c.filename, "companion")
+            if clean in files:  # two uploads that store under one name: one would silently replace the other
+                raise ServiceError("duplicate_file_name", f"the uploads {given[clean]!r} and {c.filename!r} are "
+                                   f"both stored as {clean!r}; rename one", field="companions", stored=clean,
+                                   files=[given[clean], c.filename])
+            files[clean], given[clean] = await c.read(), c.filename
     if fmt == "tetgen" and main.endswith(".node"):
         ele = main[:-5] + ".ele"
         if ele not in files:

@@ -172,3 +172,18 @@ def test_tetgen_upload_downloads_as_a_zip_of_its_original_files(tc):
     with zipfile.ZipFile(io.BytesIO(got.content)) as z:
         assert sorted(z.namelist()) == ["beam.ele", "beam.node"]
         assert z.read("beam.node") == node and z.read("beam.ele") == ele
+
+
+@pytest.mark.parametrize("companion", ["beam.node", "../x/beam.node", "beam .ele", "beam_.ele"])
+def test_a_companion_stored_under_the_main_files_name_or_anothers_is_refused(tc, companion):
+    """Names are cleaned before they are stored (no folders, odd characters as '_'): two uploads that clean to
+    one name are refused naming both, instead of one silently replacing the other, and nothing is stored."""
+    node, ele = (DATA / "beam.node").read_bytes(), (DATA / "beam.ele").read_bytes()
+    before = tc.get("/v1/meshes").json()
+    files = [("file", ("beam.node", node)), ("companions", ("beam_.ele", ele)), ("companions", (companion, b"x"))]
+    if companion == "beam_.ele":
+        files = files[:2] + [("companions", ("beam .ele", b"x"))]
+    r = tc.post("/v1/meshes", files=files)
+    assert r.status_code == 422 and err(r)["code"] == "duplicate_file_name", r.text
+    assert len(err(r)["details"]["files"]) == 2
+    assert tc.get("/v1/meshes").json() == before

@@ -327,6 +327,28 @@ def _declared(path: str, fmt: str) -> tuple[int, int, int]:
     return nodes, elems, tag
 
 
+def _gmsh_blocks(head: bytes, section: bytes, lines_per_item: int) -> int:
+    """The largest count a Gmsh 4.1 ``$Nodes`` or ``$Elements`` block declares, over the blocks in ``head``.
+
+    Each block is a header ``dim tag (parametric | type) count`` followed by
+    ``lines_per_item * count`` lines; the walk stops at the end of the head or
+    at a line that is no block header (a 2.2 file, a binary one).
+    """
+    k = head.find(b"$" + section)
+    if k < 0:
+        return 0
+    lines = head[k:].split(b"\n")[2:]  # the section's name and its totals line
+    i, largest = 0, 0
+    while i < len(lines) - 1:  # the last line may be cut by the head
+        f = lines[i].split()
+        if len(f) != 4 or not all(x.isdigit() for x in f):
+            break
+        n = int(f[3])
+        largest = max(largest, n)
+        i += 1 + lines_per_item * n
+    return largest
+
+
 def check_declared_sizes(path: str, fmt: str, max_points: int = MAX_POINTS, max_cells: int = MAX_CELLS) -> None:
     """Refuse a file that declares more nodes or elements than tetmorph reads, before it is read.
 
@@ -337,6 +359,17 @@ def check_declared_sizes(path: str, fmt: str, max_points: int = MAX_POINTS, max_
     """
     points, cells, tag = _declared(path, fmt)
     name = os.path.basename(path)
+    if fmt == "gmsh":  # 4.1: a block may declare more than the section's total (a count a reader allocates)
+        with open(path, "rb") as fh:
+            head = fh.read(_HEAD)
+        for section, per, total, code, bound in ((b"Nodes", 2, points, "too_many_points", max_points),
+                                                  (b"Elements", 1, cells, "too_many_cells", max_cells)):
+            block = _gmsh_blocks(head, section, per) if b"$MeshFormat\n4" in head[:64] else 0
+            if block > max(total, 0) and block > 0:
+                raise UnreadableFileError(
+                    f"{name!r}: a ${section.decode()} block declares {block:,} entries, more than the "
+                    f"{total:,} of the whole section: the file is inconsistent", code=code, file=name,
+                    declared=block, bound=min(total, bound))
     if points > max_points or tag > 4 * max_points:  # a tag that large: arrays indexed by tag would be too
         what = f"{points:,} nodes" if points > max_points else f"node tags up to {tag:,}"
         raise UnreadableFileError(

@@ -272,3 +272,26 @@ def test_files_declaring_more_than_the_bounds_are_refused_before_they_are_read(t
     with pytest.raises(UnreadableFileError) as e:
         read_mesh(vtk)
     assert e.value.code == "too_many_points"
+
+
+def test_a_gmsh_block_declaring_more_than_its_section_is_refused_before_it_is_read(tmp_path):
+    """Gmsh 4.1: the section's totals are small and pass the bounds, but one block declares a count a reader
+    would allocate (once a raw MemoryError of petabytes): refused with the block's count, nothing read."""
+    import resource
+
+    head = ("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n0 0 0 1\n1 0 0 0 1 1 1 0 0\n$EndEntities\n"
+            "$Nodes\n1 4 1 4\n3 1 0 {nodes}\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n"
+            "$Elements\n1 1 1 1\n3 1 4 {elems}\n1 1 2 3 4\n$EndElements\n")
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    for nodes, elems, code, declared in ((4, 99_999_999_999_999, "too_many_cells", 99_999_999_999_999),
+                                         (88_888_888_888, 1, "too_many_points", 88_888_888_888)):
+        path = tmp_path / f"{code}.msh"
+        path.write_text(head.format(nodes=nodes, elems=elems))
+        with pytest.raises(UnreadableFileError) as e:
+            read_mesh(path)
+        assert e.value.code == code and e.value.details["declared"] == declared
+        assert "MemoryError" not in e.value.message and "block" in e.value.message
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # KiB
+    path = tmp_path / "ok.msh"
+    path.write_text(head.format(nodes=4, elems=1))
+    assert read_mesh(path).n == 4  # the same file, consistent, reads

@@ -48,10 +48,14 @@ SETTING_NOTES = {
 SOLVER_ENVIRONMENT = {
     "TETMORPH_SOLVER": "`cholmod`, `pardiso` or `scipy` forces the symmetric backend; a name that is not "
                        "installed fails with `unknown_backend` (see "
-                       "[Method, sparse backends](../method.md#sparse-backends)).",
-    "TETMORPH_SUPERNODAL": "`0` keeps PARDISO and CHOLMOD at every size instead of tetmorph's supernodal sweeps.",
+                       "[Method, sparse backends](../method.md#sparse-backends)). Read once, when `solver` is "
+                       "imported, into `solver.options.ENVIRONMENT`: the default `SolveOptions` of callers "
+                       "that pass none (`precompute(..., options=...)`, `--backend`, `TETMORPH_SOLVE_BACKEND`).",
+    "TETMORPH_SUPERNODAL": "`0` keeps PARDISO and CHOLMOD at every size instead of tetmorph's supernodal sweeps "
+                           "(`SolveOptions(sweeps=False)`; read once at import).",
     "TETMORPH_COLUMN_BASIS": "`0` keeps the direct stacked solve of DOE blocks instead of the plan's column basis "
-                             "([DOE speed](../guide/workflows.md#doe-speed)).",
+                             "([DOE speed](../guide/workflows.md#doe-speed); `SolveOptions(basis=False)`; read "
+                             "once at import).",
     "TETMORPH_BATCH_MALLOC": "`0` leaves glibc's allocator as it is in batch processes (`tetmorph doe`, Ray actors).",
     "TETMORPH_MKL_RT, PYPARDISO_MKL_RT": "Path of MKL's `libmkl_rt` when it is not where pip's `mkl` wheel puts it.",
     "GOMP_SPINCOUNT, OMP_WAIT_POLICY, OPENBLAS_THREAD_TIMEOUT": "Set at import to bounded spin waits "
@@ -156,6 +160,16 @@ ERRORS: dict[str, tuple[str, str]] = {
                       "mesh directly."),
     "engine_unavailable": ("A batch asks for engine `ray` and the service has no `RAY_ADDRESS`.",
                            "Start the service with `TETMORPH_RAY_ADDRESS`, or use engine `local`."),
+    "solver_unavailable": ("A study names a solver the service has not configured, or whose program is not "
+                           "installed on the replica.", "Name one of `TETMORPH_STUDY_SOLVERS` (the error lists "
+                           "them); the operator adds a solver there and installs its program."),
+    "duplicate_file_name": ("Two uploaded files are stored under one name once folders and odd characters are "
+                            "cleaned from their names (`../x/beam.node` and `beam.node`).",
+                            "Rename one of the files the error names."),
+    "invalid_options": ("A `SolveOptions` document has an unknown field, backend or a value of the wrong type.",
+                        "Use `backend` (auto, cholmod, pardiso, scipy), `sweeps` and `basis` (true or false)."),
+    "no_range": ("`tetmorph optimize`: a shape inverts elements at any non-zero value, so its safe range is empty.",
+                 "Give the shape's range with `--bounds NAME=LO:HI`, or change the shape."),
     "result_too_large": ("The batch's zip grew past `BATCH_MAX_RESULT_MB`; nothing was kept.",
                          "Split the plan, or raise `TETMORPH_BATCH_MAX_RESULT_MB`."),
     "bounds_time_limit": ("The bounds search ran longer than `BOUNDS_TIME_LIMIT_S`.",

@@ -135,7 +135,9 @@ class Pages:
         self.browser, self.request, self.open = browser, request, []
 
     def __call__(self, base: str, viewport: dict | None = None, path: str = "/"):
-        ctx = self.browser.new_context(viewport=viewport or VIEWPORT, accept_downloads=True)
+        # bypass_csp: Playwright's string predicates (wait_for_function) run as eval, which the
+        # editor page's Content-Security-Policy refuses; the page's own scripts are the same either way
+        ctx = self.browser.new_context(viewport=viewport or VIEWPORT, accept_downloads=True, bypass_csp=True)
         pg = ctx.new_page()
         pg.errors = []
         pg.on("pageerror", lambda e: pg.errors.append(str(e)))

@@ -149,7 +149,7 @@ def test_the_poor_tet_colour_is_not_a_colour_of_the_displacement_map(page):
 # 4 ----------------------------------------------------------------------------------------
 def test_the_stream_reconnects_after_the_service_restarts(browser, tmp_path):
     port, data = free_port(), tmp_path / "data"
-    ctx = browser.new_context(viewport=VIEWPORT)
+    ctx = browser.new_context(viewport=VIEWPORT, bypass_csp=True)
     pg = ctx.new_page()
     errors: list[str] = []
     pg.on("pageerror", lambda e: errors.append(str(e)))

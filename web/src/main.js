@@ -19,7 +19,7 @@ import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshRep
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
 import { ShapesPanel } from "./shapes.js";
-import { SymmetryPanel } from "./symmetry.js";
+import { CyclicPanel, SymmetryPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
 import { Viewer } from "./viewer.js";
@@ -35,6 +35,7 @@ const moves = new Moves(viewer, regions, {
 session.moves = moves;
 const measure = new Measure(viewer, regions);
 const symmetry = new SymmetryPanel(viewer, meshView, regions);
+const cyclic = new CyclicPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
@@ -42,7 +43,7 @@ regions.busy = () => moves.dragging;
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => drawLegend(meshView, state.regions);
-on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); });
+on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); cyclic.render(); });
 on("legend", legend);
 on("history", () => { renderHistory(moves); session.note(); session.keepHistory(); });
 on("presets", () => { renderPresets(moves); shapes.render(); });

@@ -51,6 +51,7 @@ export class Regions {
     state.role = state.V ? new Uint8Array(state.V.length / 3) : null;
     state.activeRegion = null;
     this.specExtra = {};
+    this.extraSelections = {};
   }
 
   // ---------------------------------------------------------------- the regions
@@ -226,7 +227,8 @@ export class Regions {
    * (the mid-side nodes of quadratic elements follow their corners and cannot be selected).
    */
   spec(options = {}) {
-    const selections = {}, fixed = [], handles = {};
+    // selections other parts of the SPEC name (cyclic faces, features, ...), then the regions'
+    const selections = { ...this.extraSelections }, fixed = [], handles = {};
     for (const r of state.regions) {
       if (!r.count) continue;
       selections[r.name] = r.source && r.source.set ? { set: r.source.set } : { ids: this.idsOf(r, true) };
@@ -241,6 +243,7 @@ export class Regions {
     delete extra.inversion; delete extra.repair;
     this.clear();
     this.specExtra = extra;
+    this.extraSelections = {};
     const kindOf = new Map(), handleOf = new Map();
     for (const n of fixed) kindOf.set(n, "fixed");
     for (const [h, sel] of Object.entries(handles)) {
@@ -250,7 +253,7 @@ export class Regions {
     }
     for (const [name, sel] of Object.entries(selections)) {
       const kind = kindOf.get(name);
-      if (!kind) continue;
+      if (!kind) { this.extraSelections[name] = sel; continue; }  // kept as it is for the SPEC
       const ids = this.resolve(sel);
       const source = sel.set && !sel.boundary_only ? { set: sel.set } : null;
       const r = this.fromIds(name, kind, ids, source);

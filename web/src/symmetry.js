@@ -9,6 +9,86 @@ import { state } from "./state.js";
 
 const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
 
+/**
+ * Cyclic symmetry set-up (SPEC.cyclic): face B of the sector is face A turned by the angle about
+ * the axis. The faces are named sets of the file, sent as selections of their own; the axis is
+ * drawn through the model.
+ */
+export class CyclicPanel {
+  constructor(viewer, regions) {
+    this.viewer = viewer;
+    this.regions = regions;
+    this.group = new THREE.Group();
+    viewer.scene.add(this.group);
+    this.material = new THREE.LineBasicMaterial({ color: 0x7b2cbf, depthTest: false });
+    this.added = new Set();  // face selections this panel put into the SPEC
+    $("cyc-add").addEventListener("click", () => this.add());
+    $("cyc-list").addEventListener("click", (ev) => {
+      const b = ev.target.closest("button[data-k]");
+      if (b) this.remove(Number(b.dataset.k));
+    });
+  }
+
+  list() { return this.regions.specExtra.cyclic || []; }
+
+  /** The named sets offered as faces A and B. */
+  offerSets() {
+    const opts = '<option value="">— set —</option>' + Object.keys(state.sets || {}).map((n) => `<option>${esc(n)}</option>`).join("");
+    for (const id of ["cyc-a", "cyc-b"]) { const el = $(id), cur = el.value; el.innerHTML = opts; el.value = cur; }
+  }
+
+  add() {
+    const nums = (id) => $(id).value.trim().split(/[\s,;]+/).map(Number);
+    const point = nums("cyc-point"), dir = nums("cyc-dir"), angle = Number($("cyc-angle").value);
+    const a = $("cyc-a").value, b = $("cyc-b").value, note = $("cyc-note");
+    const len = Math.hypot(...dir);
+    if (!state.V) { note.textContent = "open a mesh first"; return; }
+    if (point.length !== 3 || dir.length !== 3 || ![...point, ...dir].every(Number.isFinite) || !(len > 0)) {
+      note.textContent = "the axis needs a point and a direction: three numbers each"; return;
+    }
+    if (!(Math.abs(angle) > 0 && Math.abs(angle) < 360)) { note.textContent = "the sector angle is between 0 and 360°"; return; }
+    if (!a || !b || a === b) { note.textContent = "choose two different named sets, face A and face B"; return; }
+    note.textContent = "";
+    const names = new Set(this.list().map((c) => c.name));
+    let k = this.list().length + 1;
+    while (names.has(`cyclic${k}`)) k++;
+    const entry = { name: `cyclic${k}`, axis: { point, direction: dir.map((x) => x / len) }, angle_deg: angle, faces: [a, b] };
+    const tol = $("cyc-tol").value.trim();
+    if (tol !== "" && Number(tol) >= 0) entry.tolerance = Number(tol);
+    for (const f of [a, b]) {
+      if (state.regions.some((r) => r.name === f) || this.regions.extraSelections[f]) continue;
+      this.regions.extraSelections[f] = { set: f };
+      this.added.add(f);
+    }
+    this.regions.specExtra.cyclic = [...this.list(), entry];
+    this.render();
+  }
+
+  remove(k) {
+    const list = this.list().filter((_, i) => i !== k);
+    if (list.length) this.regions.specExtra.cyclic = list; else delete this.regions.specExtra.cyclic;
+    const used = new Set(list.flatMap((c) => c.faces));
+    for (const n of [...this.added]) if (!used.has(n)) { delete this.regions.extraSelections[n]; this.added.delete(n); }
+    this.render();
+  }
+
+  render() {
+    this.offerSets();
+    $("cyc-list").innerHTML = this.list().map((c, k) => `<li data-name="${esc(c.name)}"><span class="name">${esc(c.name)}: ` +
+      `${esc(c.faces[0])} → ${esc(c.faces[1])} by ${fmt(c.angle_deg)}° about (${c.axis.direction.map((x) => fmt(Number(x.toFixed(4)))).join(", ")})` +
+      `</span><button data-k="${k}" title="remove">×</button></li>`).join("");
+    for (const m of [...this.group.children]) { this.group.remove(m); m.geometry.dispose(); }
+    if (!state.V) return;
+    for (const c of this.list()) {
+      const p = new THREE.Vector3(...c.axis.point), d = new THREE.Vector3(...c.axis.direction).normalize();
+      const h = 0.75 * state.diag, g = new THREE.BufferGeometry().setFromPoints([p.clone().addScaledVector(d, -h), p.clone().addScaledVector(d, h)]);
+      const line = new THREE.Line(g, this.material);
+      line.renderOrder = 25;
+      this.group.add(line);
+    }
+  }
+}
+
 export class SymmetryPanel {
   constructor(viewer, meshView, regions) {
     this.viewer = viewer;

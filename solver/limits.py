@@ -6,7 +6,9 @@ and the library's checks read it from here.
 
 from __future__ import annotations
 
-__all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS"]
+__all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS", "EXTENT", "SCALE_MIN", "SCALE_MAX", "PENALTY_MAX",
+           "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX",
+           "TARGET_AMOUNT_MAX"]
 
 #: Largest magnitude of a mesh coordinate, and of any coordinate, direction or target in a
 #: document. Far beyond any part in any unit, and small enough that squared distances and
@@ -19,3 +21,25 @@ COORD_MAX = 1e15
 MAX_POINTS = 50_000_000
 #: Most elements a mesh file may declare (checked as :data:`MAX_POINTS`).
 MAX_CELLS = 300_000_000
+#: Translations, offsets and pivots, point targets and motion points: within this many
+#: bounding-box diagonals of the mesh (of its centre, for positions). A morph a hundred times
+#: the part's size is a unit mistake, not a design.
+EXTENT = 100.0
+#: Range of uniform scale factors (handles, relative constraints, features).
+SCALE_MIN, SCALE_MAX = 1e-3, 1e3
+#: Largest penalty weight (SPEC.constraints.penalty_weight): the penalised system's condition
+#: number grows as its square (``benchmarks/measure_choices.py --only penalty``).
+PENALTY_MAX = 1e8
+#: Largest thin-wall weight (SPEC.thin_walls.weight).
+WALL_WEIGHT_MAX = 1e6
+#: Largest magnitude of a weight of a POINT's vertices (``vertices`` + ``weights``).
+POINT_WEIGHT_MAX = 1e6
+#: Largest vertex id a document may name before the mesh's own count is checked: meshes hold
+#: at most :data:`MAX_POINTS` nodes, far below it.
+ID_MAX = 2**31 - 1
+#: Largest magnitude of an angle in degrees (rotations, cyclic sectors): ten turns. A rotation
+#: is reduced modulo 360 degrees, but at 1e6 degrees and beyond the number holds no meaningful
+#: fraction of a turn, and such a value is a mistake to report, not a rotation to make.
+ANGLE_MAX = 3600.0
+#: Largest magnitude of a target surface's MOVE ``amount`` (1: on the surface, 0: at rest).
+TARGET_AMOUNT_MAX = 10.0

@@ -14,6 +14,8 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, model_validator
 
+from solver.limits import TARGET_AMOUNT_MAX
+
 from ..errors import ServiceError
 from .numbers import EXTENT, Angle, Quat, Scale, Vec3
 
@@ -68,7 +70,8 @@ class TargetMove(BaseModel):
     """How far the nodes of a SPEC ``targets`` entry go: 0 rest, 1 on the target surface."""
 
     model_config = _STRICT
-    amount: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-10.0, le=10.0)] = 1.0
+    amount: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-TARGET_AMOUNT_MAX,
+                                   le=TARGET_AMOUNT_MAX)] = 1.0
 
 
 class Move(BaseModel):

@@ -11,29 +11,33 @@ from typing import Annotated
 
 from pydantic import Field, StrictInt
 
-from solver.limits import COORD_MAX
+from solver.limits import (
+    ANGLE_MAX,
+    COORD_MAX,
+    EXTENT,
+    ID_MAX,
+    PENALTY_MAX,
+    POINT_WEIGHT_MAX,
+    SCALE_MAX,
+    SCALE_MIN,
+    WALL_WEIGHT_MAX,
+)
 
 __all__ = ["Coord", "Vec3", "Quat", "Scale", "Angle", "Weight", "VertexId", "Fraction", "NonNegLength",
-           "PenaltyWeight", "COORD_MAX", "SCALE_MIN", "SCALE_MAX", "EXTENT", "PENALTY_MAX", "ID_MAX"]
+           "PenaltyWeight", "COORD_MAX", "SCALE_MIN", "SCALE_MAX", "EXTENT", "PENALTY_MAX", "ID_MAX", "ANGLE_MAX",
+           "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "WallWeight"]
 
-#: Range of uniform scale factors (handles, relative constraints, features).
-SCALE_MIN, SCALE_MAX = 1e-3, 1e3
-#: Translations and pivots, point targets and motion points: within this many bounding-box
-#: diagonals of the mesh (of its centre, for positions).
-EXTENT = 100.0
-#: Largest penalty weight (SPEC.constraints.penalty_weight).
-PENALTY_MAX = 1e12
-#: Largest vertex id the documents accept before the mesh's own count is checked.
-ID_MAX = 2**31 - 1
+# Every bound is :mod:`solver.limits`'s: the library's parsers and this schema read the same numbers.
 
 Coord = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-COORD_MAX, le=COORD_MAX)]
 Vec3 = Annotated[list[Coord], Field(min_length=3, max_length=3, description="[x, y, z]")]
 Quat = Annotated[list[Coord], Field(min_length=4, max_length=4, description="[w, x, y, z], non-zero")]
 Scale = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=SCALE_MIN, le=SCALE_MAX,
                                description=f"uniform scale factor in [{SCALE_MIN:g}, {SCALE_MAX:g}]")]
-Angle = Annotated[float, Field(strict=True, allow_inf_nan=False,
-                               description="degrees, any finite value (reduced modulo 360)")]
-Weight = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]
+Angle = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-ANGLE_MAX, le=ANGLE_MAX,
+                               description=f"degrees within +-{ANGLE_MAX:g} (reduced modulo 360)")]
+Weight = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-POINT_WEIGHT_MAX, le=POINT_WEIGHT_MAX)]
+WallWeight = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=WALL_WEIGHT_MAX)]
 Fraction = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=1)]
 NonNegLength = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=COORD_MAX)]
 PenaltyWeight = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=PENALTY_MAX,

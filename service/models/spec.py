@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr
 
 from ..errors import ServiceError
-from .numbers import Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, Weight
+from .numbers import Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, WallWeight, Weight
 
 __all__ = ["Spec", "Selection", "Target", "check_spec_ids", "check_selection_ids", "stored_surfaces"]
 
@@ -188,7 +188,7 @@ class ThinWalls(BaseModel):
     """Weight of the thin-wall rows."""
 
     model_config = _STRICT
-    weight: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=1e6)] = 1.0
+    weight: WallWeight = 1.0
 
 
 class Ties(BaseModel):

@@ -16,15 +16,16 @@ from typing import Any
 
 import numpy as np
 
+from ..limits import ANGLE_MAX, EXTENT, SCALE_MAX, SCALE_MIN, TARGET_AMOUNT_MAX
 from .spec import check_keys, expect, is_number, number, vec3
 
 __all__ = ["HandleMove", "Move", "MoveBounds", "RestTargets", "parse_move", "scaled_move", "axis_angle_matrix",
            "SCALE_RANGE", "MOVE_RANGE"]
 
 #: Scales (handles, features, relative constraints) must lie in this range.
-SCALE_RANGE = (1.0e-3, 1.0e3)
+SCALE_RANGE = (SCALE_MIN, SCALE_MAX)
 #: Translations, pivots and targets must lie within this many mesh diagonals of the mesh.
-MOVE_RANGE = 1.0e3
+MOVE_RANGE = EXTENT
 
 
 def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -247,7 +248,7 @@ def _parse_rotation(rot: Any, where: str) -> np.ndarray:
         return math.atan2(nv, qa[0]) * v / nv
     expect("axis" in rot and "angle_deg" in rot, f"{where} needs axis and angle_deg (or quaternion)", field=where)
     axis = vec3(rot["axis"], f"{where}.axis", 1e150)
-    deg = math.fmod(number(rot["angle_deg"], f"{where}.angle_deg"), 360.0)  # exact, keeps the sign
+    deg = math.fmod(number(rot["angle_deg"], f"{where}.angle_deg", -ANGLE_MAX, ANGLE_MAX), 360.0)  # exact, signed
     if deg == 0.0:
         return np.zeros(3)
     na = float(np.linalg.norm(axis))
@@ -347,5 +348,5 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     for k, v in doc.get("targets", {}).items():
         where = f"MOVE.targets.{k}"
         check_keys(v, ("amount",), where)
-        targets[k] = number(v.get("amount", 1.0), f"{where}.amount", -10.0, 10.0)
+        targets[k] = number(v.get("amount", 1.0), f"{where}.amount", -TARGET_AMOUNT_MAX, TARGET_AMOUNT_MAX)
     return Move(out, points, relative, features, motion, targets)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from ..limits import ANGLE_MAX, COORD_MAX, ID_MAX, PENALTY_MAX, POINT_WEIGHT_MAX, WALL_WEIGHT_MAX
 from ..linalg.constrained import METHODS as _SOLVERS
 
 __all__ = ["Spec", "PointDef", "PointEntry", "RelativeEntry", "FeatureEntry", "MotionEntry", "SlidingEntry",
@@ -42,15 +43,12 @@ INVERSION_POLICIES = ("warn", "reject", "clamp")
 #: (and one refinement step when it is not met), or the double-precision factor.
 PRECISIONS = ("mixed", "exact")
 SELECTION_KINDS = ("ids", "set", "box", "sphere", "plane")
-#: Largest penalty weight: beta**2 must stay far from float64 overflow (1e308) and the
-#: penalised system's condition number grows as beta**2 (measure_choices.py --only penalty).
-MAX_PENALTY_WEIGHT = 1.0e8
-#: Largest thin-wall weight accepted.
-MAX_WALL_WEIGHT = 1.0e6
-#: Vertex ids are int64; larger integers are refused where they enter.
-MAX_ID = 2**63 - 1
-#: Coordinates (box corners, centres, points, targets) are refused beyond this magnitude.
-MAX_COORDINATE = 1.0e100
+#: The documents' bounds, defined once in :mod:`solver.limits` (the service's schema reads them too).
+MAX_PENALTY_WEIGHT = PENALTY_MAX
+MAX_WALL_WEIGHT = WALL_WEIGHT_MAX
+MAX_ID = ID_MAX
+#: Coordinates (box corners, centres, points, targets, radii, tolerances) are refused beyond this magnitude.
+MAX_COORDINATE = COORD_MAX
 
 
 @dataclass(frozen=True)
@@ -590,7 +588,7 @@ def point_def(e: dict[str, Any], where: str, selections: dict[str, Any]) -> Poin
     w = e.get("weights", [1.0 / len(ids)] * len(ids))
     expect(isinstance(w, list) and len(w) == len(ids), f"{where}.weights must be {len(ids)} numbers "
            "(one per vertex)", field=where)
-    w = [number(x, f"{where}.weights", -1e12, 1e12) for x in w]
+    w = [number(x, f"{where}.weights", -POINT_WEIGHT_MAX, POINT_WEIGHT_MAX) for x in w]
     expect(abs(sum(w)) > 1e-12, f"{where}.weights must not sum to zero", field=where)
     return PointDef(tuple(ids), tuple(w))
 
@@ -695,7 +693,7 @@ def _parse_constraint_lists(doc: dict[str, Any], selections: dict[str, Any]) -> 
         check_keys(e.get("axis"), ("point", "direction"), f"{where}.axis")
         c = vec3(e["axis"].get("point"), f"{where}.axis.point")
         t = nonzero(vec3(e["axis"].get("direction"), f"{where}.axis.direction"), f"{where}.axis.direction")
-        ang = math.fmod(number(e.get("angle_deg"), f"{where}.angle_deg"), 360.0)
+        ang = math.fmod(number(e.get("angle_deg"), f"{where}.angle_deg", -ANGLE_MAX, ANGLE_MAX), 360.0)
         expect(ang != 0.0, f"{where}.angle_deg must not be a multiple of 360", field=f"{where}.angle_deg")
         faces = e.get("faces")
         expect(isinstance(faces, list) and len(faces) == 2 and all(isinstance(f, str) and f in selections

@@ -117,32 +117,68 @@ def _dat_blocks(text: str) -> dict[str, np.ndarray]:
     return blocks
 
 
-def ccx_responses(deck: Path) -> dict[str, float]:
-    """Responses of a CalculiX run from its ``.dat`` file (beside ``deck``).
+def _frd_blocks(text: str) -> dict[str, np.ndarray]:
+    """The nodal result blocks of a CalculiX ``.frd`` file (the last of each name): ``{"DISP": (n, 1 + 3)}``.
 
-    ``max_displacement`` (largest ``|u|`` over the printed nodes),
-    ``max_mises`` (largest von Mises stress over the printed integration
-    points), ``mass`` (a ``TOTALS=ONLY`` ``EMAS`` print) and ``freq_1`` ...
-    (cycles per time of a frequency step), each where the deck prints it.
+    Each block opens with ``-4  NAME`` and lists ``-1`` lines: the node id in
+    columns 4-13, then one 12-column value per component.
+    """
+    out: dict[str, np.ndarray] = {}
+    name, rows = None, []
+    for line in text.splitlines():
+        if line.startswith(" -4"):
+            name, rows = line.split()[1], []
+        elif line.startswith(" -1") and name is not None:
+            vals = [line[13 + 12 * k:25 + 12 * k] for k in range((len(line) - 13) // 12)]
+            rows.append([float(line[3:13]), *(float(v) for v in vals)])
+        elif line.startswith(" -3") and name is not None:
+            if rows:
+                out[name] = np.array(rows)
+            name = None
+    return out
+
+
+def _mises(S: np.ndarray) -> np.ndarray:
+    """Von Mises stress of rows ``sxx, syy, szz, sxy, s2, s3`` (the shear order does not matter)."""
+    sxx, syy, szz, sxy, s2, s3 = S.T
+    return np.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3 * (sxy**2 + s2**2 + s3**2))
+
+
+def ccx_responses(deck: Path) -> dict[str, float]:
+    """Responses of a CalculiX run from its ``.dat`` and ``.frd`` files (beside ``deck``).
+
+    From the ``.dat``: ``max_displacement`` (largest ``|u|`` over the printed
+    nodes), ``max_mises`` (largest von Mises stress over the printed
+    integration points), ``mass`` (a ``TOTALS=ONLY`` ``EMAS`` print) and
+    ``freq_1`` ... (cycles per time of a frequency step), each where the deck
+    prints it. From the ``.frd`` (``*NODE FILE`` / ``*EL FILE``, last step):
+    ``max_displacement`` where the ``.dat`` has none, and ``max_mises_nodal``
+    (von Mises of the stresses CalculiX extrapolates to the nodes).
 
     Raises
     ------
     SolverError
-        ``no_responses`` when the file is missing or prints none of them.
+        ``no_responses`` when neither file is there or they print none of them.
     """
-    dat = Path(deck).with_suffix(".dat")
-    if not dat.is_file():
-        raise SolverError(f"no {dat.name} beside {Path(deck).name}: did the solver run?", code="no_responses")
-    blocks = _dat_blocks(dat.read_text(errors="replace"))
+    dat, frd = Path(deck).with_suffix(".dat"), Path(deck).with_suffix(".frd")
+    if not dat.is_file() and not frd.is_file():
+        raise SolverError(f"no {dat.name} or {frd.name} beside {Path(deck).name}: did the solver run?",
+                          code="no_responses")
+    blocks = _dat_blocks(dat.read_text(errors="replace")) if dat.is_file() else {}
+    nodal = _frd_blocks(frd.read_text(errors="replace")) if frd.is_file() else {}
     out: dict[str, float] = {}
     U = blocks.get("displacements")
     if U is not None and U.shape[1] >= 4:
         out["max_displacement"] = float(np.linalg.norm(U[:, 1:4], axis=1).max())
     S = blocks.get("stresses")
     if S is not None and S.shape[1] >= 8:
-        sxx, syy, szz, sxy, sxz, syz = S[:, 2:8].T
-        vm = np.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3 * (sxy**2 + sxz**2 + syz**2))
-        out["max_mises"] = float(vm.max())
+        out["max_mises"] = float(_mises(S[:, 2:8]).max())
+    D = nodal.get("DISP")
+    if "max_displacement" not in out and D is not None and D.shape[1] >= 4:
+        out["max_displacement"] = float(np.linalg.norm(D[:, 1:4], axis=1).max())
+    N = nodal.get("STRESS")
+    if N is not None and N.shape[1] >= 7:
+        out["max_mises_nodal"] = float(_mises(N[:, 1:7]).max())
     M = blocks.get("total mass")
     if M is not None:
         out["mass"] = float(M[0, 0])
@@ -152,7 +188,7 @@ def ccx_responses(deck: Path) -> dict[str, float]:
         for k, f in enumerate(E[:, col], start=1):
             out[f"freq_{k}"] = float(f)
     if not out:
-        raise SolverError(f"{dat.name} prints no displacements, stresses, mass or frequencies",
+        raise SolverError(f"{dat.name} and {frd.name} hold no displacements, stresses, mass or frequencies",
                           code="no_responses")
     return out
 

@@ -104,3 +104,32 @@ def test_a_solver_that_is_not_installed_is_a_typed_error_before_anything_runs(st
     assert not (f / "out").exists() and not (f / "study.csv").exists()
     assert _study(f, "--solver", "ccx -i {stem}", "--response", str(f / "missing.py")) == 1
     assert "invalid_response" in capsys.readouterr().err
+
+
+@pytest.mark.ccx
+def test_the_ccx_reader_takes_what_the_dat_file_lacks_from_the_frd_file(tmp_path):
+    """A deck that writes results to the .frd only (*NODE FILE, *EL FILE) still has responses: the largest
+    displacement, within the .frd's 6 digits of the .dat's of the same run, and the nodal von Mises."""
+    import subprocess
+
+    from solver.workflows.study import ccx_responses
+
+    lines = DECK.read_text().splitlines()
+    both, frd_only = tmp_path / "both", tmp_path / "frd"
+    both.mkdir()
+    frd_only.mkdir()
+    (both / "deck.inp").write_text("\n".join(lines) + "\n")
+    keep, skip = [], False
+    for ln in lines:  # drop the *NODE PRINT and *EL PRINT cards and their data lines
+        if ln.startswith("*"):
+            skip = ln.upper().startswith(("*NODE PRINT", "*EL PRINT"))
+        if not skip:
+            keep.append(ln)
+    (frd_only / "deck.inp").write_text("\n".join(keep) + "\n")
+    for d in (both, frd_only):
+        subprocess.run(["ccx", "-i", "deck"], cwd=d, capture_output=True, check=True, timeout=120)
+    full, frd = ccx_responses(both / "deck.inp"), ccx_responses(frd_only / "deck.inp")
+    assert "mass" not in frd and "max_mises" not in frd  # nothing printed to the .dat
+    assert frd["max_displacement"] == pytest.approx(full["max_displacement"], rel=1e-5)
+    assert frd["max_displacement"] == pytest.approx(_max_u(both / "deck.dat"), rel=1e-5)
+    assert 0.5 * full["max_mises"] < frd["max_mises_nodal"] < 1.5 * full["max_mises"]  # nodal vs Gauss points

@@ -19,6 +19,7 @@ from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from solver import options as solver_options
+from solver.limits import MAX_CELLS, MAX_POINTS
 from solver.options import SolveOptions
 
 __all__ = ["Settings"]
@@ -49,6 +50,11 @@ class Settings(BaseSettings):
                     "stream, besides the service's own. A browser's WebSocket from any other page is closed "
                     "with 4403; clients that send no Origin (scripts, the Python client) are not affected.")
     max_upload_mb: float = Field(200.0, gt=0, description="Largest request body (413 above).")
+    max_file_points: int = Field(MAX_POINTS, gt=0, le=MAX_POINTS, description="Most nodes an uploaded file "
+                                 "may declare; checked from its header before anything is read or "
+                                 "decompressed (422 too_many_points).")
+    max_file_cells: int = Field(MAX_CELLS, gt=0, le=MAX_CELLS, description="Most elements an uploaded file "
+                                "may declare; checked as max_file_points (422 too_many_cells).")
     head_timeout_s: float = Field(10.0, gt=0, description="Longest a client may take to send a request's "
                                   "line and headers; a slower connection is closed (tetmorph serve).")
     max_elements: int = Field(5_000_000, gt=0, description="Most volume elements per mesh (422 above).")

@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
+from solver.limits import MAX_CELLS, MAX_POINTS
 from solver.mesh import Mesh
 
 from ..errors import ServiceError
@@ -94,13 +95,14 @@ class PgStore:
 
     shared = True
 
-    def __init__(self, url: str, root: str | os.PathLike[str]) -> None:
+    def __init__(self, url: str, root: str | os.PathLike[str], max_points: int = MAX_POINTS,
+                 max_cells: int = MAX_CELLS) -> None:
         import psycopg
 
         self._psycopg = psycopg
         self.url = url
         self.root = Path(root)
-        self.files = FileStore(root)  # mesh folders (and the layout of the data directory)
+        self.files = FileStore(root, max_points, max_cells)  # mesh folders (and the data directory's layout)
         self.sessions_dir = self.files.sessions_dir
         self._conn: Any = None
         with self._connection() as c:
@@ -192,7 +194,7 @@ class PgStore:
 
     def load_mesh(self, meta: dict[str, Any]) -> Mesh:
         """Read a stored mesh back from its folder."""
-        return read_mesh_files(self.root, meta)
+        return read_mesh_files(self.root, meta, self.files.max_points, self.files.max_cells)
 
     # --------------------------------------------------------------- sessions
     def _row(self, record: dict[str, Any]) -> tuple[Any, ...]:

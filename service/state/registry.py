@@ -109,7 +109,8 @@ class Registry:
 
     def __init__(self, settings: Settings, store: Store | None = None) -> None:
         self.settings = settings
-        self.store: Store = store if store is not None else open_store(settings.data_dir, settings.database_url)
+        self.store: Store = store if store is not None else open_store(
+            settings.data_dir, settings.database_url, settings.max_file_points, settings.max_file_cells)
         self.meshes = MeshCache()
         self.factors = FactorCache(settings.cache_budget_bytes)
         self.builder = Builder(settings.build_workers, settings.solve_pool_size, settings.solve_options())

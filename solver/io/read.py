@@ -12,6 +12,7 @@ import meshio
 import numpy as np
 
 from ..errors import MAX_IDS, InvalidMeshError, UnreadableFileError, UnsupportedElementError
+from ..limits import MAX_CELLS, MAX_POINTS
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
 from ..ops.unique import unique
@@ -113,7 +114,8 @@ def _named_sets(m: meshio.Mesh) -> dict[str, np.ndarray]:
 VOLUME_CELLS = {"tetra", "tetra10", "hexahedron", "wedge", "pyramid"}
 
 
-def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volume: bool = False) -> Mesh:
+def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volume: bool = False, *,
+              max_points: int = MAX_POINTS, max_cells: int = MAX_CELLS) -> Mesh:
     """Read and validate a tet mesh (linear, quadratic or mixed) or a triangle surface.
 
     Parameters
@@ -127,6 +129,9 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     volume : bool
         Refuse a triangle surface (``surface_not_volume``, pointing to
         ``tetmorph tetrahedralize``) where a volume mesh is expected.
+    max_points, max_cells : int
+        Most nodes and elements the file may declare, checked before anything
+        is read or decompressed (``too_many_points``, ``too_many_cells``).
 
     Returns
     -------
@@ -155,7 +160,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     check_file(path, fmt)
     assert fmt is not None  # check_file refuses unknown extensions
     check_complete(path, fmt)
-    check_declared_sizes(path, fmt)
+    check_declared_sizes(path, fmt, max_points, max_cells)
     m = _read(path, fmt)
     if np.asarray(m.points).size == 0:
         raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",

@@ -124,7 +124,8 @@ def _frd_blocks(text: str) -> dict[str, np.ndarray]:
     columns 4-13, then one 12-column value per component.
     """
     out: dict[str, np.ndarray] = {}
-    name, rows = None, []
+    name: str | None = None
+    rows: list[list[float]] = []
     for line in text.splitlines():
         if line.startswith(" -4"):
             name, rows = line.split()[1], []

@@ -77,6 +77,33 @@ def test_a_decompression_bomb_is_refused_before_it_expands(tc, tmp_path):
     assert tc.get("/v1/meshes").json() == []  # nothing stored
 
 
+def test_the_declared_size_bounds_are_service_settings(tmp_path):
+    """TETMORPH_MAX_FILE_POINTS / _CELLS bound what an upload may declare, below the library's bounds."""
+    from ..conftest import running
+
+    with running(tmp_path, load_kernels=False, max_file_points=500, max_file_cells=100_000) as tc:
+        big = (DATA / "bracket.inp").read_bytes()  # 3,461 nodes
+        r = tc.post("/v1/meshes", files=[("file", ("bracket.vtu", _as_vtu(big, tmp_path)))])
+        e = err(r)
+        assert r.status_code == 422 and e["code"] == "too_many_points" and e["details"]["bound"] == 500, e
+        assert tc.get("/v1/meshes").json() == []
+    with running(tmp_path / "b", load_kernels=False, max_file_cells=10) as tc:
+        r = tc.post("/v1/meshes", files=[("file", ("bracket.vtu", _as_vtu(big, tmp_path)))])
+        assert r.status_code == 422 and err(r)["code"] == "too_many_cells" and err(r)["details"]["bound"] == 10
+    with running(tmp_path / "c", load_kernels=False) as tc:  # the defaults take it
+        assert tc.post("/v1/meshes", files=[("file", ("bracket.vtu", _as_vtu(big, tmp_path)))]).status_code == 201
+
+
+def _as_vtu(inp: bytes, tmp_path) -> bytes:
+    """The deck as a VTU file (a format that declares its counts in its header)."""
+    import meshio
+
+    src, out = tmp_path / "src.inp", tmp_path / "out.vtu"
+    src.write_bytes(inp)
+    meshio.write(out, meshio.read(src))
+    return out.read_bytes()
+
+
 def test_a_nul_in_any_text_of_a_request_is_refused_before_anything_is_stored(tc):
     tet = _inp_bytes(TET, [[0, 1, 2, 3]])
     r = tc.post("/v1/meshes", files=[("file", ("t.inp", tet))], data={"name": "bad\x00name"})

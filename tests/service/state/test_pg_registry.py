@@ -201,3 +201,64 @@ def test_a_database_outage_answers_503_with_retry_after_and_loses_nothing(tmp_pa
             assert c.session(sid)["version"] == 3 and c.session(sid)["last_move"] == MOVES[2]
     finally:
         pg.remove()
+
+
+def test_a_database_outage_under_concurrent_moves_answers_only_503s_and_loses_nothing(tmp_path):
+    """A real server and four clients sending MOVEs at once while the real PostgreSQL is stopped and
+    started again: every answer is 200 or 503 (with Retry-After), and each session's version afterwards
+    is the number of its MOVEs answered 200, its last MOVE the last of them: nothing lost, nothing doubled."""
+    import tempfile
+    import threading
+    import time
+
+    import httpx
+
+    from service.client import Client
+    from service.cluster.postgres import LocalPostgres
+    from service.process import free_port, serve_process
+
+    pg = LocalPostgres(tempfile.mkdtemp(prefix="tetmorph-pg-load-"), free_port(), fast=True)
+    url = pg.start()
+    try:
+        env = {"TETMORPH_DATABASE_URL": url, "TETMORPH_RATE_LIMIT_PER_S": "0", "TETMORPH_LOAD_KERNELS": "0"}
+        with serve_process(tmp_path / "data", env=env) as (base, _):
+            with Client(base) as c:
+                mid = c.upload_mesh(BRACKET)["id"]
+                sids = [c.create_session(mid, BRACKET_SPEC)["id"] for _ in range(4)]
+            answers: dict[str, list[tuple[int, dict]]] = {s: [] for s in sids}
+            bad: list[str] = []
+            stop = time.monotonic() + 8.0  # bounded: 8 s of load, at most 60 MOVEs per client
+
+            def client(sid: str) -> None:
+                with httpx.Client(base_url=base, timeout=30) as h:
+                    for k in range(60):
+                        if time.monotonic() > stop:
+                            return
+                        move = {"handles": {"tip": {"translation": [0.0, 0.1 * (k + 1), 0.5]}}}
+                        r = h.post(f"/v1/sessions/{sid}/deform?result=report", json=move)
+                        answers[sid].append((r.status_code, move))
+                        if r.status_code == 503 and r.headers.get("retry-after") != "1":
+                            bad.append(f"503 without Retry-After: {r.text[:200]}")
+                        elif r.status_code not in (200, 503):
+                            bad.append(f"{r.status_code}: {r.text[:200]}")
+
+            threads = [threading.Thread(target=client, args=(s,)) for s in sids]
+            for t in threads:
+                t.start()
+            time.sleep(2.0)
+            pg.stop()  # under load
+            time.sleep(2.0)
+            pg.start()
+            for t in threads:
+                t.join(timeout=60)
+            assert not bad, bad[:5]
+            codes = [code for a in answers.values() for code, _ in a]
+            assert codes.count(503) > 0 and codes.count(200) > 0  # the outage was seen, and service resumed
+            with Client(base, retries=6, backoff_s=0.5) as c:
+                for sid, a in answers.items():
+                    ok = [m for code, m in a if code == 200]
+                    doc = c.session(sid)
+                    assert doc["version"] == len(ok), (sid, doc["version"], len(ok))
+                    assert doc["last_move"] == ok[-1]
+    finally:
+        pg.remove()

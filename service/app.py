@@ -32,7 +32,7 @@ from .demo import load_demo
 from .errors import envelope
 from .middleware import BodyLimit, ErrorShield, UnicodeGuard
 from .models.error import ErrorEnvelope
-from .observability import Metrics, RequestContext
+from .observability import Metrics, RequestContext, editor_csp
 from .security import Authenticator, ConnectionSlots, RateLimiter, SharedRateLimiter, load_secret
 from .settings import Settings
 from .state.batch import clear_jobs, sweep_job_files
@@ -169,7 +169,8 @@ def _mount_editor(app: FastAPI) -> None:
                 "<h1>tetmorph</h1><p>The browser editor is not built. Run <code>make web</code> "
                 "(or <code>make run</code>), then reload. The REST API is at <a href=\"/docs\">/docs</a>.</p>",
                 status_code=503)
-        return FileResponse(index, media_type="text/html")
+        return FileResponse(index, media_type="text/html",
+                            headers={"Content-Security-Policy": editor_csp(index.read_text())})
 
     app.mount("/editor", _EditorFiles(directory=EDITOR_DIR, check_dir=False), name="editor")
 

@@ -194,7 +194,7 @@ class RequestContext:
                 headers = [*msg.get("headers", []), (b"x-request-id", rid.encode()),
                            (b"x-tetmorph-replica", self.replica), *SECURITY_HEADERS]
                 path = str(scope.get("path", ""))
-                if (not any(k.lower() == b"content-security-policy" for k, _ in headers) and path != "/"
+                if (not any(k.lower() == b"content-security-policy" for k, _ in headers)
                         and not path.startswith(_NO_CSP_PATHS)):
                     headers.append((b"content-security-policy", API_CSP))
                 msg["headers"] = headers

@@ -64,6 +64,20 @@ def test_every_api_answer_has_a_content_security_policy_that_loads_nothing(tc):
     assert "content-security-policy" not in tc.get("/docs").headers  # Swagger UI's CDN assets and inline script
 
 
+def test_the_editor_page_is_sent_with_its_policy(tc):
+    import base64
+    import hashlib
+    import re
+
+    page = tc.get("/")
+    assert page.status_code == 200, "the editor is not built: make web (make check and make test do)"
+    csp = {d.split()[0]: d.split()[1:] for d in page.headers["content-security-policy"].split("; ")}
+    inline = [b for a, b in re.findall(r"<script([^>]*)>(.*?)</script>", page.text, re.S) if "src=" not in a]
+    want = sorted(f"'sha256-{base64.b64encode(hashlib.sha256(b.encode()).digest()).decode()}'" for b in inline)
+    assert inline and sorted(x for x in csp["script-src"] if x.startswith("'sha256-")) == want
+    assert "'unsafe-inline'" not in csp["script-src"] and csp["frame-ancestors"] == ["'none'"]
+
+
 def test_the_editor_policy_allows_only_the_pages_own_inline_script():
     import base64
     import hashlib

@@ -32,7 +32,7 @@ from ..mesh import Mesh
 from .doe import BLOCK
 from .plan import Plan
 from .ray_engine import connect, run_doe_ray
-from .study import DEFAULT_TIMEOUT_S, Response, StudyRow, _command, check_solver, read_run
+from .study import DEFAULT_TIMEOUT_S, Response, StudyRow, _command, check_solver, read_run, study_rows
 
 __all__ = ["run_study_ray", "cmd_study_ray", "MAX_ATTEMPTS"]
 
@@ -85,12 +85,7 @@ def run_study_ray(mesh: Mesh, spec: dict[str, Any], shapes_doc: dict[str, Any], 
     ray, _ = connect(address)
     result = run_doe_ray(mesh, spec, shapes_doc, plan, output=output, block=block, inversion=inversion,
                          actors=actors, nastran_large=nastran_large)
-    rows = []
-    for v in result.variants:
-        r = StudyRow(v.row, v.parameters, v.status, v.inverted, v.min_scaled_jacobian, v.max_displacement, v.file)
-        if not (v.status == "ok" and v.file is not None):
-            r.message = "not solved: the morph was " + v.status
-        rows.append(r)
+    rows = study_rows(result)
     task = ray.remote(num_cpus=1, max_retries=MAX_ATTEMPTS - 1, retry_exceptions=False)(_run_in_worker)
     pending = {}
     for r in rows:

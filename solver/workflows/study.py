@@ -37,12 +37,12 @@ import numpy as np
 from ..deform.deformer import Deformer
 from ..errors import SolverError
 from ..mesh import Mesh
-from .doe import BLOCK, deck_writer, run_doe, write_rows
+from .doe import BLOCK, DoeResult, deck_writer, run_doe, write_rows
 from .plan import Plan
 from .shapes import Shapes
 
-__all__ = ["StudyRow", "ccx_responses", "load_response", "load_reader", "morph_rows", "solve_row", "read_run",
-           "run_study", "write_table", "DEFAULT_TIMEOUT_S"]
+__all__ = ["StudyRow", "ccx_responses", "load_response", "load_reader", "morph_rows", "study_rows", "solve_row",
+           "read_run", "run_study", "write_table", "DEFAULT_TIMEOUT_S"]
 
 #: Seconds a solver run may take before it is stopped and recorded as ``timeout``.
 DEFAULT_TIMEOUT_S = 600.0
@@ -320,6 +320,11 @@ def morph_rows(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, ou
     """
     result = run_doe(deformer, shapes, plan, block=block, output=deck_writer(mesh, output, file_format, nastran_large),
                      inversion=inversion, cancelled=cancelled)
+    return study_rows(result)
+
+
+def study_rows(result: DoeResult) -> list[StudyRow]:
+    """The rows of a study from the morphs of its plan; rows that are not ``ok`` say why, unsolved."""
     rows = []
     for v in result.variants:
         r = StudyRow(v.row, v.parameters, v.status, v.inverted, v.min_scaled_jacobian, v.max_displacement, v.file)

@@ -304,12 +304,8 @@ def check_complete(path: str, fmt: str, data: bytes | None = None) -> None:
 _HEAD = 4 << 20
 
 
-def _declared(path: str, fmt: str) -> tuple[int, int, int]:
-    """Nodes, elements and the largest node tag a file declares in its head (0 where it does not say)."""
-    if fmt not in ("vtu", "vtk", "gmsh"):
-        return 0, 0, 0  # formats that declare no counts: nothing to read
-    with open(path, "rb") as fh:
-        head = fh.read(_HEAD)
+def _declared(head: bytes, fmt: str) -> tuple[int, int, int]:
+    """Nodes, elements and the largest node tag a file declares in its ``head`` (0 where it does not say)."""
     total = lambda pat: sum(int(x) for x in re.findall(pat, head))  # noqa: E731
     if fmt == "vtu":
         return total(rb'NumberOfPoints\s*=\s*"(\d+)"'), total(rb'NumberOfCells\s*=\s*"(\d+)"'), 0
@@ -357,11 +353,13 @@ def check_declared_sizes(path: str, fmt: str, max_points: int = MAX_POINTS, max_
     UnreadableFileError
         ``too_many_points`` or ``too_many_cells``, naming the count declared and the bound.
     """
-    points, cells, tag = _declared(path, fmt)
+    if fmt not in ("vtu", "vtk", "gmsh"):
+        return  # formats that declare no counts: nothing to read
+    with open(path, "rb") as fh:
+        head = fh.read(_HEAD)
+    points, cells, tag = _declared(head, fmt)
     name = os.path.basename(path)
     if fmt == "gmsh":  # 4.1: a block may declare more than the section's total (a count a reader allocates)
-        with open(path, "rb") as fh:
-            head = fh.read(_HEAD)
         for section, per, total, code, bound in ((b"Nodes", 2, points, "too_many_points", max_points),
                                                   (b"Elements", 1, cells, "too_many_cells", max_cells)):
             block = _gmsh_blocks(head, section, per) if b"$MeshFormat\n4" in head[:64] else 0

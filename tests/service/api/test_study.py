@@ -7,10 +7,10 @@ import io
 import time
 import zipfile
 
-import numpy as np
 import pytest
 
 from tests.conftest import DATA
+from tests.solver.workflows.test_study import max_u_of
 
 from ..conftest import err, running
 
@@ -39,20 +39,6 @@ def wait(tc, sid: str, jid: str, limit_s: float = 240.0) -> dict:
     raise AssertionError(f"study {jid} still running after {limit_s} s")
 
 
-def _max_u(dat_text: str) -> float:
-    """Largest |u| of a CalculiX .dat's displacement block, parsed here."""
-    lines = dat_text.splitlines()
-    k = next(i for i, ln in enumerate(lines) if ln.strip().startswith("displacements"))
-    rows = []
-    for ln in lines[k + 1:]:
-        if not ln.strip():
-            if rows:
-                break
-            continue
-        rows.append([float(v) for v in ln.split()])
-    return float(np.linalg.norm(np.array(rows)[:, 1:4], axis=1).max())
-
-
 @pytest.mark.ccx
 def test_a_study_solves_each_row_with_calculix_and_tables_it(tmp_path):
     with running(tmp_path, study_solvers={"ccx": "ccx -i {stem}"}) as tc:
@@ -72,7 +58,7 @@ def test_a_study_solves_each_row_with_calculix_and_tables_it(tmp_path):
         for t in table[:2]:
             assert t["deck"] == f"{t['row']}/ccx_bracket.inp" and t["deck"] in names
             dat = z.read(f"{t['row']}/ccx_bracket.dat").decode()
-            assert float(t["max_displacement"]) == pytest.approx(_max_u(dat), rel=1e-12)
+            assert float(t["max_displacement"]) == pytest.approx(max_u_of(dat), rel=1e-12)
         assert float(table[1]["max_displacement"]) > float(table[0]["max_displacement"])  # bore nearer the clamp
         assert not any(n.startswith("3/") for n in names)  # the inverting row is recorded, never solved
         # the rest row's deck differs from the upload only in node lines

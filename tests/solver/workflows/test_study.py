@@ -30,7 +30,12 @@ def study_files(tmp_path):
 
 def _max_u(dat):
     """Largest |u| of the .dat's displacement block, parsed here."""
-    lines = dat.read_text().splitlines()
+    return max_u_of(dat.read_text())
+
+
+def max_u_of(dat_text: str) -> float:
+    """Largest |u| of the displacement block of a CalculiX .dat file's text."""
+    lines = dat_text.splitlines()
     k = next(i for i, ln in enumerate(lines) if ln.strip().startswith("displacements"))
     rows = []
     for ln in lines[k + 1:]:

@@ -15,6 +15,7 @@ and stops at ``TETMORPH_BOUNDS_TIME_LIMIT_S`` with 422 ``bounds_time_limit``.
 from __future__ import annotations
 
 import asyncio
+import os
 import time
 from pathlib import Path
 from typing import Annotated, Any
@@ -189,12 +190,15 @@ def cancel_batch(s: SessionDep, job_id: JobId, owner: OwnerDep, request: Request
                        **error_responses(*_AUTH, 404, 409, 410, s409="not finished yet (job_not_finished)")})
 def batch_result(s: SessionDep, job_id: JobId, owner: OwnerDep, request: Request) -> Response:
     """The decks and the summary, once the job is done."""
-    job = _job(request, owner, s, job_id)
-    if job.status != "done" or job.result_path is None:
-        raise ServiceError("job_not_finished", f"batch {job.id} is {job.status}; its result is there when it is "
+    return job_zip(_job(request, owner, s, job_id), "batch")
+
+
+def job_zip(job: Job, what: str) -> Response:
+    """The zip of a finished job (a batch or a study); 409 ``job_not_finished`` before."""
+    if job.status != "done" or job.result_path is None or not os.path.exists(job.result_path):
+        raise ServiceError("job_not_finished", f"{what} {job.id} is {job.status}; its result is there when it is "
                            "done", job_id=job.id, status=job.status)
-    return FileResponse(job.result_path, media_type="application/zip",
-                        filename=f"{job.id}.zip")
+    return FileResponse(job.result_path, media_type="application/zip", filename=f"{job.id}.zip")
 
 
 @router.post("/sessions/{session_id}/bounds", summary="Safe bounds of each shape (synchronous)",

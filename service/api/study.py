@@ -16,7 +16,6 @@ responses is recorded in the table; the study goes on.
 from __future__ import annotations
 
 import asyncio
-import os
 import shutil
 import zipfile
 from functools import partial
@@ -24,7 +23,6 @@ from pathlib import Path
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
-from fastapi.responses import FileResponse
 
 from solver.workflows.study import ccx_responses, morph_rows, solve_row, write_table
 
@@ -36,7 +34,7 @@ from ..models.service import JobDoc
 from ..state.batch import check_plan, job_folder, plan_of, remove_tree
 from ..state.jobs import Job, JobRunner
 from ..state.session import Session
-from .batch import JobId, _deck_format
+from .batch import JobId, _deck_format, job_zip
 from .deps import OwnerDep, RegistryDep, SessionDep
 from .responses import JSONResponse
 
@@ -159,8 +157,4 @@ def cancel_study(s: SessionDep, job_id: JobId, owner: OwnerDep, request: Request
                        **error_responses(*_AUTH, 404, 409, 410, s409="not finished yet (job_not_finished)")})
 def study_result(s: SessionDep, job_id: JobId, owner: OwnerDep, request: Request) -> Response:
     """The rows' files and the table, once the job is done."""
-    job = _job(request, owner, s, job_id)
-    if job.status != "done" or job.result_path is None or not os.path.exists(job.result_path):
-        raise ServiceError("job_not_finished", f"study {job.id} is {job.status}; its result is there when it is "
-                           "done", job_id=job.id, status=job.status)
-    return FileResponse(job.result_path, media_type="application/zip", filename=f"{job.id}.zip")
+    return job_zip(_job(request, owner, s, job_id), "study")

@@ -205,7 +205,8 @@ def test_a_database_outage_answers_503_with_retry_after_and_loses_nothing(tmp_pa
 
 def test_a_database_outage_under_concurrent_moves_answers_only_503s_and_loses_nothing(tmp_path):
     """A real server and four clients sending MOVEs at once while the real PostgreSQL is stopped and
-    started again: every answer is 200 or 503 (with Retry-After), and each session's version afterwards
+    started again: every answer is 200 or 503 (with Retry-After), the outage is seen and
+    service resumes, and each session's version afterwards
     is the number of its MOVEs answered 200, its last MOVE the last of them: nothing lost, nothing doubled."""
     import tempfile
     import threading
@@ -227,28 +228,46 @@ def test_a_database_outage_under_concurrent_moves_answers_only_503s_and_loses_no
                 sids = [c.create_session(mid, BRACKET_SPEC)["id"] for _ in range(4)]
             answers: dict[str, list[tuple[int, dict]]] = {s: [] for s in sids}
             bad: list[str] = []
-            stop = time.monotonic() + 8.0  # bounded: 8 s of load, at most 60 MOVEs per client
+            # Driven by what was seen, bounded in time and count: the clients move until the outage has
+            # been answered 503 and the service has answered 200 again after PostgreSQL restarted.
+            deadline = time.monotonic() + 40.0
+            restarted = threading.Event()
+            lock = threading.Lock()
 
             def client(sid: str) -> None:
+                after = 0
                 with httpx.Client(base_url=base, timeout=30) as h:
-                    for k in range(60):
-                        if time.monotonic() > stop:
+                    for k in range(400):
+                        if time.monotonic() > deadline or after >= 3:
                             return
-                        move = {"handles": {"tip": {"translation": [0.0, 0.1 * (k + 1), 0.5]}}}
+                        move = {"handles": {"tip": {"translation": [0.0, 0.01 * (k + 1), 0.5]}}}
                         r = h.post(f"/v1/sessions/{sid}/deform?result=report", json=move)
-                        answers[sid].append((r.status_code, move))
+                        with lock:
+                            answers[sid].append((r.status_code, move))
                         if r.status_code == 503 and r.headers.get("retry-after") != "1":
                             bad.append(f"503 without Retry-After: {r.text[:200]}")
                         elif r.status_code not in (200, 503):
                             bad.append(f"{r.status_code}: {r.text[:200]}")
+                        if restarted.is_set() and r.status_code == 200:
+                            after += 1
+
+            def seen(code: int) -> int:
+                with lock:
+                    return sum(1 for a in answers.values() for c, _ in a if c == code)
+
+            def wait_for(cond, limit_s: float) -> None:
+                end = time.monotonic() + limit_s
+                while not cond() and time.monotonic() < end:
+                    time.sleep(0.02)
 
             threads = [threading.Thread(target=client, args=(s,)) for s in sids]
             for t in threads:
                 t.start()
-            time.sleep(2.0)
-            pg.stop()  # under load
-            time.sleep(2.0)
+            wait_for(lambda: seen(200) >= 8, 15.0)  # under load before the outage
+            pg.stop()
+            wait_for(lambda: seen(503) >= 4, 10.0)
             pg.start()
+            restarted.set()
             for t in threads:
                 t.join(timeout=60)
             assert not bad, bad[:5]

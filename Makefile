@@ -135,9 +135,11 @@ $(STAMP): pyproject.toml | sysdeps
 
 install: sysdeps $(STAMP)
 
-lint: install
+# ruff and mypy on the Python, ESLint (web/eslint.config.js, pinned by the lock file) on the editor
+lint: install web
 	$(BIN)/ruff check solver service tests benchmarks
 	$(BIN)/mypy solver service
+	cd web && npm run lint --silent
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis

@@ -8,8 +8,6 @@ import { $, radio } from "./dom.js";
 import { fmt, unitText } from "./panels.js";
 import { emit, state } from "./state.js";
 
-const FIELDS = ["tx", "ty", "tz", "ax", "ay", "az", "angle", "scale"];
-
 /** {t, q: THREE.Quaternion, s, pivot} of one handle's entry of a MOVE (quaternion or axis + angle_deg). */
 export function parseHandleMove(h, centroid) {
   const t = h && h.translation ? h.translation.slice() : [0, 0, 0];

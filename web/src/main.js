@@ -579,7 +579,7 @@ window.tetmorph = {
   triadAxes: () => viewer.triadAxes(),
   surfaceColor: (i) => Array.from(meshView.surfGeom.getAttribute("color").array.slice(3 * i, 3 * i + 3)),
   qualityColors: QUALITY_COLORS,
-  showGizmo: (on) => { moves.helper.visible = on; viewer.draw(); },
+  showGizmo: (visible) => { moves.helper.visible = visible; viewer.draw(); },
   regions: () => state.regions.map((r) => ({ id: r.id, name: r.name, kind: r.kind, count: r.count, visible: r.visible,
     color: r.color, source: r.source })),
   spec: () => session.spec(),

@@ -29,6 +29,7 @@ from .api.deps import refuse_nul
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
 from .demo import load_demo
+from .docs_assets import install_docs
 from .errors import envelope
 from .middleware import BodyLimit, ErrorShield, UnicodeGuard
 from .models.error import ErrorEnvelope
@@ -124,7 +125,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
             reg.close_store()
 
     app = FastAPI(title="tetmorph", version=_version(), description=DESCRIPTION, lifespan=lifespan,
-                  default_response_class=JSONResponse,
+                  default_response_class=JSONResponse, docs_url=None, redoc_url=None,
                   responses={400: {"model": ErrorEnvelope, "description": "the body cannot be parsed "
                                    "(bad_request): not JSON, or a broken multipart form"},
                              422: {"model": ErrorEnvelope, "description": "invalid request: the error "
@@ -150,6 +151,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
         app.include_router(mod.router, prefix="/v1", dependencies=[Depends(refuse_nul)])
     app.include_router(stream.router, prefix="/v1")  # its frames are checked as they come (parse_frame)
     app.include_router(health.router)
+    install_docs(app)  # Swagger UI with its files from the service, not a CDN
     _mount_editor(app)
     return app
 

@@ -31,10 +31,9 @@ _SANE_ID = re.compile(r"^[A-Za-z0-9._-]{1,64}$")
 SECURITY_HEADERS = ((b"x-content-type-options", b"nosniff"), (b"x-frame-options", b"DENY"),
                     (b"referrer-policy", b"no-referrer"))
 #: The Content-Security-Policy of every answer that sets none of its own (JSON, files): nothing may load
-#: or run from it, and no page may frame it. The editor's page sets its own (:func:`editor_csp`); the
-#: Swagger and ReDoc pages, which load their assets from a CDN with inline scripts, are left without.
+#: or run from it, and no page may frame it. The editor's page sets its own (:func:`editor_csp`), and so
+#: does the Swagger UI page (:func:`service.docs_assets.docs_csp`).
 API_CSP = b"default-src 'none'; frame-ancestors 'none'; base-uri 'none'"
-_NO_CSP_PATHS = ("/docs", "/redoc")
 
 
 def editor_csp(index_html: str) -> str:
@@ -193,9 +192,7 @@ class RequestContext:
                 status = msg["status"]
                 headers = [*msg.get("headers", []), (b"x-request-id", rid.encode()),
                            (b"x-tetmorph-replica", self.replica), *SECURITY_HEADERS]
-                path = str(scope.get("path", ""))
-                if (not any(k.lower() == b"content-security-policy" for k, _ in headers)
-                        and not path.startswith(_NO_CSP_PATHS)):
+                if not any(k.lower() == b"content-security-policy" for k, _ in headers):
                     headers.append((b"content-security-policy", API_CSP))
                 msg["headers"] = headers
             elif msg["type"] == "websocket.accept":

@@ -96,7 +96,7 @@ def test_unknown_backend_is_a_server_fault(tmp_path):
 
     from service.process import serve_process
 
-    with serve_process(tmp_path, env={"TETMORPH_SOLVER": "nonesuch"}) as (url, _):
+    with serve_process(tmp_path, env={"TETMORPH_SOLVER": "nonesuch", "TETMORPH_LOAD_KERNELS": "0"}) as (url, _):
         with httpx.Client(base_url=url) as h:
             mid = h.post("/v1/meshes", files=[("file", ("b.inp", BRACKET.read_bytes()))]).json()["id"]
             r = h.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC})

@@ -54,7 +54,8 @@ def test_errors_keep_the_connection_alive(tmp_path):
     """After 404, 422, 413 and a 500 the same keep-alive connection serves the next request."""
     from service.process import serve_process
 
-    with serve_process(tmp_path, env={"TETMORPH_MAX_UPLOAD_MB": "0.01", "TETMORPH_SOLVER": "nonesuch"}) as (url, _):
+    env = {"TETMORPH_MAX_UPLOAD_MB": "0.01", "TETMORPH_SOLVER": "nonesuch", "TETMORPH_LOAD_KERNELS": "0"}
+    with serve_process(tmp_path, env=env) as (url, _):
         port = int(url.rsplit(":", 1)[1])
         get = b"GET /health HTTP/1.1\r\nhost: x\r\n\r\n"
         mesh = b"\r\n".join([b"--B", b'Content-Disposition: form-data; name="file"; filename="c.inp"', b"",

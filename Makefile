@@ -3,7 +3,8 @@
 #               with the demo beam and a ready session (s_demo)
 #   make test   create .venv, install everything, run the test suite
 #   make check  lint and the fast tests (no browser, cluster, CalculiX, fuzzing or slow marks)
-#   make docs   the documentation site into site/ (warnings as errors); make docs-serve on 127.0.0.1:8001
+#   make docs   the documentation site into site/ (warnings as errors); make docs-serve on 127.0.0.1:8001;
+#               make docs-pictures retakes the editor tutorial's pictures
 #   make cluster       PostgreSQL, 3 replicas and HAProxy on 127.0.0.1 (balancer on :8100), detached
 #   make cluster-down  stop them
 PYTHON ?= python3
@@ -12,7 +13,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test check docs docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
+.PHONY: run morph-demo test check docs docs-pictures docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -32,6 +33,10 @@ test: install web browser calculix clusterdeps
 
 docs: install
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict -d site
+
+# The editor tutorial's pictures, taken by its browser test (tests/browser/test_docs_screenshots.py)
+docs-pictures: install web browser
+	$(BIN)/python -m pytest -q -p no:cacheprovider tests/browser/test_docs_screenshots.py --docs-pictures
 
 docs-serve: install
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve -a 127.0.0.1:8001

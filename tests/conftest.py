@@ -17,6 +17,11 @@ SHARED = next((p for p in (pathlib.Path(__file__).resolve().parents[2] / "shared
               pathlib.Path(__file__).resolve().parents[2] / "shared" / "data")
 
 
+def pytest_addoption(parser):
+    parser.addoption("--docs-pictures", action="store_true", default=False,
+                     help="write the editor tutorial's pictures to docs/img/editor/ (make docs-pictures)")
+
+
 def shared_file(rel: str) -> pathlib.Path:
     """A file of ../shared/data (CI places shared/ beside the clone); fail loudly if absent."""
     p = SHARED / rel

@@ -3,8 +3,10 @@
 One test walks the page's steps on the CalculiX bracket in chromium against a real ``tetmorph
 serve``: open the editor, upload the deck, make regions of its named sets, create a session, drag
 the gizmo, type a translation, read the REPORT, undo and redo, download the deck. Each step is
-checked from the page's arrays, the service or the downloaded file, and its picture is written
-to ``docs/img/editor/`` (the docs' own pictures, committed; a 256-colour PNG, under 150 KB).
+checked from the page's arrays, the service or the downloaded file, and its picture is taken
+(a 256-colour PNG, under 150 KB). The pictures go to the test's own folder, so a test run leaves
+the tree as it was; ``make docs-pictures`` (``pytest --docs-pictures``) writes them to
+``docs/img/editor/``, the docs' own pictures, committed.
 """
 
 from __future__ import annotations
@@ -44,11 +46,11 @@ TYPED = (-4.0, 0.0, 0.0)
 NODE_LINE = re.compile(r"^\s*\d+\s*,\s*[-+0-9.eE]+\s*,\s*[-+0-9.eE]+\s*,\s*[-+0-9.eE]+\s*$")
 
 
-def picture(pg, name: str, selector: str | None = None) -> Path:
-    """Screenshot the page (or one element of it) into docs/img/editor/NAME.png, as 256 colours."""
+def picture(pg, folder: Path, name: str, selector: str | None = None) -> Path:
+    """Screenshot the page (or one element of it) into FOLDER/NAME.png, as 256 colours."""
     png = pg.locator(selector).screenshot() if selector else pg.screenshot()
-    out = IMG / f"{name}.png"
-    IMG.mkdir(parents=True, exist_ok=True)
+    out = folder / f"{name}.png"
+    folder.mkdir(parents=True, exist_ok=True)
     Image.open(io.BytesIO(png)).convert("RGB").quantize(colors=256).save(out, optimize=True)
     assert out.stat().st_size < MAX_BYTES, (out, out.stat().st_size)
     return out
@@ -71,15 +73,16 @@ def node_block(text: str) -> tuple[list[str], dict[int, np.ndarray], dict[int, s
     return lines, coords, raw
 
 
-def test_the_editor_tutorial_step_by_step(pages, server, tmp_path):
+def test_the_editor_tutorial_step_by_step(pages, server, tmp_path, request):
     deck = read_mesh(DECK)
     library = precompute(deck, SPEC).solve({"handles": {"HOLE": {"translation": list(TYPED)}}}).V
     pg = pages(server, viewport=VIEW)
     pg.set_default_timeout(30_000)  # every wait is bounded: 30 s, the upload and the build 60 s
+    folder = IMG if request.config.getoption("docs_pictures") else tmp_path / "pictures"
 
     # 1. the editor opened: the first page says what to do
     assert pg.is_visible("#welcome")
-    picture(pg, "1-open")
+    picture(pg, folder, "1-open")
 
     # 2. the deck uploaded: counts in the header, its named sets offered
     upload(pg, DECK)
@@ -87,7 +90,7 @@ def test_the_editor_tutorial_step_by_step(pages, server, tmp_path):
     offered = pg.eval_on_selector_all("#sets option", "os => os.map((o) => o.value).filter(Boolean)")
     assert {"FIXED", "LOAD", "HOLE"} <= set(offered)
     np.testing.assert_allclose(rest(pg), deck.V, atol=1e-9)
-    picture(pg, "2-uploaded")
+    picture(pg, folder, "2-uploaded")
 
     # 3. regions from the deck's named sets: FIXED and LOAD fixed, HOLE the handle; a session
     assign_set(pg, "FIXED", 1)
@@ -99,7 +102,7 @@ def test_the_editor_tutorial_step_by_step(pages, server, tmp_path):
     assert (role == 1).sum() == fixed.size and (role == 2).sum() == deck.sets["HOLE"].size
     create(pg, "warn")
     sid = pg.evaluate("window.tetmorph.state.sessionId")
-    picture(pg, "3-regions")
+    picture(pg, folder, "3-regions")
 
     # 4. the gizmo dragged with the mouse: the bore moves, the fixed sets stay
     drag_pivot(pg, -40, 0, steps=15)
@@ -108,7 +111,7 @@ def test_the_editor_tutorial_step_by_step(pages, server, tmp_path):
     shift = dragged - rest(pg)
     assert np.abs(shift[deck.sets["HOLE"]]).max() > 1.0
     assert np.abs(shift[fixed]).max() < 1e-9
-    picture(pg, "4-drag")
+    picture(pg, folder, "4-drag")
 
     # 5. a typed translation, coloured by displacement; the REPORT
     numeric_move(pg, t=TYPED)
@@ -124,14 +127,14 @@ def test_the_editor_tutorial_step_by_step(pages, server, tmp_path):
     assert shown is not None and abs(float(re.sub(r"[^\d.]", "", shown)) - largest) < 0.01, shown
     assert report_row(pg, "inverted_elements") == "0"
     assert f"**max displacement** {largest:.2f} mm" in PAGE.read_text()  # what the tutorial says it shows
-    picture(pg, "5-typed")
-    picture(pg, "5-report", "#right section:first-child")
+    picture(pg, folder, "5-typed")
+    picture(pg, folder, "5-report", "#right section:first-child")
 
     # 6. undo: back to the dragged shape; redo: the typed one again
     pg.click("#undo")
     settle(pg)
     np.testing.assert_allclose(positions(pg), dragged, atol=1e-5)
-    picture(pg, "6-undo")
+    picture(pg, folder, "6-undo")
     pg.click("#redo")
     settle(pg)
     np.testing.assert_allclose(positions(pg), typed, atol=1e-5)
@@ -154,5 +157,5 @@ def test_the_editor_tutorial_step_by_step(pages, server, tmp_path):
     np.testing.assert_allclose(X, library, atol=1e-6)
     assert all(got_raw[ids[i]] == rest_raw[ids[i]] for i in fixed)  # the fixed nodes' lines, character for character
     assert np.abs(X - X0).max() > 3.9  # and the bore's did change
-    picture(pg, "7-download", "#sec-download")
+    picture(pg, folder, "7-download", "#sec-download")
     assert sid == pg.evaluate("window.tetmorph.state.sessionId")

@@ -10,8 +10,9 @@
 * ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES;
 * ``reference/formats.md`` from the measured table of ``service/format_table.py`` (``GET /v1/formats``);
 * ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``);
-* ``img/tutorial-bracket-displacement.png``, the first tutorial's morph solved and rendered
-  (``docs/scripts/pictures.py``).
+* the pictures of real morphs, each solved and rendered from its page's SPEC and MOVE
+  (``docs/scripts/pictures.py``, its ``PICTURES``): the first tutorial's bracket, the sector tutorial's
+  cyclic sector, the design study's variants and the validity guide's inversion map.
 
 A note or a meaning kept for a setting or a code that no longer exists is a warning, which
 ``mkdocs build --strict`` turns into an error.
@@ -38,7 +39,6 @@ log = logging.getLogger("mkdocs.hooks.reference")
 ROOT = Path(__file__).resolve().parents[2]
 BOUND_SIGNS = {"gt": ">", "ge": "≥", "lt": "<", "le": "≤"}
 PLOT = "img/benchmark-update-ratio.svg"  # drawn from the tables of benchmarks.md
-BRACKET_PICTURE = "img/tutorial-bracket-displacement.png"  # the first tutorial's morph, solved at build
 PAGES = ("reference/settings.md", "reference/errors.md", "reference/rest.md", "reference/documents.md",
          "reference/formats.md")
 
@@ -53,7 +53,8 @@ def on_files(files: Files, config: Any) -> Files:
 
     page = Path(config["docs_dir"]) / "benchmarks.md"
     files.append(File.generated(config, PLOT, content=benchmark_plots.update_ratio_svg(page.read_text())))
-    files.append(File.generated(config, BRACKET_PICTURE, content=pictures.bracket_displacement_png()))
+    for uri, make in pictures.PICTURES.items():
+        files.append(File.generated(config, uri, content=make()))
     return files
 
 

@@ -9,6 +9,7 @@ from typing import Annotated, Any
 
 import numpy as np
 from fastapi import APIRouter, File, Form, Query, Request, Response, UploadFile
+from pydantic.json_schema import SkipJsonSchema
 
 from solver.constraints.features import feature_candidates, feature_region
 from solver.constraints.selection import select
@@ -22,6 +23,7 @@ from ..binary import encode_bundle
 from ..errors import ServiceError
 from ..formats import SURFACE_FORMATS, export_mesh, offered, resolve_format
 from ..models.error import error_responses
+from ..models.formats import MESH_FORMAT_VALUES, UPLOAD_FORMAT_VALUES
 from ..models.mesh import MeshDoc
 from ..models.spec import check_selection_ids
 from ..models.uploads import Band, MeshArrays
@@ -48,10 +50,11 @@ async def upload_mesh(
                                                  ".node (with its .ele), .bdf, ...; or a triangle surface "
                                                  "(.stl, .obj, .ply, .off) for SPEC targets")],
     owner: OwnerDep, reg: RegistryDep,
-    companions: Annotated[list[UploadFile] | None, File(
+    companions: Annotated[list[UploadFile] | SkipJsonSchema[None], File(
         description="Files read together with the main one (TetGen's .ele)")] = None,
-    format: Annotated[str | None, Form(max_length=40, description="format name or extension, when the "
-                                                                  "file name does not tell")] = None,
+    format: Annotated[str | SkipJsonSchema[None], Form(
+        max_length=40, description="format name or extension, when the file name does not tell",
+        json_schema_extra={"enum": UPLOAD_FORMAT_VALUES})] = None,
     name: Annotated[str | None, Form(max_length=200)] = None,
 ) -> dict[str, Any]:
     """Store and validate a mesh file; answer its counts, element types, sets and quality."""
@@ -139,7 +142,8 @@ def _originals(reg: Any, meta: dict[str, Any]) -> tuple[bytes, str, str]:
                        **error_responses(*_AUTH, 404, 422)})
 async def download_mesh(
     meta: MeshDep, reg: RegistryDep,
-    format: Annotated[str | None, Query(max_length=40, description="format name or extension (GET "
+    format: Annotated[str | None, Query(max_length=40, json_schema_extra={"enum": MESH_FORMAT_VALUES},
+                                        description="format name or extension (GET "
                                         "/v1/formats); omit for the upload byte for byte (TetGen: a zip "
                                         "of its two files; JSON arrays: VTU)")] = None,
     lossy: Annotated[bool, Query(description="write what the format can hold when it cannot hold everything "

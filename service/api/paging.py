@@ -12,13 +12,15 @@ from typing import Annotated, TypeVar
 from fastapi import Query, Request, Response
 
 from ..errors import ServiceError
+from ..models.text import ONE_LINE
 
 __all__ = ["LimitQuery", "CursorQuery", "NameQuery", "page", "PAGE_HEADERS"]
 
 T = TypeVar("T")
 
 LimitQuery = Annotated[int, Query(ge=1, le=1000, description="most items in this page")]
-CursorQuery = Annotated[str | None, Query(max_length=64, pattern=r"^[A-Za-z0-9_-]+$",
+CursorQuery = Annotated[str | None, Query(max_length=64, pattern=r"^[0-9]+-[A-Za-z0-9_-]*$",
+                                          json_schema_extra=ONE_LINE,
                                           description="X-Next-Cursor of the previous page")]
 NameQuery = Annotated[str | None, Query(max_length=200, description="only items whose name contains this")]
 

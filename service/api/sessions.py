@@ -15,6 +15,7 @@ from ..binary import MEDIA_TYPE, encode_frame
 from ..errors import ServiceError
 from ..formats import export_mesh, resolve_format
 from ..models.error import error_responses
+from ..models.formats import MESH_FORMAT_VALUES
 from ..models.move import Move
 from ..models.report import Report
 from ..models.session import SessionDoc, SessionPatch
@@ -24,6 +25,11 @@ from ..state.session import Session, SessionStatus
 from .deps import OwnerDep, RegistryDep, SessionDep, safe_name
 from .paging import PAGE_HEADERS, CursorQuery, LimitQuery, NameQuery, page
 from .responses import JSONResponse
+
+_METRIC = "(" + "|".join(METRICS) + ")"
+#: ``metrics=``: metric names separated by commas, blanks around each, at least one name (stated in the
+#: schema; the route's check answers 422 ``unknown_metric`` naming the others).
+METRICS_PATTERN = rf"^([ \t]*,)*[ \t]*{_METRIC}[ \t]*(,[ \t]*({_METRIC}[ \t]*)?)*$"
 
 router = APIRouter(tags=["sessions"])
 
@@ -143,7 +149,8 @@ async def deform(
                     "file; default json, or binary when Accept is application/octet-stream")] = None,
     kind: Annotated[Kind, Query()] = "positions",
     dtype: Annotated[Dtype, Query()] = "float64",
-    format: Annotated[str, Query(max_length=40, description="mesh format for result=mesh")] = "vtu",
+    format: Annotated[str, Query(max_length=40, description="mesh format for result=mesh",
+                                 json_schema_extra={"enum": MESH_FORMAT_VALUES})] = "vtu",
     inversion: Annotated[Literal["warn", "reject", "clamp"] | None, Query(
         description="override the SPEC's inversion policy; 'clamp' applies the largest safe "
                     "fraction of an inverting MOVE")] = None,
@@ -192,7 +199,8 @@ async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
                        **error_responses(*_AUTH, 404, 410, 422)})
 async def download_current(
     s: SessionDep, reg: RegistryDep,
-    format: Annotated[str, Query(max_length=40, description="format name or extension")] = "vtu",
+    format: Annotated[str, Query(max_length=40, description="format name or extension",
+                                 json_schema_extra={"enum": MESH_FORMAT_VALUES})] = "vtu",
     quality: Annotated[bool, Query(description="per-element quality metrics as cell data")] = False,
     lossy: Annotated[bool, Query(description="write what the format can hold; X-Tetmorph-Dropped lists "
                                  "the rest (else 422 lossy_write)")] = False,
@@ -206,8 +214,9 @@ async def download_current(
             responses=error_responses(*_AUTH, 404, 410, 422, s422="unknown metric (unknown_metric)"))
 async def current_quality(
     s: SessionDep, reg: RegistryDep,
-    metrics: Annotated[str | None, Query(max_length=400, description="comma-separated subset of "
-                                         f"{list(METRICS)}; default all")] = None,
+    metrics: Annotated[str | None, Query(max_length=400, json_schema_extra={"pattern": METRICS_PATTERN},
+                                         description="comma-separated "
+                                         f"subset of {list(METRICS)}; default all")] = None,
 ) -> dict[str, Any]:
     """Per-element metrics at the last MOVE, and summaries.
 

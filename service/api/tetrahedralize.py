@@ -17,6 +17,8 @@ from typing import Annotated, Any
 import meshio
 import numpy as np
 from fastapi import APIRouter, File, Form, Path, Request, UploadFile
+from pydantic import Field
+from pydantic.json_schema import SkipJsonSchema
 
 from solver.errors import InvalidMeshError
 from solver.io.tetrahedralize import open_edges
@@ -25,6 +27,7 @@ from solver.mesh import mesh_from_arrays
 from ..errors import ServiceError, error_from_dict
 from ..formats import SURFACE_FORMATS, resolve_format, scrubbed
 from ..models.error import error_responses
+from ..models.formats import SURFACE_FORMAT_VALUES
 from ..models.mesh import MeshDoc
 from ..models.service import JobDoc
 from ..state import tetra_worker
@@ -78,10 +81,11 @@ async def tetrahedralize(
     request: Request,
     file: Annotated[UploadFile, File(description="closed triangle surface")],
     owner: OwnerDep, reg: RegistryDep,
-    format: Annotated[str | None, Form(max_length=10, description="stl, obj, ply or off; default from the "
-                                                                  "file name")] = None,
-    edge_length: Annotated[float | None, Form(gt=0, le=1e15, allow_inf_nan=False,
-                                              description="absolute target edge length")] = None,
+    format: Annotated[str | SkipJsonSchema[None], Form(
+        max_length=10, description="stl, obj, ply or off; default from the file name",
+        json_schema_extra={"enum": SURFACE_FORMAT_VALUES})] = None,
+    edge_length: Annotated[Annotated[float, Field(gt=0, le=1e15, allow_inf_nan=False)] | SkipJsonSchema[None],
+                           Form(description="absolute target edge length")] = None,
     edge_length_fac: Annotated[float, Form(gt=0, le=1, allow_inf_nan=False, description="target edge "
                                            "length / bounding-box diagonal")] = 0.05,
     epsilon: Annotated[float, Form(gt=0, le=0.1, allow_inf_nan=False,

@@ -11,23 +11,35 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictStr
+from pydantic.config import JsonDict
 
+from .formats import MESH_FORMAT_VALUES
 from .move import Move
+from .numbers import INTEGRAL
+from .text import trimmed_name
 
 __all__ = ["PlanTable", "BatchCreate", "StudyCreate", "BoundsQuery", "shapes_document"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
 ShapeName = Annotated[str, Field(min_length=1, max_length=200)]
+#: What the SHAPES parser asks of a shape name (a PLAN column), stated in the schema: no control
+#: characters, no blanks at either end (its 422 ``invalid_shapes`` names the shape otherwise).
+_SHAPE_NAMES: JsonDict = {"propertyNames": trimmed_name(200)}
+#: Rows per stacked back-substitution.
+Block = Annotated[int, Field(strict=True, ge=1, le=1024), INTEGRAL]
 
 
 class PlanTable(BaseModel):
     """A PLAN as JSON: column names (shape names) and one row of numbers per variant."""
 
     model_config = _STRICT
-    columns: list[StrictStr] = Field(min_length=1, max_length=10_000)
-    rows: list[list[Any]] = Field(min_length=1, description="one list of numbers per variant; the "
-                                  "row count is bounded by TETMORPH_BATCH_MAX_ROWS")
+    columns: list[StrictStr] = Field(min_length=1, max_length=10_000, description="shape names, each once",
+                                     json_schema_extra={"uniqueItems": True, "items": trimmed_name(200)})
+    rows: list[list[Any]] = Field(min_length=1, description="one list of numbers per variant, one number per "
+                                  "column; the row count is bounded by TETMORPH_BATCH_MAX_ROWS",
+                                  json_schema_extra={"items": {"type": "array", "minItems": 1, "maxItems": 10_000,
+                                                               "items": {"type": "number"}}})
 
 
 class BatchCreate(BaseModel):
@@ -37,16 +49,17 @@ class BatchCreate(BaseModel):
         "shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}},
         "plan": {"columns": ["bend"], "rows": [[0.5], [1.0]]}, "format": "inp"}]})
 
-    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000,
+    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000, json_schema_extra=_SHAPE_NAMES,
                                           description="SHAPES: name -> MOVE at parameter value 1")
     plan: PlanTable | Annotated[str, Field(max_length=50_000_000)] = Field(
         description="{columns, rows}, or the text of a PLAN CSV file (header of shape names)")
     format: StrictStr | None = Field(None, max_length=40, description="deck format name or extension; "
-                                     "default the mesh's own (byte-faithful but the node coordinates)")
+                                     "default the mesh's own (byte-faithful but the node coordinates)",
+                                     json_schema_extra={"enum": [*MESH_FORMAT_VALUES, None]})
     engine: Literal["local", "ray"] = Field("local", description="local: this replica's factorization, "
                                             "blocks between the session's MOVEs; ray: actors of the Ray "
                                             "cluster of TETMORPH_RAY_ADDRESS")
-    block: int = Field(16, ge=1, le=1024, description="rows per stacked back-substitution")
+    block: Block = Field(16, description="rows per stacked back-substitution")
     inversion: Literal["warn", "reject", "clamp"] | None = Field(
         None, description="override the SPEC's policy; 'reject' writes no deck for an inverting row")
 
@@ -62,7 +75,7 @@ class StudyCreate(BaseModel):
         "shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}},
         "plan": {"columns": ["bend"], "rows": [[0.0], [0.5]]}, "solver": "ccx"}]})
 
-    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000,
+    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000, json_schema_extra=_SHAPE_NAMES,
                                           description="SHAPES: name -> MOVE at parameter value 1")
     plan: PlanTable | Annotated[str, Field(max_length=50_000_000)] = Field(
         description="{columns, rows}, or the text of a PLAN CSV file (header of shape names)")
@@ -73,8 +86,8 @@ class StudyCreate(BaseModel):
     timeout_s: float | None = Field(None, gt=0, allow_inf_nan=False, description="seconds per solver run "
                                     "(at most, and by default, TETMORPH_STUDY_TIMEOUT_S)")
     format: StrictStr | None = Field(None, max_length=40, description="deck format name or extension; "
-                                     "default the mesh's own")
-    block: int = Field(16, ge=1, le=1024, description="rows per stacked back-substitution")
+                                     "default the mesh's own", json_schema_extra={"enum": [*MESH_FORMAT_VALUES, None]})
+    block: Block = Field(16, description="rows per stacked back-substitution")
     inversion: Literal["warn", "reject", "clamp"] = Field(
         "reject", description="the morph's policy; 'reject' (default) records an inverting row, unsolved")
 
@@ -87,9 +100,10 @@ class BoundsQuery(BaseModel):
     """Per shape, the largest positive and negative value inverting nothing."""
 
     model_config = _STRICT
-    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000)
+    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000, json_schema_extra=_SHAPE_NAMES)
     range: list[Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]] | None = Field(
-        None, min_length=2, max_length=2, description="[lo, hi] with lo <= 0 <= hi; default 1, 2, 4, ... 1024")
+        None, min_length=2, max_length=2, description="[lo, hi] with lo <= 0 <= hi; default 1, 2, 4, ... 1024",
+        json_schema_extra={"prefixItems": [{"maximum": 0}, {"minimum": 0}]})
     tol: Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=1e3)] = 1e-3
 
     def shapes_doc(self) -> dict[str, Any]:

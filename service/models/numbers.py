@@ -1,5 +1,8 @@
 """Number types of the documents: strict (booleans and strings are not numbers), finite, bounded.
 
+An integer field takes what JSON Schema calls an integer: ``3`` and ``3.0`` alike (a number
+with no fraction), never ``3.5``, ``true`` or ``"3"``.
+
 Bounds that depend on the mesh (vertex ids below its vertex count,
 translations and points within :data:`EXTENT` bounding-box diagonals) are
 checked where the mesh is known (:mod:`service.models.bounds`).
@@ -7,9 +10,9 @@ checked where the mesh is known (:mod:`service.models.bounds`).
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
-from pydantic import Field, StrictInt
+from pydantic import BeforeValidator, Field
 
 from solver.limits import (
     ANGLE_MAX,
@@ -23,9 +26,9 @@ from solver.limits import (
     WALL_WEIGHT_MAX,
 )
 
-__all__ = ["Coord", "Vec3", "Quat", "Scale", "Angle", "Weight", "VertexId", "Fraction", "NonNegLength",
-           "PenaltyWeight", "COORD_MAX", "SCALE_MIN", "SCALE_MAX", "EXTENT", "PENALTY_MAX", "ID_MAX", "ANGLE_MAX",
-           "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "WallWeight"]
+__all__ = ["Int", "INTEGRAL", "Coord", "Vec3", "Quat", "Scale", "Angle", "Weight", "VertexId", "Fraction",
+           "NonNegLength", "PenaltyWeight", "COORD_MAX", "SCALE_MIN", "SCALE_MAX", "EXTENT", "PENALTY_MAX", "ID_MAX",
+           "ANGLE_MAX", "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "WallWeight"]
 
 # Every bound is :mod:`solver.limits`'s: the library's parsers and this schema read the same numbers.
 
@@ -42,4 +45,19 @@ Fraction = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=1)]
 NonNegLength = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=COORD_MAX)]
 PenaltyWeight = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=PENALTY_MAX,
                                        description=f"penalty weight beta in (0, {PENALTY_MAX:g}]")]
-VertexId = Annotated[StrictInt, Field(ge=0, le=ID_MAX, description="0-based vertex index in file order")]
+
+
+def _integral(v: Any) -> Any:
+    """A float with no fraction as the int it is (JSON Schema's ``integer``); anything else unchanged."""
+    if type(v) is float and v.is_integer():
+        return int(v)
+    return v
+
+
+#: Put after the ``Field`` of an ``int`` (``Annotated[int, Field(strict=True, ge=...), INTEGRAL]``): a
+#: float without fraction is taken as its int. (Before the ``Field``, the schema would lose its bounds.)
+INTEGRAL = BeforeValidator(_integral)
+#: An integer: an int, or a float without fraction; booleans and strings are refused.
+Int = Annotated[int, Field(strict=True), INTEGRAL]
+VertexId = Annotated[int, Field(strict=True, ge=0, le=ID_MAX, description="0-based vertex index in file order"),
+                     INTEGRAL]

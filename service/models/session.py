@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import enum
 import json
+import re
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, StrictStr, field_validator
 
 from .move import Move
 from .report import Report
+from .text import HAS_TEXT
 
 __all__ = ["SessionStatus", "SessionDoc", "SessionPatch", "Preset", "PresetDoc", "PRESETS_MAX", "PRESET_NAME_MAX",
            "PRESETS_MAX_BYTES"]
@@ -43,13 +45,14 @@ class Preset(BaseModel):
     """A named MOVE kept with the session (the editor's presets)."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
-    name: StrictStr = Field(min_length=1, max_length=PRESET_NAME_MAX, description="unique within the session")
+    name: StrictStr = Field(min_length=1, max_length=PRESET_NAME_MAX, json_schema_extra={"pattern": HAS_TEXT},
+                            description="unique within the session; not only white space")
     move: Move = Field(description="the MOVE document, validated as POST .../deform validates it")
 
     @field_validator("name")
     @classmethod
     def _not_blank(cls, v: str) -> str:
-        if not v.strip():
+        if not re.search(HAS_TEXT, v):  # the schema's pattern
             raise ValueError("a preset name needs a character other than white space")
         return v
 

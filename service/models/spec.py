@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr
+from pydantic.json_schema import SkipJsonSchema
 
 from ..errors import ServiceError
 from .numbers import Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, WallWeight, Weight
@@ -45,17 +46,26 @@ class Plane(BaseModel):
     tolerance: NonNegLength = 0.0
 
 
-class Selection(BaseModel):
-    """Exactly one of ``ids``, ``set``, ``box``, ``sphere``, ``plane``; optionally ``boundary_only``."""
+#: The fields of a SELECTION of which it has exactly one.
+SELECTION_KINDS = ("ids", "set", "box", "sphere", "plane")
 
-    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [
-        {"set": "FIXED"}, {"box": {"min": [0, 0, 0], "max": [1, 1, 1]}, "boundary_only": True}]})
-    ids: list[VertexId] | None = Field(None, max_length=10_000_000)
-    set: StrictStr | None = Field(None, max_length=200, description="node set, element set, physical group, "
-                                  "material region ('medit:ref=2')")
-    box: Box | None = None
-    sphere: Sphere | None = None
-    plane: Plane | None = None
+
+class Selection(BaseModel):
+    """Exactly one of ``ids``, ``set``, ``box``, ``sphere``, ``plane``; optionally ``boundary_only``.
+
+    The schema says so (``oneOf`` of the five, none of them ``null``); the SPEC parser refuses the rest
+    (422 ``invalid_spec`` naming the selection).
+    """
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
+        "oneOf": [{"required": [k]} for k in SELECTION_KINDS],
+        "examples": [{"set": "FIXED"}, {"box": {"min": [0, 0, 0], "max": [1, 1, 1]}, "boundary_only": True}]})
+    ids: Annotated[list[VertexId], Field(max_length=10_000_000)] | SkipJsonSchema[None] = None
+    set: Annotated[StrictStr, Field(max_length=200)] | SkipJsonSchema[None] = Field(
+        None, description="node set, element set, physical group, material region ('medit:ref=2')")
+    box: Box | SkipJsonSchema[None] = None
+    sphere: Sphere | SkipJsonSchema[None] = None
+    plane: Plane | SkipJsonSchema[None] = None
     boundary_only: StrictBool = False
 
 

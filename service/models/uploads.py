@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, StrictStr, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictStr
 
 from .numbers import Coord, VertexId
 from .spec import Selection, Spec
@@ -16,25 +15,17 @@ __all__ = ["MeshArrays", "Band", "SessionCreate"]
 class MeshArrays(BaseModel):
     """A tet mesh (or a triangle surface) as JSON arrays, 0-based indices."""
 
-    model_config = ConfigDict(extra="forbid", strict=True)
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"anyOf": [
+        {"required": [k], "properties": {k: {"type": "array", "minItems": 1}}} for k in ("tetrahedra", "triangles")]})
 
-    vertices: list[list[Coord]] = Field(..., max_length=50_000_000, description="(n, 3) vertex positions")
-    tetrahedra: list[list[VertexId]] | None = Field(None, description="(m, 4) vertex indices")
-    triangles: list[list[VertexId]] | None = Field(None, description="(k, 3) vertex indices of a "
-                                                   "surface-only mesh")
+    vertices: list[Annotated[list[Coord], Field(min_length=3, max_length=3)]] = Field(
+        ..., min_length=4, max_length=50_000_000, description="(n, 3) vertex positions, n >= 4")
+    tetrahedra: list[Annotated[list[VertexId], Field(min_length=4, max_length=4)]] | None = Field(
+        None, description="(m, 4) vertex indices")
+    triangles: list[Annotated[list[VertexId], Field(min_length=3, max_length=3)]] | None = Field(
+        None, description="(k, 3) vertex indices of a surface-only mesh")
     sets: dict[str, list[VertexId]] = Field(default_factory=dict, description="named vertex sets")
     name: StrictStr | None = Field(None, max_length=200)
-
-    @model_validator(mode="after")
-    def _rows(self) -> MeshArrays:
-        """Check the row lengths (3 per vertex, 4 per tet, 3 per triangle), naming the first bad row."""
-        table: tuple[tuple[str, Sequence[Sequence[float]] | None, int], ...] = (
-            ("vertices", self.vertices, 3), ("tetrahedra", self.tetrahedra, 4), ("triangles", self.triangles, 3))
-        for what, rows, k in table:
-            bad = next((i for i, r in enumerate(rows or []) if len(r) != k), None)
-            if bad is not None and rows is not None:
-                raise ValueError(f"{what}[{bad}] has {len(rows[bad])} numbers; need {k}")
-        return self
 
 
 class Band(BaseModel):

@@ -247,6 +247,11 @@ class Spec:
         Selections that keep their rest positions.
     handles : dict of str to str
         Handle name to selection name.
+    domain : str or None
+        The morph domain: a selection outside which every node (corner and
+        mid-side) keeps its rest position, as if fixed (HyperMorph's domains,
+        ANSA's morphing boxes). The handles must lie inside it. ``None``: the
+        whole mesh morphs.
     laplacian : {"cotangent", "uniform"}
         Weights of the boundary rows (eq. 3.1, or eq. 9 of the ECLS paper).
     method : {"null_space", "kkt", "penalty"}
@@ -300,6 +305,7 @@ class Spec:
     selections: dict[str, dict[str, Any]]
     fixed: tuple[str, ...] = ()
     handles: dict[str, str] = field(default_factory=dict)
+    domain: str | None = None
     laplacian: str = "cotangent"
     method: str = "null_space"
     penalty_weight: float = 1.0e4
@@ -338,6 +344,8 @@ class Spec:
             "thin_walls": {"weight": self.thin_walls} if self.thin_walls > 0 else False,
             "ties": self.ties, "voids": self.voids, "precision": self.precision,
         }
+        if self.domain is not None:
+            out["domain"] = self.domain
         for key in ("points", "relative", "features", "motion", "sliding", "symmetry", "cyclic", "targets"):
             if getattr(self, key):
                 out[key] = [e.to_dict() for e in getattr(self, key)]
@@ -477,7 +485,7 @@ def parse_spec(doc: Any) -> Spec:
     >>> s.handles, s.method
     ({'h': 'b'}, 'null_space')
     """
-    check_keys(doc, ("selections", "fixed", "handles", "laplacian", "constraints", "solve",
+    check_keys(doc, ("selections", "fixed", "handles", "domain", "laplacian", "constraints", "solve",
                      "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
                      "symmetry", "cyclic", "targets", "conflicts", "repair", "thin_walls", "ties", "voids",
                      "precision"), "SPEC")
@@ -496,6 +504,9 @@ def parse_spec(doc: Any) -> Spec:
                field="selections", name=name)
     both = sorted(set(fixed) & set(handles.values()))
     expect(not both, f"selection(s) {both} are both fixed and a handle", field="handles", names=both)
+    domain = doc.get("domain")
+    expect(domain is None or (isinstance(domain, str) and domain in selections),
+           f"SPEC.domain must name a selection; got {domain!r}, defined: {sorted(selections)}", field="domain")
     used = list(handles.values())
     dup = sorted({s for s in used if used.count(s) > 1})
     expect(not dup, f"selection(s) {dup} drive more than one handle", field="handles", names=dup)
@@ -556,7 +567,7 @@ def parse_spec(doc: Any) -> Spec:
     expect(not (method == "penalty" and out["solve"] == "split"),
            "SPEC.solve 'split' needs exact constraints (constraints.method 'null_space' or 'kkt')", field="solve")
     return Spec(selections=selections, fixed=tuple(fixed), handles={str(k): v for k, v in handles.items()},
-                method=method, penalty_weight=beta, **out, **extra)
+                domain=domain, method=method, penalty_weight=beta, **out, **extra)
 
 
 POINT_FIELDS = ("vertices", "weights", "edge", "t", "face", "barycentric", "selection")

@@ -159,6 +159,15 @@ def entry_text(e: dict[str, Any]) -> str:
     return txt
 
 
+def _outside(mesh: Mesh, inside: np.ndarray) -> np.ndarray:
+    """The nodes of the elements (corner and mid-side) that are not in ``inside``: held at rest by a domain."""
+    used = mesh.referenced.copy()
+    if mesh.T10 is not None:
+        used[mesh.T10[:, 4:].ravel()] = True
+    used[inside] = False
+    return np.flatnonzero(used)
+
+
 def _union(parts: list[np.ndarray]) -> np.ndarray:
     return unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 
@@ -189,7 +198,10 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
     V0 = mesh.V
     corner = mesh.referenced
     sel_ids = {name: select(mesh, sel, name) for name, sel in spec.selections.items()}
-    fixed_all = _union([sel_ids[f] for f in spec.fixed])
+    held = [sel_ids[f] for f in spec.fixed]
+    if spec.domain is not None:
+        held.append(_outside(mesh, sel_ids[spec.domain]))
+    fixed_all = _union(held)
     fixed, fixed_mid = fixed_all[corner[fixed_all]], fixed_all[~corner[fixed_all]]
     owner = np.full(n, -1, np.int64)  # -2 fixed, h >= 0 handle index (every node)
     owner[fixed_all] = -2
@@ -199,6 +211,12 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
     pivots: dict[str, np.ndarray] = {}
     for h, name in enumerate(handle_names):
         ids = sel_ids[spec.handles[name]]
+        if spec.domain is not None:
+            out = np.setdiff1d(ids, sel_ids[spec.domain], assume_unique=True)
+            if out.size:
+                raise SpecError(f"handle {name!r} has {out.size} vertices outside the domain {spec.domain!r} "
+                                f"({format_ids(out)}); a domain must hold its handles", code="handle_outside_domain",
+                                handle=name, domain=spec.domain, ids=out[:REPORT_IDS].tolist())
         clash_fixed = ids[owner[ids] == -2]
         if clash_fixed.size:
             raise SpecError(f"handle {name!r} shares vertices {format_ids(clash_fixed)} with the fixed selections",

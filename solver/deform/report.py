@@ -87,12 +87,15 @@ class Report:
     interior_refined: bool | None = None
     enclosed_volume_ratio: float | None = None
     targets: dict[str, Any] | None = None
+    max_handle_displacement: float | None = None
+    max_free_displacement: float | None = None
     timings: dict[str, Any] = field(default_factory=dict)
 
     #: Optional keys: left out when None (``midside_relaxed`` is kept for quadratic meshes).
     OPTIONAL = ("element_order", "min_jacobian_ratio", "invalid_at_rest_elements", "safe_fraction_solves",
                 "applied_fraction", "inverted_elements_unclamped", "repair", "quality", "interior_precision",
-                "mean_value_residual", "interior_refined", "enclosed_volume_ratio", "targets")
+                "mean_value_residual", "interior_refined", "enclosed_volume_ratio", "targets",
+                "max_handle_displacement", "max_free_displacement")
 
     def with_(self, **changes: Any) -> Report:
         """A copy with ``changes``."""

@@ -13,7 +13,7 @@ import numpy as np
 from ..constraints.move import Move
 from ..constraints.rows import REPORT_IDS
 from ..linalg import factorization as fz
-from ..ops.displacement import max_displacement
+from ..ops.displacement import displacement_maxima
 from ..ops.unique import union
 from ..options import using
 from ..validity.check import CheckResult, SurfaceCheck
@@ -209,7 +209,7 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         "inverted_elements": 0, "inverted_ids": [], "degenerate_elements": 0,
         "min_scaled_jacobian": None, "p01_scaled_jacobian": None}
     before = data.check.sj_before if data.check is not None else (None, None)
-    max_disp, finite = max_displacement(solved.P, data.mesh.V)
+    max_disp, max_handle, max_free, finite = displacement_maxima(solved.P, data.mesh.V, cs.owner)
     flat = data.check.degenerate_at_rest if data.check is not None else np.zeros(0, np.int64)
     targets = None
     if cs.corr.targets:
@@ -230,7 +230,8 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         constraint_residual_relative=cons.residual_max / cs.diag if cs.diag else 0.0,
         constraint_rows=cons.rows, redundant_constraints=cons.redundant,
         conflicting_constraints=cons.conflicting,
-        max_displacement=max_disp,
+        max_displacement=max_disp, max_handle_displacement=max_handle if cs.handle_names else None,
+        max_free_displacement=max_free,
         solve_method=data.spec.method, solve_mode=data.positions.mode, refine_steps=data.positions.refine_steps,
         backend=_backend(data), lu_backend=data.positions.lu_backend,
         finite=finite, midside_relaxed=relaxed,

@@ -6,7 +6,10 @@ import * as THREE from "three";
 import { TransformControls } from "three/addons/controls/TransformControls.js";
 import { $, radio } from "./dom.js";
 import { fmt, unitText } from "./panels.js";
-import { emit, state } from "./state.js";
+import { claim, emit, state } from "./state.js";
+
+// the owner of the state's "moves" group: the handles' transforms, the history and the MOVE the session holds
+const own = claim("moves");
 
 /** {t, q: THREE.Quaternion, s, pivot} of one handle's entry of a MOVE (quaternion or axis + angle_deg). */
 export function parseHandleMove(h, centroid) {
@@ -94,12 +97,11 @@ export class Moves {
   get dragging() { return this.gizmo.dragging; }
 
   clear() {
-    state.transforms = {};
-    state.history = [{ label: "rest", move: null }];
-    state.historyIndex = 0;
-    state.presets = [];
-    state.moves = [];
-    state.lastMove = null;
+    own.transforms = {};
+    own.history = [{ label: "rest", move: null }];
+    own.historyIndex = 0;
+    own.moves = [];
+    own.lastMove = null;
     this.active = null;
     this.pending.clear();
   }
@@ -108,11 +110,11 @@ export class Moves {
   attach(handleRegions) {
     this.clear();
     for (const r of handleRegions) {
-      state.transforms[r.handleName || r.name] = { centroid: this.regions.centroid(r), t: [0, 0, 0],
+      own.transforms[r.handleName || r.name] = { centroid: this.regions.centroid(r), t: [0, 0, 0],
         q: new THREE.Quaternion(), s: 1 };
     }
     const first = handleRegions[0] ? handleRegions[0].handleName || handleRegions[0].name : null;
-    state.centroid = first ? state.transforms[first].centroid : null;
+    own.centroid = first ? own.transforms[first].centroid : null;
     this.gizmo.attach(this.pivot);
     this.helper.visible = true;
     this.gizmo.setSize(0.9);
@@ -165,7 +167,7 @@ export class Moves {
   setActive(name) {
     if (!state.transforms[name]) return;
     this.active = name;
-    state.centroid = state.transforms[name].centroid;
+    own.centroid = own.transforms[name].centroid;
     this.loadPivot();
     this.syncFields();
     emit("active-handle", name);
@@ -248,13 +250,49 @@ export class Moves {
   }
 
   // ---------------------------------------------------------------- history
+  /** An entry after the one shown (the ones after it go), and shown; the caller emits "history". */
+  append(entry) {
+    own.history.splice(own.historyIndex + 1);
+    own.history.push(entry);
+    own.historyIndex = own.history.length - 1;
+    own.moves = own.history.slice(1).map((e) => e.move);
+  }
+
+  /** A MOVE went out to the session: what it holds once answered. */
+  sent(move) {
+    own.lastMove = move;
+    emit("last-move");
+  }
+
+  /**
+   * An opened session: the history this browser kept of it (or null), then, when the session
+   * holds another MOVE than that history's current entry (moved elsewhere since), that MOVE.
+   */
+  resume(kept, serviceMove) {
+    if (kept) {
+      own.history = kept.history;
+      own.historyIndex = kept.index;
+    }
+    const cur = own.history[own.historyIndex].move;
+    if (!this.sameMove(cur, serviceMove)) this.append({ label: "last MOVE on the service", move: serviceMove });
+    own.moves = own.history.slice(1).map((e) => e.move);
+    own.lastMove = serviceMove || null;
+    if (serviceMove) this.setFromMove(serviceMove);
+    emit("history");
+  }
+
+  /** A saved session's history, its entry `index` shown. */
+  loadHistory(history, index) {
+    own.history = history.length ? history : [{ label: "rest", move: null }];
+    own.historyIndex = Math.min(index ?? 0, own.history.length - 1);
+    own.moves = own.history.slice(1).map((e) => e.move);
+    emit("history");
+  }
+
   /** Make the current transforms a history entry; `seq` is the MOVE that applies it. */
   commit(label, seq) {
     const entry = { label, move: this.move() };
-    state.history.splice(state.historyIndex + 1);
-    state.history.push(entry);
-    state.historyIndex = state.history.length - 1;
-    state.moves = state.history.slice(1).map((e) => e.move);
+    this.append(entry);
     if (seq !== null && seq !== undefined) this.pending.set(seq, entry);
     emit("history");
     return entry;
@@ -273,8 +311,8 @@ export class Moves {
 
   async goto(index) {
     if (!state.sessionId || index < 0 || index >= state.history.length || index === state.historyIndex) return;
-    state.historyIndex = index;
-    const e = state.history[index];
+    own.historyIndex = index;
+    const e = own.history[index];
     this.setFromMove(e.move);
     if (e.move) this.pending.set(this.io.send(e.move), e); else await this.io.reset(false);
     emit("history");
@@ -289,11 +327,9 @@ export class Moves {
     this.loadPivot();
     this.syncFields(true);
     if (record && state.history[state.historyIndex].move !== null) {
-      state.history.splice(state.historyIndex + 1);
-      state.history.push({ label: "reset", move: null });
-      state.historyIndex = state.history.length - 1;
+      this.append({ label: "reset", move: null });
     }
-    state.lastMove = null;
+    own.lastMove = null;
     emit("history");
   }
 
@@ -308,7 +344,7 @@ export class Moves {
     if (!sent) return;
     const applied = Moves.scaled(sent, f);
     if (entry) { entry.move = applied; entry.label += ` · clamped to ${fmt(f)}`; emit("history"); }
-    if (seq === state.seq) state.lastMove = applied;  // what the session holds
+    if (seq === state.seq) { own.lastMove = applied; emit("last-move"); }  // what the session holds
     if (!this.dragging && (!entry || entry === state.history[state.historyIndex])) this.setFromMove(applied);
   }
 
@@ -319,12 +355,12 @@ export class Moves {
     if (this.dragging) return;
     const i = entry ? state.history.indexOf(entry) : -1;
     if (i > 0) {
-      state.history.splice(i, 1);
-      if (state.historyIndex >= i) state.historyIndex -= 1;
+      own.history.splice(i, 1);
+      if (own.historyIndex >= i) own.historyIndex -= 1;
     }
-    state.moves = state.history.slice(1).map((e) => e.move);
-    state.lastMove = state.history[state.historyIndex].move;  // what the session holds
-    this.setFromMove(state.lastMove);
+    own.moves = own.history.slice(1).map((e) => e.move);
+    own.lastMove = own.history[own.historyIndex].move;  // what the session holds
+    this.setFromMove(own.lastMove);
     emit("history");
   }
 

@@ -12,9 +12,10 @@ import { $ } from "./dom.js";
 import { Moves } from "./gizmo.js";
 import { renderFeatures, renderHandleSelect, renderHistory, renderMeshSessions, renderPresets, renderRegions,
   renderSessionsTable, wireRegions } from "./lists.js";
+import { loadMesh, setUnits } from "./mesh.js";
 import { MeshView, QUALITY_COLORS } from "./meshview.js";
-import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshReport, setBusy, showError, showModel,
-  showReport, unitText,
+import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshReport, setBusy, setReport, showError,
+  showModel, showReport, unitText,
   thresholdPageX, wireThreshold } from "./panels.js";
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
@@ -22,6 +23,7 @@ import { ShapesPanel } from "./shapes.js";
 import { CyclicPanel, SymmetryPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
+import { stateAccessors } from "./testhook.js";
 import { Viewer } from "./viewer.js";
 
 const viewer = new Viewer($("canvas"));
@@ -64,29 +66,8 @@ async function openMesh(id) {
   try {
     const [r, meta] = await Promise.all([api(`/v1/meshes/${id}/geometry`), getJson(`/v1/meshes/${id}`)]);
     const { header, arrays } = decodeBundle(await r.arrayBuffer());
-    state.meshId = id;
-    state.meshName = header.name || id;
-    state.meshFormat = meta.format;
-    state.meshInfo = meta.info || {};
-    state.V0 = Float32Array.from(arrays.V);
-    state.V = Float32Array.from(arrays.V);
-    state.F = arrays.F;
-    state.T = arrays.T;
-    state.boundary = arrays.boundary;
+    loadMesh(id, header, meta, arrays);
     const n = state.V.length / 3;
-    // vertices that belong to an element: the mid-side nodes of quadratic elements do not
-    state.used = new Uint8Array(n);
-    const src = state.T.length ? state.T : state.F;
-    for (let k = 0; k < src.length; k++) state.used[src[k]] = 1;
-    state.sets = {};
-    for (const name of header.sets) state.sets[name] = arrays[`set:${name}`];
-    const lo = header.bbox[0], hi = header.bbox[1];
-    state.bbox = header.bbox;
-    state.diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
-    // mixed meshes: T also carries the corner tets of hexahedra, wedges and pyramids
-    state.elements = header.elements ?? state.T.length / 4;
-    state.surface = state.elements === 0;
-    state.units = localStorage.getItem(`tetmorph-units:${state.meshName}`) ?? "mm";
     $("units").value = state.units;
     $("mesh-name").textContent = `${state.meshName} · ${fmt(n)} vertices · ` +
       (state.surface ? `surface, ${fmt(state.F.length / 3)} triangles` : `${fmt(state.elements)} elements`);
@@ -110,7 +91,7 @@ async function openMesh(id) {
     showChoices();
     regions.reset();
     regions.changed();
-    state.report = null;
+    setReport(null);
     meshView.refresh();
     viewer.fit(meshView.box(), new THREE.Vector3(1, -1, 1));
     $("welcome").hidden = true;
@@ -383,14 +364,14 @@ function syncViewOptions() {
   }
   Object.assign(meshView.options, { clip: $("clip").checked, clipAxis: axis, clipNormal: normal,
     clipPos: Number($("clip-pos").value), bad: $("bad").checked });
-  state.clip = $("clip").checked;
+  meshView.setClip($("clip").checked);
   meshView.refresh();
   legend();
   refreshReport();
 }
 
 function setThreshold(t) {
-  state.threshold = t;
+  meshView.setThreshold(t);
   $("threshold").value = String(t);
   meshView.refresh();
   legend();
@@ -419,7 +400,6 @@ $("find-features").addEventListener("click", async () => {
   setBusy("finding features");
   try {
     const list = await getJson(`/v1/meshes/${state.meshId}/features?ids=true`);
-    state.features = list;
     renderFeatures(list, (f, kind) => regions.fromIds(f.name, kind, regions.resolve(f.selection), null),
       (f) => meshView.setPreview(f ? regions.resolve(f.selection) : null));
   } catch (e) { showError(e); } finally { setBusy(null); }
@@ -497,8 +477,7 @@ $("png").addEventListener("click", () => {
   viewer.canvas.toBlob((blob) => saveBlob(blob, `${stem}.png`), "image/png");
 });
 $("units").addEventListener("change", () => {
-  state.units = $("units").value;
-  if (state.meshName) localStorage.setItem(`tetmorph-units:${state.meshName}`, state.units);
+  setUnits($("units").value);
   if (state.bbox) showModel({ bbox: state.bbox });
   legend(); refreshReport(); moves.updateLabel(); brushSize();
 });
@@ -563,10 +542,12 @@ drawHistogram();
 renderHistory(moves);
 brushSize();
 
-// Automation hooks for the browser tests (read-only views of the state, plus where things are
-// on screen so a test can use the real mouse).
-window.tetmorph = {
-  state,
+// The test hook, for automation only (the browser tests): read-only accessors of the state (listed
+// in testhook.js), plus where things are on screen so a test can use the real mouse, and a few
+// views of the parts (the gizmo, the camera, the colours drawn).
+window.tetmorph = Object.freeze({
+  ...stateAccessors(),
+  state,  // the whole state, read-only, while the tests move to the accessors
   pivotScreen: () => viewer.toPage(moves.pivot.position),
   pivot: () => ({ position: moves.pivot.position.toArray(), quaternion: moves.pivot.quaternion.toArray(),
     centroid: state.centroid, handle: moves.active }),
@@ -593,4 +574,4 @@ window.tetmorph = {
   viewOptions: () => ({ ...meshView.options }),
   histogramTicks: () => state.histogramTicks,
   histogramX: (t) => thresholdPageX(t),
-};
+});

@@ -4,7 +4,11 @@
 // from the state (rest shape, then each streamed frame).
 import * as THREE from "three";
 import { cutTetsAlong, scaledJacobians, tetFaces, tetMetric } from "./quality.js";
-import { emit, state } from "./state.js";
+import { setBoundaryPositions, setPositions } from "./mesh.js";
+import { claim, emit, state } from "./state.js";
+
+// the owner of the state's "view" group: the view options and the views derived from the positions
+const own = claim("view");
 
 // poor and inverted tets: magenta and near-black, colours the displacement rainbow (blue to red
 // through cyan, green and yellow) never takes, so the overlay reads on either colouring
@@ -86,11 +90,12 @@ export class MeshView {
     this.ghostEdges = new THREE.LineSegments(this.indexed(rest, edgeIndex), this.ghostEdgeMat);
     this.ghost.add(this.ghostEdges);
     this.ghost.visible = this.options.ghost;
-    state.visibleFaces = state.F.length / 3;
+    own.visibleFaces = state.F.length / 3;
     this.faceFilter = null;
-    state.sjRest = scaledJacobians(state.V0, state.T);
-    state.sj = state.sjRest.slice();
+    own.sjRest = scaledJacobians(state.V0, state.T);
+    own.sj = own.sjRest.slice();
     this.dispMax = 0;
+    emit("frame");
   }
 
   /**
@@ -113,8 +118,9 @@ export class MeshView {
       this.edgeMat);
     this.edges.visible = this.options.edges;
     scene.add(this.edges);
-    state.visibleFaces = idx.length / 3;
-    return state.visibleFaces;
+    own.visibleFaces = idx.length / 3;
+    emit("frame");
+    return own.visibleFaces;
   }
 
   /** Surface opacity (1: opaque); below 1 the section and the poor tets show through. */
@@ -124,6 +130,18 @@ export class MeshView {
     this.surfMat.transparent = a < 1;
     this.surfMat.depthWrite = a >= 1;
     this.surfMat.needsUpdate = true;
+  }
+
+  /** Whether the section plane is on (the panels say how many tets it cuts). */
+  setClip(on) {
+    own.clip = on;
+    emit("view-options");
+  }
+
+  /** The scaled Jacobian below which a tet counts as poor. */
+  setThreshold(t) {
+    own.threshold = t;
+    emit("view-options");
   }
 
   setEdges(on) {
@@ -251,30 +269,29 @@ export class MeshView {
       for (let i = 0; i < state.boundary.length; i++) if (state.boundary[i]) ids.push(i);
       this.boundaryIds = Int32Array.from(ids);
     }
-    const V = state.V, ids = this.boundaryIds;
+    const ids = this.boundaryIds;
     if (ids.length * 3 !== B.length) return;  // not this mesh's boundary: wait for the full frame
-    for (let k = 0; k < ids.length; k++) {
-      const i = 3 * ids[k];
-      V[i] = B[3 * k]; V[i + 1] = B[3 * k + 1]; V[i + 2] = B[3 * k + 2];
-    }
+    setBoundaryPositions(ids, B);
     this.surfGeom.getAttribute("position").needsUpdate = true;
     this.surfGeom.computeVertexNormals();
-    state.boundaryFrames = (state.boundaryFrames || 0) + 1;
-    state.boundaryApplyMs = performance.now() - t0;
+    own.boundaryFrames += 1;
+    own.boundaryApplyMs = performance.now() - t0;
+    emit("frame");
   }
 
   /** New positions (a frame, or the rest shape): normals, quality and derived views follow. */
   applyPositions(P) {
     const t0 = performance.now();
-    state.V.set(P);
+    setPositions(P);
     this.surfGeom.getAttribute("position").needsUpdate = true;  // the edges share this buffer
     this.surfGeom.computeVertexNormals();
     this.surfGeom.computeBoundingSphere();
-    state.sj = scaledJacobians(state.V, state.T, state.sj);
-    state.frames += 1;
+    own.sj = scaledJacobians(state.V, state.T, own.sj);
+    own.frames += 1;
     if (this.options.colorBy === "displacement" || this.options.colorBy === "quality") { this.recolor(); emit("legend"); }
     this.refresh();
-    state.applyMs = performance.now() - t0;
+    own.applyMs = performance.now() - t0;
+    emit("frame");
   }
 
   colorOf(sj) {
@@ -316,11 +333,11 @@ export class MeshView {
       this.clipPlane.normal.set(-n[0], -n[1], -n[2]);
       this.clipPlane.constant = c;
       const tets = cutTetsAlong(V, state.T, n, c);
-      state.cut = tets.length;
+      own.cut = tets.length;
       this.trianglesOf(tets, this.cutGeom);
     } else {
       this.cutGeom.deleteAttribute("position");
-      state.cut = 0;
+      own.cut = 0;
     }
     if (this.surfMat.clippingPlanes.length !== planes.length) {
       for (const m of [this.surfMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]) {
@@ -333,8 +350,8 @@ export class MeshView {
     const sj = state.sj, t = state.threshold;
     let count = 0, inverted = 0;
     for (let k = 0; k < sj.length; k++) if (sj[k] < t) { count++; if (sj[k] <= 1e-12) inverted++; }
-    state.badCount = count;
-    state.invertedTets = inverted;
+    own.badCount = count;
+    own.invertedTets = inverted;
     if (o.bad && count) {
       const bad = new Uint32Array(count);
       for (let k = 0, j = 0; k < sj.length; k++) if (sj[k] < t) bad[j++] = k;

@@ -5,7 +5,10 @@ import { $ } from "./dom.js";
 import { explain } from "./messages.js";
 import { css, QUALITY_COLORS, rainbow } from "./meshview.js";
 import { histogram } from "./quality.js";
-import { emit, on, state } from "./state.js";
+import { claim, emit, on, state } from "./state.js";
+
+// the owner of the state's "feedback" group: the error, the REPORT and the busy indicator shown
+const own = claim("feedback");
 
 // ------------------------------------------------------------------ numbers
 /** A number as the panels show it: counts exact with thousands separators, measures to 4 digits. */
@@ -43,7 +46,8 @@ export function showError(e) {
     (x.action === "sessions" ? '<button id="error-sessions">Open the session list</button>' : "");
   const b = $("error-sessions");
   if (b) b.addEventListener("click", () => emit("open-sessions"));
-  state.error = x;
+  own.error = x;
+  emit("error");
   if (x.code === "network") watchService();
 }
 
@@ -66,7 +70,8 @@ function watchService() {
 export function clearError() {
   $("errors").hidden = true;
   $("error-text").textContent = "";
-  state.error = null;
+  own.error = null;
+  emit("error");
 }
 
 // ------------------------------------------------------------------ confirmation
@@ -112,8 +117,14 @@ const ROWS = [
   ["reset", "reset"],
 ];
 
+/** The REPORT the panel shows (null: none), without drawing it. */
+export function setReport(rep) {
+  own.report = rep;
+  emit("report");
+}
+
 export function showReport(rep) {
-  state.report = rep;
+  setReport(rep);
   const rows = [];
   const row = (key, label, value, bad = false) =>
     rows.push(`<tr class="${bad ? "bad" : ""}" data-key="${key}"><td title="${key}">${esc(label)}</td>` +
@@ -184,7 +195,8 @@ export function drawHistogram() {
     g.fillText(text, left - 3, yy);
     ticks.push(text);
   }
-  state.histogramTicks = ticks;
+  own.histogramTicks = ticks;
+  emit("histogram");
   const w = W / bins;
   for (let b = 0; b < bins; b++) {
     g.fillStyle = "#aab2bd"; g.fillRect(left + b * w, y(hr[b]), w * 0.5, top + H - y(hr[b]));
@@ -288,18 +300,20 @@ const BUSY_LOG = 200;
 export function setBusy(what, delayMs = 0) {
   const el = $("busy");
   if (!what) {
-    if (state.busy) state.busyLog.push({ what: state.busy.what, ms: performance.now() - state.busy.t0, shown: !!state.busy.shown });
-    state.busy = null;
-    if (state.busyLog.length > BUSY_LOG) state.busyLog.splice(0, state.busyLog.length - BUSY_LOG);
+    if (own.busy) own.busyLog.push({ what: own.busy.what, ms: performance.now() - own.busy.t0, shown: !!own.busy.shown });
+    own.busy = null;
+    if (own.busyLog.length > BUSY_LOG) own.busyLog.splice(0, own.busyLog.length - BUSY_LOG);
     clearInterval(busyTimer); busyTimer = null;
     el.hidden = true;
+    emit("busy");
     return;
   }
-  if (state.busy && state.busy.what === what) return;
-  if (state.busy) state.busyLog.push({ what: state.busy.what, ms: performance.now() - state.busy.t0, shown: !!state.busy.shown });
-  state.busy = { what, t0: performance.now(), delayMs };
+  if (own.busy && own.busy.what === what) return;
+  if (own.busy) own.busyLog.push({ what: own.busy.what, ms: performance.now() - own.busy.t0, shown: !!own.busy.shown });
+  own.busy = { what, t0: performance.now(), delayMs };
+  emit("busy");
   const tick = () => {
-    const b = state.busy;
+    const b = own.busy;
     if (!b) return;
     const ms = performance.now() - b.t0;
     if (ms < b.delayMs) return;

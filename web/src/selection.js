@@ -5,7 +5,10 @@
 // from is written from them, and a SPEC can be read back into them.
 import * as THREE from "three";
 import { $, radio } from "./dom.js";
-import { emit, state } from "./state.js";
+import { claim, emit, state } from "./state.js";
+
+// the owner of the state's "selection" group: the regions and each vertex's role
+const own = claim("selection");
 
 /** Region colours by kind: blues for fixed, greens, teal and olive for handles (far from the poor-tet magenta). */
 export const PALETTE = {
@@ -45,13 +48,14 @@ export class Regions {
 
   /** Forget every region (a new mesh). */
   reset() {
-    state.regions = [];
+    own.regions = [];
     this.byId = new Map();
     this.owner = state.V ? new Int32Array(state.V.length / 3) : null;
-    state.role = state.V ? new Uint8Array(state.V.length / 3) : null;
-    state.activeRegion = null;
+    own.role = state.V ? new Uint8Array(state.V.length / 3) : null;
+    own.activeRegion = null;
     this.specExtra = {};
     this.extraSelections = {};
+    emit("selection");
   }
 
   // ---------------------------------------------------------------- the regions
@@ -75,7 +79,7 @@ export class Regions {
     const color = pal.find((c) => !used.has(c)) || pal[same % pal.length];
     const r = { id: this.nextId++, name: this.uniqueName(name || `${kind}${same + 1}`), kind, color, visible: true,
       count: 0, source: null };
-    state.regions.push(r);
+    own.regions.push(r);
     this.byId.set(r.id, r);
     this.activate(r.id);
     return r;
@@ -86,7 +90,7 @@ export class Regions {
   activate(id) {
     const r = this.byId.get(id);
     if (!r) return;
-    state.activeRegion = id;
+    own.activeRegion = id;
     const radioEl = document.querySelector(`input[name=role][value='${r.kind === "fixed" ? 1 : 2}']`);
     if (radioEl) radioEl.checked = true;
     emit("regions");
@@ -104,10 +108,10 @@ export class Regions {
   remove(id) {
     const r = this.byId.get(id);
     if (!r) return;
-    for (let i = 0; i < this.owner.length; i++) if (this.owner[i] === id) { this.owner[i] = 0; state.role[i] = 0; }
-    state.regions = state.regions.filter((x) => x.id !== id);
+    for (let i = 0; i < this.owner.length; i++) if (this.owner[i] === id) { this.owner[i] = 0; own.role[i] = 0; }
+    own.regions = own.regions.filter((x) => x.id !== id);
     this.byId.delete(id);
-    if (state.activeRegion === id) state.activeRegion = state.regions.length ? state.regions[state.regions.length - 1].id : null;
+    if (own.activeRegion === id) own.activeRegion = own.regions.length ? own.regions[own.regions.length - 1].id : null;
     this.changed();
   }
 
@@ -130,24 +134,24 @@ export class Regions {
    * "erase" (they leave every region; `region` unused).
    */
   apply(ids, mode, region) {
-    const own = this.owner, touched = new Set();
+    const owner = this.owner, role = own.role, touched = new Set();
     if (mode === "replace") {
-      for (let i = 0; i < own.length; i++) if (own[i] === region.id) { own[i] = 0; state.role[i] = 0; }
+      for (let i = 0; i < owner.length; i++) if (owner[i] === region.id) { owner[i] = 0; role[i] = 0; }
       touched.add(region.id);
       mode = "add";
     }
     for (const i of ids) {
-      const cur = own[i];
+      const cur = owner[i];
       if (mode === "add") {
         if (cur === region.id) continue;
         if (cur) touched.add(cur);
-        own[i] = region.id; state.role[i] = region.kind === "fixed" ? 1 : 2;
+        owner[i] = region.id; role[i] = region.kind === "fixed" ? 1 : 2;
         touched.add(region.id);
       } else if (mode === "subtract") {
         if (cur !== region.id) continue;
-        own[i] = 0; state.role[i] = 0; touched.add(region.id);
+        owner[i] = 0; role[i] = 0; touched.add(region.id);
       } else if (cur) {
-        touched.add(cur); own[i] = 0; state.role[i] = 0;
+        touched.add(cur); owner[i] = 0; role[i] = 0;
       }
     }
     for (const id of touched) { const r = this.byId.get(id); if (r) r.source = null; }
@@ -302,7 +306,7 @@ export class Regions {
     const a = this.active;
     if (!a || a.kind !== KINDS[role]) {
       const last = [...state.regions].reverse().find((r) => r.kind === KINDS[role]);
-      state.activeRegion = last ? last.id : null;
+      own.activeRegion = last ? last.id : null;
       emit("regions");
     }
   }

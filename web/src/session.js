@@ -8,8 +8,11 @@ import { api, apiKey, getJson, headers, postJson } from "./api.js";
 import { decodeFrame } from "./binary.js";
 import { $ } from "./dom.js";
 import { ask, clearError, meshReport, setBusy, setProgress, setStatus, showError, showReport } from "./panels.js";
-import { emit, state } from "./state.js";
+import { claim, emit, state } from "./state.js";
 import { Stream } from "./stream.js";
+
+// the owner of the state's "session" group: the open session, its presets and its stream
+const own = claim("session");
 
 // where editors before the service kept presets kept them in this browser (moved to the service on open)
 const legacyPresetKey = (id) => `tetmorph-presets:${id}`;
@@ -67,7 +70,7 @@ export class SessionControl {
       if (s.status !== "ready") throw Object.assign(new Error(`session ${s.status}`), { body: { error: s.error } });
       setProgress(1);
       this.start(s.id, handles);
-      state.presets = s.presets || [];
+      own.presets = s.presets || [];
       if (after) after();
       emit("presets");
       const setup = s.setup_timings ? ` · set-up ${Math.round(s.setup_timings.total_ms)} ms` : "";
@@ -89,8 +92,10 @@ export class SessionControl {
   /** Attach the gizmo and the stream to a ready session, which starts from the rest shape. */
   start(id, handleRegions) {
     this.dropBoundary();
-    state.sessionId = id;
-    state.specSent = this.spec();
+    own.sessionId = id;
+    own.specSent = this.spec();
+    own.presets = [];
+    emit("session");
     this.moves.attach(handleRegions);
     this.meshView.applyPositions(state.V0);
     showReport(meshReport());
@@ -138,25 +143,16 @@ export class SessionControl {
       const r = await api(`/v1/sessions/${id}/positions?result=binary&dtype=float32`);
       const { data } = decodeFrame(await r.arrayBuffer());
       this.start(id, this.regions.handles());
-      state.specSent = doc.spec;
+      own.specSent = doc.spec;
+      emit("session");
       this.dropBoundary();
       this.meshView.applyPositions(data);
       const kept = this.keptHistory(id);
-      if (kept) {  // this browser's history of the session: its current entry is what the session holds
-        state.history = kept.history;
-        state.historyIndex = kept.index;
-      }
-      const cur = state.history[state.historyIndex].move;
-      if (!this.moves.sameMove(cur, doc.last_move)) {  // moved elsewhere since: the service's state comes last
-        state.history.splice(state.historyIndex + 1);
-        state.history.push({ label: "last MOVE on the service", move: doc.last_move });
-        state.historyIndex = state.history.length - 1;
-      }
-      state.moves = state.history.slice(1).map((e) => e.move);
-      state.lastMove = doc.last_move || null;
-      if (doc.last_move) this.moves.setFromMove(doc.last_move);
-      state.presets = doc.presets || [];
-      emit("history"); emit("presets");
+      // this browser's history of the session (its current entry is what the session holds), then
+      // the service's last MOVE when it was moved elsewhere since
+      this.moves.resume(kept, doc.last_move);
+      own.presets = doc.presets || [];
+      emit("presets");
       showReport({ ...(doc.last_report || {}), mesh: state.meshName });
       setStatus(`session ${id} (${doc.updates} update${doc.updates === 1 ? "" : "s"} on the service)`);
       this.note();
@@ -180,8 +176,9 @@ export class SessionControl {
   /** Leave the session in this tab (it stays on the service). */
   close() {
     this.dropBoundary();  // a boundary frame of the stream being closed is never drawn
-    if (state.ws) state.ws.close();
-    state.ws = null; state.sessionId = null; state.specSent = null;
+    if (own.ws) own.ws.close();
+    own.ws = null; own.sessionId = null; own.specSent = null; own.presets = [];
+    emit("session");
     this.moves.detach();
     setStatus("no session");
     setProgress(0);
@@ -243,14 +240,15 @@ export class SessionControl {
     }
     this.pendingBoundary = null;
     this.meshView.applyBoundary(p.data);
-    if (p.seq === state.seq) state.boundaryRoundTripMs = performance.now() - state.sentAt;
+    if (p.seq === own.seq) { own.boundaryRoundTripMs = performance.now() - own.sentAt; emit("stream"); }
   }
 
   /** Forget the pending boundary frame (counted as skipped) when its MOVE is at most ``upTo``. */
   dropBoundary(upTo = Infinity) {
     if (!this.pendingBoundary || this.pendingBoundary.seq > upTo) return;
     this.pendingBoundary = null;
-    state.boundarySkipped = (state.boundarySkipped || 0) + 1;
+    own.boundarySkipped += 1;
+    emit("stream");
   }
 
   openStream() {
@@ -261,7 +259,7 @@ export class SessionControl {
       onClose: (ev) => {
         if (state.ws !== ws) return;
         // a MOVE still out is never answered: the handles go back to what the session showed last
-        if (state.lastSeq < state.seq) { this.moves.rejected(state.seq); state.lastSeq = state.seq; }
+        if (own.lastSeq < own.seq) { this.moves.rejected(own.seq); own.lastSeq = own.seq; emit("stream"); }
         const code = { 4404: "session_not_found", 4410: "session_not_found", 4401: "unauthorized" }[ev.code];
         if (code) showError({ body: { error: { code, message: ev.reason || "" } } });
         setStatus(`session ${id} · stream closed${ev.reason ? ` (${ev.reason})` : ""}: moves cannot be sent; ` +
@@ -280,7 +278,8 @@ export class SessionControl {
         }
       },
     });
-    state.ws = ws;
+    own.ws = ws;
+    emit("stream");
   }
 
   /** The status while the stream is down: when it tries again, and whether a move waits for it. */
@@ -297,7 +296,8 @@ export class SessionControl {
       // The surface at the next paint (nothing can show it sooner); quality and the REPORT come
       // with the full frame. When the full frame of the same MOVE is in before that paint, the
       // boundary is never applied: applying it would only delay the full frame.
-      state.boundaryReceived = (state.boundaryReceived || 0) + 1;
+      own.boundaryReceived += 1;
+      emit("stream");
       this.dropBoundary();  // an older one not painted yet
       this.pendingBoundary = { seq: header.seq, data, session: state.sessionId };
       return;
@@ -305,8 +305,9 @@ export class SessionControl {
     this.dropBoundary(header.seq);
     const rtt = header.seq === state.seq ? performance.now() - state.sentAt : undefined;
     this.meshView.applyPositions(data);
-    state.lastSeq = header.seq;
-    state.roundTripMs = rtt;
+    own.lastSeq = header.seq;
+    own.roundTripMs = rtt;
+    emit("stream");
     const rep = header.report || {};
     this.moves.solved(header.seq, rep);
     showReport({ mesh: state.meshName, seq: header.seq, dropped: header.dropped, ...rep, round_trip_ms: rtt, apply_ms: state.applyMs });
@@ -325,7 +326,8 @@ export class SessionControl {
   message(msg) {
     if (!msg.error) return;
     if (msg.seq !== null && msg.seq !== undefined) {
-      state.lastSeq = msg.seq;
+      own.lastSeq = msg.seq;
+      emit("stream");
       this.dropBoundary(msg.seq);  // its MOVE was refused
     }
     if (msg.seq === state.seq) setBusy(null);
@@ -341,9 +343,10 @@ export class SessionControl {
   /** Stream a MOVE; answers its seq, or null when there is no open stream. */
   send(move) {
     if (!state.ws || !state.ws.usable) return null;
-    state.lastMove = move;
-    state.seq += 1;
-    state.sentAt = performance.now();
+    this.moves.sent(move);
+    own.seq += 1;
+    own.sentAt = performance.now();
+    emit("stream");
     state.ws.send({ seq: state.seq, move, inversion: this.policy(), repair: this.repair() });
     if (state.ws.reconnecting) this.reconnectStatus(); else setBusy("solving", 250);
     return state.seq;
@@ -417,7 +420,7 @@ export class SessionControl {
         const r = await api(`/v1/sessions/${id}`, { method: "PATCH", headers: { "Content-Type": "application/json" },
           body: JSON.stringify({ presets: next }) });
         const doc = await r.json();
-        if (state.sessionId === id) { state.presets = doc.presets || []; emit("presets"); }
+        if (state.sessionId === id) { own.presets = doc.presets || []; emit("presets"); }
         return true;
       } catch (e) {
         if (state.sessionId === id) showError(e);
@@ -475,11 +478,7 @@ export class SessionControl {
     this.regions.loadSpec(doc.spec);
     if (doc.spec.inversion) $("policy").value = doc.spec.inversion;
     $("repair").checked = !!doc.spec.repair;
-    const ok = await this.create(() => {
-      state.history = doc.history.length ? doc.history : [{ label: "rest", move: null }];
-      state.historyIndex = Math.min(doc.history_index ?? 0, state.history.length - 1);
-      state.moves = state.history.slice(1).map((e) => e.move);
-    });
+    const ok = await this.create(() => this.moves.loadHistory(doc.history, doc.history_index));
     if (!ok) return false;
     emit("history");
     if (Array.isArray(doc.presets) && doc.presets.length) await this.updatePresets(() => doc.presets);

@@ -9,7 +9,10 @@ import { $ } from "./dom.js";
 import { parseHandleMove } from "./gizmo.js";
 import { clearError, fmt, setBusy, showError } from "./panels.js";
 import { saveBlob } from "./session.js";
-import { state } from "./state.js";
+import { claim, emit, state } from "./state.js";
+
+// the owner of the state's "shapes" group: the last batch run
+const own = claim("shapes");
 
 const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
 
@@ -136,7 +139,8 @@ export class ShapesPanel {
         await new Promise((r) => setTimeout(r, 500));
         job = await getJson(`/v1/sessions/${id}/batch/${job.id}`);
       }
-      state.doeJob = job.id;
+      own.doeJob = job.id;
+      emit("doe-job");
       if (job.status !== "done") throw Object.assign(new Error(`batch ${job.status}`), { body: { error: job.error } });
       const buf = await (await api(`/v1/sessions/${id}/batch/${job.id}/result`)).arrayBuffer();
       const files = zipEntries(buf);

@@ -426,6 +426,9 @@ FIELD_NOTES = {
     "Report.constraint_residual_max": "largest Euclidean gap between a fixed, handle or hard-row node and its target",
     "Report.constraint_residual_relative": "the same over the mesh's bounding-box diagonal",
     "Report.max_displacement": "largest vertex displacement from rest",
+    "Report.max_handle_displacement": "largest displacement of a handle's node (left out without handles)",
+    "Report.max_free_displacement": "largest displacement of a node neither fixed nor in a handle: above "
+                                    "max_handle_displacement, the morph moves something further than its handles",
     "Report.constraint_rows": "hard rows kept and dropped as dependent",
     "Report.redundant_constraints": "dropped rows that hold: system, kind, index, name, vertices",
     "Report.conflicting_constraints": "dropped rows that do not hold, with their residual",

@@ -31,6 +31,10 @@ class Report(BaseModel):
     constraint_residual_max: float | None = None
     constraint_residual_relative: float | None = None
     max_displacement: float | None = None
+    max_handle_displacement: float | None = Field(None, description="largest displacement of a handle's node")
+    max_free_displacement: float | None = Field(None, description="largest displacement of a node neither fixed "
+                                                "nor in a handle; above max_handle_displacement, the morph moves "
+                                                "something further than its handles")
     finite: bool | None = Field(None, description="true only when every number of the result is finite")
     constraint_rows: dict[str, int] | None = None
     redundant_constraints: list[dict[str, Any]] = Field(default_factory=list)

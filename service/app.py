@@ -87,7 +87,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
         log.info("removed %d leftovers of interrupted uploads: %s", len(removed), removed[:10])
     threads.configure(max_threads=settings.solver_threads)  # the solve pool and the solver's threads together
     metrics = Metrics()
-    reg.observe_solve = metrics.solve_seconds.observe
+    reg.moves.observe_solve = metrics.solve_seconds.observe
     reg.builder.observe_build = metrics.build_seconds.observe
     jobs = JobRunner(settings.tetra_workers, settings.tetra_time_limit_s, task_workers=settings.batch_workers)
 
@@ -97,7 +97,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
         log.info("removed %d job files left by stopped processes: %s", len(old), old[:10])
 
     def sweep(now: float) -> list[str]:
-        gone = reg.sweep(now)
+        gone = reg.sessions.sweep(now)
         for sid in gone:  # an expired session's batches end with it, as a deleted one's
             jobs.end_session(sid)
         sweep_job_files(settings.data_dir, orphan_age_s, now)

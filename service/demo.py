@@ -24,9 +24,9 @@ async def load_demo(reg: Registry, owner: str) -> None:
         return
     if reg.store.mesh_meta(DEMO_MESH) is None:
         files = {p.name: p.read_bytes() for p in (DEMO_DIR / "beam.node", DEMO_DIR / "beam.ele")}
-        await reg.add_mesh(owner, "beam.node", "tetgen", files, "beam.node", mesh_id=DEMO_MESH)
+        await reg.catalogue.add(owner, "beam.node", "tetgen", files, "beam.node", mesh_id=DEMO_MESH)
     if DEMO_SESSION not in reg.sessions:
         spec = json.loads((DEMO_DIR / "spec.json").read_text())
-        s = await reg.create_session(owner, DEMO_MESH, spec, session_id=DEMO_SESSION)
+        s = await reg.sessions.create(owner, DEMO_MESH, spec, session_id=DEMO_SESSION)
         moves = json.loads((DEMO_DIR / "moves.json").read_text())
-        await reg.deform(s, moves[-1])
+        await reg.moves.deform(s, moves[-1])

@@ -73,7 +73,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
     fmt, ext, stem = _deck_format(reg, s, body.format)
     shapes_doc = body.shapes_doc()
     async with s.lock:
-        d = await reg.deformer(s)
+        d = await reg.sessions.deformer(s)
         shapes = await reg.run(check_plan, d, shapes_doc, plan)
     mesh = d.mesh
     await reg.run(export_mesh, mesh, mesh.V, fmt, stem)  # 422 lossy_write / unknown_format before the job
@@ -92,7 +92,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
                 if job.stop.is_set():
                     break
                 async with s.lock:  # interactive MOVEs get in between blocks
-                    dd = await reg.deformer(s)
+                    dd = await reg.sessions.deformer(s)
                     if dd is not built:  # rebuilt (evicted meanwhile): the shapes of the new deformer
                         nonlocal_shapes, built = await reg.run(parse_shapes, shapes_doc, dd), dd
                     variants += await reg.builder.solve(solve_block, dd, nonlocal_shapes, plan, start, body.block,
@@ -114,7 +114,7 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
     async def on_ray(job: Job) -> None:
         from solver.workflows.ray_engine import run_doe_ray
 
-        spec = await reg.session_spec(s)
+        spec = await reg.sessions.spec(s)
         decks = folder / f"{job.id}-decks"
         z = DeckZip(folder / f"{job.id}.zip", mesh, stem, ext, fmt, limit)
         try:
@@ -210,7 +210,7 @@ async def bounds(s: SessionDep, body: BoundsQuery, reg: RegistryDep) -> dict[str
     limit = reg.settings.bounds_time_limit_s
     shapes_doc = body.shapes_doc()
     async with s.lock:
-        d = await reg.deformer(s)
+        d = await reg.sessions.deformer(s)
 
         def search() -> Any:
             shapes = parse_shapes(shapes_doc, d)

@@ -56,7 +56,7 @@ OwnerDep = Annotated[str, Depends(get_owner)]
 def get_session(session_id: Annotated[str, Path(max_length=64, description="id from POST /v1/sessions")],
                 owner: OwnerDep, reg: RegistryDep) -> Session:
     """The caller's session of the path (its use counts as activity), or 404."""
-    s = reg.session(owner, session_id)
+    s = reg.sessions.lookup(owner, session_id)
     s.last_used = time.time()
     return s
 
@@ -64,7 +64,7 @@ def get_session(session_id: Annotated[str, Path(max_length=64, description="id f
 def get_mesh(mesh_id: Annotated[str, Path(max_length=64, description="id from POST /v1/meshes")],
              owner: OwnerDep, reg: RegistryDep) -> dict[str, Any]:
     """The caller's mesh meta of the path, or 404."""
-    return reg.mesh_meta(owner, mesh_id)
+    return reg.catalogue.meta(owner, mesh_id)
 
 
 SessionDep = Annotated[Session, Depends(get_session)]

@@ -77,7 +77,7 @@ async def upload_mesh(
         if ele not in files:
             raise InvalidMeshError(f"a TetGen mesh needs {ele!r} next to {main!r}: upload it as "
                                    "a companion file", code="missing_companion", missing=ele)
-    meta = await reg.add_mesh(owner, name or main, fmt, files, main)
+    meta = await reg.catalogue.add(owner, name or main, fmt, files, main)
     return public(meta)
 
 
@@ -102,7 +102,7 @@ async def upload_arrays(body: MeshArrays, owner: OwnerDep, reg: RegistryDep) -> 
                                    code="index_out_of_range", set=k)
     V = np.asarray(body.vertices, dtype=np.float64).reshape(-1, 3)  # rows checked by the model
     mesh = mesh_from_arrays(V, body.tetrahedra or None, body.triangles or None, sets=body.sets)
-    meta = await reg.add_mesh_arrays(owner, body.name or "arrays", mesh)
+    meta = await reg.catalogue.add_arrays(owner, body.name or "arrays", mesh)
     return public(meta)
 
 
@@ -112,7 +112,7 @@ def list_meshes(owner: OwnerDep, reg: RegistryDep, request: Request, response: R
                 limit: LimitQuery = 100, cursor: CursorQuery = None, name: NameQuery = None
                 ) -> list[dict[str, Any]]:
     """The caller's meshes, oldest first, ``limit`` at a time; ``name`` filters by substring."""
-    metas = [m for m in reg.list_meshes(owner) if name is None or name in str(m.get("name", ""))]
+    metas = [m for m in reg.catalogue.owned(owner) if name is None or name in str(m.get("name", ""))]
     return [public(m) for m in page(metas, lambda m: (m.get("created", 0.0), m["id"]), limit, cursor,
                                     request, response)]
 
@@ -154,7 +154,7 @@ async def download_mesh(
     if format is None and meta["format"] != "arrays":
         body, fname, media = await reg.run(_originals, reg, meta)
         return _file(body, fname, media)
-    mesh = await reg.mesh(meta)
+    mesh = await reg.catalogue.mesh(meta)
     fmt = format or "vtu"
     stem = safe_name(meta["name"].rsplit(".", 1)[0], "mesh")
     body, fname, media, dropped = await reg.run(export_mesh, mesh, mesh.V, fmt, stem, False, lossy)
@@ -177,7 +177,7 @@ async def mesh_geometry(meta: MeshDep, reg: RegistryDep) -> Response:
     (:func:`solver.ops.elements.check_tets`): one of them inverts exactly when its
     element does, which is what the viewer shows.
     """
-    mesh = await reg.mesh(meta)
+    mesh = await reg.catalogue.mesh(meta)
 
     def pack() -> bytes:
         arrays: dict[str, np.ndarray] = {"V": mesh.V.astype(np.float32), "F": mesh.F.astype(np.uint32),
@@ -203,7 +203,7 @@ async def mesh_features(
                    ] = False,
 ) -> list[dict[str, Any]]:
     """Boundary patches between sharp edges fitted as hole / boss / plane / other (docs/guide/features.md)."""
-    mesh = await reg.mesh(meta)
+    mesh = await reg.catalogue.mesh(meta)
     cands = await reg.run(feature_candidates, mesh, angle, tol)
     out = [c.to_dict() for c in cands]
     if not ids:
@@ -217,7 +217,7 @@ async def mesh_features(
                                        "band_not_separating: the band does not split the surface in two"))
 async def mesh_feature_region(meta: MeshDep, body: Band, reg: RegistryDep) -> dict[str, Any]:
     """The region the minimum cut through the band separates (Form features §4.3)."""
-    mesh = await reg.mesh(meta)
+    mesh = await reg.catalogue.mesh(meta)
     sels = {f"band{k}": sel for k, sel in enumerate(body.dump())}
     parse_spec({"selections": sels, "fixed": list(sels)})  # 422 on a malformed selection
     for name, sel in sels.items():

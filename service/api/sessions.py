@@ -67,7 +67,7 @@ async def create_session(body: SessionCreate, owner: OwnerDep, reg: RegistryDep)
     422 here. A build that takes longer than ``build_wait_s`` answers 202;
     poll the session until ``status`` is ``ready``.
     """
-    s = await reg.create_session(owner, body.mesh_id, body.spec.dump())
+    s = await reg.sessions.create(owner, body.mesh_id, body.spec.dump())
     return JSONResponse(doc_of(reg, s), status_code=201 if s.status is SessionStatus.ready else 202,
                         headers={"Location": f"/v1/sessions/{s.id}"})
 
@@ -79,11 +79,11 @@ def list_sessions(owner: OwnerDep, reg: RegistryDep, request: Request, response:
                   mesh_id: Annotated[str | None, Query(max_length=64, description="only sessions of this mesh")]
                   = None) -> list[dict[str, Any]]:
     """The caller's sessions, oldest first; ``name`` filters by a substring of the mesh's name."""
-    rows = reg.list_sessions(owner)
+    rows = reg.sessions.owned(owner)
     if mesh_id is not None:
         rows = [s for s in rows if s.mesh_id == mesh_id]
     if name is not None:
-        names = {m["id"]: str(m.get("name", "")) for m in reg.list_meshes(owner)}
+        names = {m["id"]: str(m.get("name", "")) for m in reg.catalogue.owned(owner)}
         rows = [s for s in rows if name in names.get(s.mesh_id, "")]
     return [doc_of(reg, s) for s in page(rows, lambda s: (s.created, s.id), limit, cursor, request, response)]
 
@@ -92,7 +92,7 @@ def list_sessions(owner: OwnerDep, reg: RegistryDep, request: Request, response:
             response_model=SessionDoc, responses=error_responses(*_AUTH, 404, 410))
 def get_session(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
     """Status (``building``, ``ready``, ``evicted``, ``stored``, ``failed``), progress, timings, presets."""
-    reg.refresh_presets(s)
+    reg.sessions.refresh_presets(s)
     return doc_of(reg, s)
 
 
@@ -112,7 +112,7 @@ async def patch_session(
     the last MOVE and the positions do not change, and a MOVE being solved
     meanwhile commits as usual. Apply one with POST .../deform.
     """
-    reg.set_presets(s, body.dump())
+    reg.sessions.set_presets(s, body.dump())
     return doc_of(reg, s)
 
 
@@ -166,12 +166,12 @@ async def deform(
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
     if mode == "mesh":
         resolve_format(format)  # the whole request is valid before anything is solved or committed
-    r = await reg.deform(s, move.dump(), inversion, quality, repair)
+    r = await reg.moves.deform(s, move.dump(), inversion, quality, repair)
     version = str(s.version)  # read before the next await: the version this MOVE committed
     if mode == "mesh":
         resp = await _mesh_response(reg, s, r.V, format, r.report, quality == "full")
     else:
-        mesh = await reg.session_mesh(s)
+        mesh = await reg.sessions.mesh(s)
         resp = result_response(r.V, mesh.V, r.report, mode, kind, dtype)
     resp.headers[VERSION_HEADER] = version
     return resp
@@ -179,7 +179,7 @@ async def deform(
 
 async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
                          report: dict[str, Any] | None, quality: bool = False, lossy: bool = False) -> Response:
-    mesh = await reg.session_mesh(s)
+    mesh = await reg.sessions.mesh(s)
     meta = reg.store.mesh_meta(s.mesh_id) or {}
     stem = safe_name(str(meta.get("name", "mesh")).rsplit(".", 1)[0], "mesh") + "_deformed"
     body, fname, media, dropped = await reg.run(export_mesh, mesh, V, fmt, stem, quality, lossy)
@@ -206,7 +206,7 @@ async def download_current(
                                  "the rest (else 422 lossy_write)")] = False,
 ) -> Response:
     """The mesh at the session's last MOVE (rest shape before any), in any format."""
-    V = await reg.positions(s)
+    V = await reg.moves.positions(s)
     return await _mesh_response(reg, s, V, format, s.report, quality, lossy)
 
 
@@ -228,8 +228,8 @@ async def current_quality(
     if bad or not names:
         raise ServiceError("unknown_metric", f"unknown metrics {bad}; choose from {list(METRICS)}",
                            unknown=bad, field="metrics")
-    V = await reg.positions(s)
-    mesh = await reg.session_mesh(s)
+    V = await reg.moves.positions(s)
+    mesh = await reg.sessions.mesh(s)
     q = await reg.run(element_quality, V, mesh.T, mesh.cells)
     return {"elements": mesh.elements, "summary": summarize_quality({k: q[k] for k in names}),
             "per_element": {k: _json_floats(q[k]) for k in names}}
@@ -252,9 +252,9 @@ async def current_positions(
     dtype: Annotated[Dtype, Query()] = "float64",
 ) -> Response:
     """The current state, encoded like a deform result."""
-    V = await reg.positions(s)
+    V = await reg.moves.positions(s)
     version = str(s.version)
-    mesh = await reg.session_mesh(s)
+    mesh = await reg.sessions.mesh(s)
     resp = result_response(V, mesh.V, s.report or {}, result, kind, dtype)
     resp.headers[VERSION_HEADER] = version
     return resp
@@ -264,8 +264,8 @@ async def current_positions(
              responses=error_responses(*_AUTH, 404, 410))
 async def reset(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
     """Forget the last MOVE; the factorization and the presets stay."""
-    await reg.reset(s)
-    reg.refresh_presets(s)
+    await reg.moves.reset(s)
+    reg.sessions.refresh_presets(s)
     return doc_of(reg, s)
 
 
@@ -274,7 +274,7 @@ async def reset(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
 async def delete_session(s: SessionDep, reg: RegistryDep, request: Request) -> Response:
     """Drop the session, its factorization and its batch jobs (running ones are cancelled)."""
     request.app.state.jobs.end_session(s.id)
-    await reg.delete_session(s)
+    await reg.sessions.delete(s)
     return Response(status_code=204)
 
 

@@ -125,7 +125,7 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
         return
     try:
         owner = state.auth.owner(ws.headers, ws.query_params)
-        s = reg.session(owner, session_id)
+        s = reg.sessions.lookup(owner, session_id)
         slot = state.connections.acquire(owner)
     except ServiceError as e:
         # closed before the handshake, a real server answers HTTP 403 and the code and reason are lost:
@@ -190,13 +190,13 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
                 continue
             s.last_used = time.time()  # a streamed MOVE is activity
             if V0 is None:
-                mesh = await reg.session_mesh(s)
+                mesh = await reg.sessions.mesh(s)
                 V0, on_boundary = mesh.V, mesh.boundary
             policy = frame.inversion or str(s.spec.get("inversion", "warn"))
             try:
                 if boundary_first and policy != "reject":  # a rejected MOVE must never be drawn
                     t0 = time.perf_counter()
-                    d, stage, move = await reg.boundary_stage(s, frame.move.dump())
+                    d, stage, move = await reg.moves.boundary_stage(s, frame.move.dump())
                     if d.solve_mode == "split":
                         B = stage.P[on_boundary]
                         X = B if kind == "positions" else B - V0[on_boundary]
@@ -206,9 +206,9 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
                         await asyncio.sleep(0)  # let a newer MOVE in
                         if pending is not None:  # superseded: its interior is never solved
                             continue
-                    r = await reg.complete_stage(s, d, stage, move, frame.inversion, frame.repair)
+                    r = await reg.moves.complete_stage(s, d, stage, move, frame.inversion, frame.repair)
                 else:
-                    r = await reg.deform(s, frame.move.dump(), frame.inversion, "basic", frame.repair)
+                    r = await reg.moves.deform(s, frame.move.dump(), frame.inversion, "basic", frame.repair)
             except Exception as e:  # noqa: BLE001 - every failed MOVE is answered, the session unchanged
                 if status_of(e) >= 500:
                     raise

@@ -89,7 +89,7 @@ async def create_study(s: SessionDep, body: StudyCreate, owner: OwnerDep, reg: R
     fmt, ext, stem = _deck_format(reg, s, body.format)
     shapes_doc = body.shapes_doc()
     async with s.lock:
-        d = await reg.deformer(s)
+        d = await reg.sessions.deformer(s)
         await reg.run(check_plan, d, shapes_doc, plan)
     mesh = d.mesh
     await reg.run(export_mesh, mesh, mesh.V, fmt, stem)  # 422 lossy_write / unknown_format before the job
@@ -103,7 +103,7 @@ async def create_study(s: SessionDep, body: StudyCreate, owner: OwnerDep, reg: R
         s.batches += 1
         try:
             async with s.lock:  # the morphs on the factorization; the solver runs without the lock
-                dd = await reg.deformer(s)
+                dd = await reg.sessions.deformer(s)
                 shapes = await reg.run(check_plan, dd, shapes_doc, plan)
                 rows = await reg.builder.solve(partial(
                     morph_rows, mesh, dd, shapes, plan, output=str(root / "{i}" / f"{stem}{ext}"),

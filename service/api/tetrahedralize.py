@@ -115,7 +115,7 @@ async def tetrahedralize(
         mesh = await reg.run(mesh_from_arrays, Vt, Tt)
         info.update({"edge_length": edge_length, "edge_length_fac": edge_length_fac, "epsilon": epsilon,
                      "source": fname})
-        meta = await reg.add_mesh_arrays(owner, name or fname.rsplit(".", 1)[0] + ".tet", mesh,
+        meta = await reg.catalogue.add_arrays(owner, name or fname.rsplit(".", 1)[0] + ".tet", mesh,
                                          {"tetrahedralization": info})
         return public(meta)
 

@@ -60,7 +60,7 @@ def test_session_exists(tmp_path):
     with running(tmp_path, demo=True) as tc:
         reg = tc.app.state.registry
         with pytest.raises(Exception) as e:
-            tc.portal.call(reg.create_session, "public", "m_demo_beam", BEAM_SPEC, "s_demo")
+            tc.portal.call(reg.sessions.create, "public", "m_demo_beam", BEAM_SPEC, "s_demo")
         assert getattr(e.value, "code", None) == "session_exists" and e.value.status == 409
 
 

@@ -48,10 +48,10 @@ def test_what_one_replica_commits_the_other_serves(tmp_path, db, bracket_library
         assert b.get(f"/v1/sessions/{sid}").json()["version"] == 2
         # a MOVE solved from a version another replica has replaced is not committed: 409, reloaded
         ra = a.app.state.registry
-        s = ra.session("public", sid)  # A's copy at version 2
+        s = ra.sessions.lookup("public", sid)  # A's copy at version 2
         assert b.post(f"/v1/sessions/{sid}/deform", json=MOVES[2]).headers["x-tetmorph-version"] == "3"
         with pytest.raises(Exception) as e:
-            a.portal.call(ra.deform, s, MOVES[0])
+            a.portal.call(ra.moves.deform, s, MOVES[0])
         assert e.value.code == "version_conflict" and e.value.status == 409
         assert s.version == 3 and s.last_move == MOVES[2]
         np.testing.assert_allclose(np.asarray(a.get(f"/v1/sessions/{sid}/positions").json()["positions"]), want[2],
@@ -76,8 +76,8 @@ def test_limits_and_sweeps_count_every_replica(tmp_path, db):
     with replicas(tmp_path, db, session_ttl_s=60.0) as (a, b):
         with psycopg.connect(db, autocommit=True) as c:
             c.execute("UPDATE tm_sessions SET last_used = last_used - 3600 WHERE id = %s", (s1,))
-        assert b.app.state.registry.sweep() == [s1]
-        assert a.app.state.registry.sweep() == []  # swept once, whichever replica sweeps
+        assert b.app.state.registry.sessions.sweep() == [s1]
+        assert a.app.state.registry.sessions.sweep() == []  # swept once, whichever replica sweeps
         e = err(a.get(f"/v1/sessions/{s1}"))
         assert e["status"] == 410 and e["code"] == "session_expired"
         assert len(a.get("/v1/sessions").json()) == 1
@@ -96,7 +96,7 @@ def test_presets_are_shared_by_the_replicas_and_never_make_a_move_conflict(tmp_p
         assert b.get(f"/v1/sessions/{sid}").json()["presets"] == []
         assert b.post(f"/v1/sessions/{sid}/deform", json=MOVES[2]).headers["x-tetmorph-version"] == "1"
         ra = a.app.state.registry
-        s = ra.session("public", sid)  # A's copy, at version 1
+        s = ra.sessions.lookup("public", sid)  # A's copy, at version 1
         r = b.patch(f"/v1/sessions/{sid}", json={"presets": PRESETS})
         assert r.status_code == 200 and r.json()["presets"] == PRESETS and r.json()["version"] == 1
         # A holds the session at the same version: its answers read the presets B saved
@@ -104,7 +104,7 @@ def test_presets_are_shared_by_the_replicas_and_never_make_a_move_conflict(tmp_p
         assert [x["presets"] for x in a.get("/v1/sessions").json()] == [PRESETS]
         # B replaces them while A solves a MOVE from version 1: A's MOVE commits (no 409) and keeps B's presets
         assert b.patch(f"/v1/sessions/{sid}", json={"presets": PRESETS[1:]}).status_code == 200
-        a.portal.call(ra.deform, s, MOVES[0])
+        a.portal.call(ra.moves.deform, s, MOVES[0])
         assert s.version == 2
         doc = b.get(f"/v1/sessions/{sid}").json()
         assert doc["version"] == 2 and doc["last_move"] == MOVES[0] and doc["presets"] == PRESETS[1:]

@@ -37,8 +37,8 @@ def test_idle_sessions_are_swept(tmp_path):
         import time
 
         assert s["expires_at"] == pytest.approx(s["last_used"] + 60)
-        assert reg.sweep(now=time.time() + 30) == []
-        assert reg.sweep(now=time.time() + 120) == [s["id"]]
+        assert reg.sessions.sweep(now=time.time() + 30) == []
+        assert reg.sessions.sweep(now=time.time() + 120) == [s["id"]]
         r = tc.get(f"/v1/sessions/{s['id']}")  # gone, and it says why (it used to answer 404)
         assert r.status_code == 410 and err(r)["code"] == "session_expired"
         assert tc.get("/v1/sessions").json() == []
@@ -46,7 +46,7 @@ def test_idle_sessions_are_swept(tmp_path):
         r = tc.get(f"/v1/sessions/{s['id']}")
         assert r.status_code == 410 and err(r)["details"]["session_id"] == s["id"]
     with running(tmp_path, expired_memory_s=0.001) as tc:  # remembered for a while only, then 404
-        tc.app.state.registry.sweep(now=time.time() + 1000)
+        tc.app.state.registry.sessions.sweep(now=time.time() + 1000)
         assert tc.get(f"/v1/sessions/{s['id']}").status_code == 404
 
 
@@ -63,8 +63,8 @@ def test_polling_counts_as_use(tmp_path):
         time.sleep(0.05)
         polled = tc.get(f"/v1/sessions/{s['id']}").json()
         assert polled["last_used"] > s["last_used"] and polled["expires_at"] == pytest.approx(polled["last_used"] + 5)
-        assert reg.sweep(now=s["last_used"] + 5.02) == []  # expired by creation time, alive by the poll
-        assert reg.sweep(now=polled["last_used"] + 5.5) == [s["id"]]
+        assert reg.sessions.sweep(now=s["last_used"] + 5.02) == []  # expired by creation time, alive by the poll
+        assert reg.sessions.sweep(now=polled["last_used"] + 5.5) == [s["id"]]
 
 
 def test_restart_keeps_meshes_sessions_and_last_move(tmp_path, bracket_library):
@@ -121,7 +121,7 @@ def test_concurrent_updates_serialize_per_session_and_run_across_sessions(tmp_pa
 
 
 def test_all_finite_checks_every_number_of_a_result():
-    from service.state.registry import all_finite
+    from service.state.moves import all_finite
 
     assert all_finite({"a": 1, "b": [0.5, {"c": None, "d": "x"}], "e": True})
     for bad in (float("inf"), -float("inf"), float("nan")):

@@ -34,7 +34,7 @@ from .errors import envelope
 from .middleware import BodyLimit, ErrorShield, UnicodeGuard
 from .models.error import ErrorEnvelope
 from .observability import Metrics, RequestContext, editor_csp
-from .security import Authenticator, ConnectionSlots, RateLimiter, SharedRateLimiter, load_secret
+from .security import Authenticator, ConnectionSlots, load_secret
 from .settings import Settings
 from .state.batch import clear_jobs, sweep_job_files
 from .state.jobs import JobRunner
@@ -135,9 +135,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     app.state.settings = settings
     app.state.registry = reg
     app.state.auth = auth
-    take = getattr(reg.store, "take_token", None)
-    app.state.limiter = (SharedRateLimiter(take, settings.rate_limit_per_s, settings.rate_burst) if take else
-                         RateLimiter(settings.rate_limit_per_s, settings.rate_burst))
+    app.state.limiter = reg.store.rate_limiter(settings.rate_limit_per_s, settings.rate_burst)
     app.state.connections = ConnectionSlots(settings.max_connections_per_key)
     app.state.jobs = jobs
     app.state.metrics = metrics

@@ -24,11 +24,12 @@ import secrets
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Protocol
 
 from .errors import ServiceError
 from .settings import Settings
 
-__all__ = ["Authenticator", "RateLimiter", "SharedRateLimiter", "ConnectionSlots",
+__all__ = ["Authenticator", "Limiter", "RateLimiter", "SharedRateLimiter", "ConnectionSlots",
            "PUBLIC", "load_secret", "legacy_owner", "parse_keys"]
 
 PUBLIC = "public"
@@ -125,6 +126,13 @@ class Authenticator:
             e.headers["WWW-Authenticate"] = "ApiKey"
             raise e
         return self.owner_of_tenant(tenant)
+
+
+class Limiter(Protocol):
+    """What the routes ask of a rate limiter (:class:`RateLimiter`, :class:`SharedRateLimiter`)."""
+
+    def check(self, owner: str, now: float | None = None) -> None:
+        """Take one token of ``owner``'s bucket, or raise 429 with ``Retry-After``."""
 
 
 class RateLimiter:

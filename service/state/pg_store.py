@@ -35,6 +35,7 @@ from solver.limits import MAX_CELLS, MAX_POINTS
 from solver.mesh import Mesh
 
 from ..errors import ServiceError
+from ..security import Limiter, SharedRateLimiter
 from .store import FileStore, read_mesh_files, record_only, valid_id
 
 __all__ = ["PgStore", "SCHEMA", "ORPHAN_AGE_S"]
@@ -334,6 +335,10 @@ class PgStore:
         return self._exec("DELETE FROM tm_expired WHERE expired_at < %s", (float(before),))
 
     # ------------------------------------------------------------ rate limits
+    def rate_limiter(self, rate: float, burst: int) -> Limiter:
+        """Token buckets in the database, so that every replica charges the same bucket of a key."""
+        return SharedRateLimiter(self.take_token, rate, burst)
+
     def take_token(self, owner: str, rate: float, burst: int) -> tuple[bool, float]:
         """Take one token of ``owner``'s bucket (database clock): ``(granted, tokens left)``."""
         rows = self._rows(_TAKE, {"owner": owner, "rate": float(rate), "burst": float(burst)})

@@ -41,6 +41,8 @@ from solver.io import read_mesh
 from solver.limits import MAX_CELLS, MAX_POINTS
 from solver.mesh import Mesh, mesh_from_arrays
 
+from ..security import Limiter, RateLimiter
+
 __all__ = ["Store", "FileStore", "new_id", "valid_id", "read_mesh_files", "record_only"]
 
 _ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
@@ -173,6 +175,9 @@ class Store(Protocol):
 
     def writable(self) -> bool:
         """True when records can be written now (readiness)."""
+
+    def rate_limiter(self, rate: float, burst: int) -> Limiter:
+        """The request rate limiter of this store's processes: ``rate`` per second per key, bursts of ``burst``."""
 
     def close(self) -> None:
         """Release connections."""
@@ -368,6 +373,10 @@ class FileStore:
             return True
         except OSError:
             return False
+
+    def rate_limiter(self, rate: float, burst: int) -> Limiter:
+        """Token buckets in this process's memory (one process serves the data directory)."""
+        return RateLimiter(rate, burst)
 
     def close(self) -> None:
         """Nothing to release."""

@@ -271,6 +271,9 @@ ERRORS: dict[str, tuple[str, str]] = {
                         "Widen the box, plane tolerance or set; `boundary_only` keeps boundary nodes only."),
     "overlapping_constraints": ("A vertex both fixed and in a handle, or in two handles.",
                                 "Make the selections disjoint."),
+    "handle_outside_domain": ("A handle has nodes outside the SPEC's morph domain, where every node is held "
+                              "at rest.", "Widen the domain (a box or sphere around the region) to hold the "
+                              "handle."),
     "no_boundary_vertex": ("A rotating constraint or rigid feature uses only interior vertices, while the "
                            "rotation field lives on the boundary.", "Use mode `translate` / `keep_direction`, "
                            "or include boundary vertices."),
@@ -379,6 +382,7 @@ FIELD_NOTES = {
     "Spec.selections": "named vertex selections: ids, a set of the file, a box, a sphere or a plane",
     "Spec.fixed": "names of selections held at their rest positions",
     "Spec.handles": "handle name -> selection name; each handle is moved by the MOVE",
+    "Spec.domain": "the morph domain: a selection outside which every node keeps its rest position",
     "Spec.laplacian": "boundary rows: cotangent weights (the paper's) or uniform",
     "Spec.constraints": "how hard constraints are imposed: null space (default), KKT or penalty",
     "Spec.solve": "split (boundary, then interior) or joint least squares; auto picks split unless a "

@@ -252,6 +252,7 @@ class Spec(BaseModel):
     selections: dict[str, Selection] = Field(min_length=1, max_length=10_000)
     fixed: list[StrictStr] = Field(default_factory=list, max_length=10_000)
     handles: dict[str, StrictStr] = Field(default_factory=dict, max_length=10_000)
+    domain: StrictStr | None = None
     laplacian: Literal["cotangent", "uniform"] = "cotangent"
     constraints: Constraints | None = None
     solve: Literal["auto", "split", "joint"] = "auto"

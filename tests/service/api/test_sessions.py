@@ -346,3 +346,23 @@ def test_sessions_are_listed_per_mesh(client, tc):
     client.create_session(b["id"], spec)
     assert [s["id"] for s in tc.get("/v1/sessions", params={"mesh_id": a["id"]}).json()] == [sa]
     assert tc.get("/v1/sessions", params={"mesh_id": "m_none"}).json() == []
+
+
+def test_a_morph_domain_holds_every_node_outside_it_through_the_service(client, tc):
+    """SPEC.domain over REST: nodes outside the box stay at rest; a handle reaching outside is a 422."""
+    mesh = read_mesh(BRACKET)  # 100 x 20 x 10 bar, FIXED at x = 0, LOAD at x = 100
+    box = {"box": {"min": [70.0, -1.0, -1.0], "max": [101.0, 21.0, 11.0]}}
+    spec = {**BRACKET_SPEC, "selections": {**BRACKET_SPEC["selections"], "near": box}, "domain": "near"}
+    mid = upload_bracket(client)["id"]
+    s = client.create_session(mid, spec)
+    X, report = client.deform(s["id"], MOVES[0])
+    outside = mesh.referenced & (mesh.V[:, 0] < 70.0)
+    assert outside.sum() > 500
+    assert np.array_equal(X[outside], mesh.V[outside])
+    assert report["max_handle_displacement"] > 0 and "max_free_displacement" in report
+    narrow = {**spec, "selections": {**spec["selections"], "near": {"box": {"min": [85.0, -1, -1],
+                                                                             "max": [99.5, 21, 11]}}}}
+    before = tc.get("/v1/sessions").json()
+    r = tc.post("/v1/sessions", json={"mesh_id": mid, "spec": narrow})
+    assert r.status_code == 422 and err(r)["code"] == "handle_outside_domain", err(r)
+    assert tc.get("/v1/sessions").json() == before  # nothing stored

@@ -236,6 +236,19 @@ class Client:
         return self._request("PATCH", f"/v1/sessions/{session_id}", idempotent=True,
                              json={"presets": presets}).json()
 
+    def history(self, session_id: str) -> dict[str, Any]:
+        """The session's undo history: ``{"applied": [MOVE, ...], "undone": [MOVE, ...]}``."""
+        return self._request("GET", f"/v1/sessions/{session_id}/history").json()
+
+    def save_history(self, session_id: str, applied: list[dict[str, Any]],
+                     undone: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+        """Replace the session's undo history (MOVEs applied, oldest first; MOVEs undone, last undone first).
+
+        It does not change the session's morph state or version; returns the history as stored.
+        """
+        return self._request("PUT", f"/v1/sessions/{session_id}/history", idempotent=True,
+                             json={"applied": applied, "undone": undone or []}).json()
+
     def deform(self, session_id: str, move: dict[str, Any], kind: str = "positions",
                dtype: str = "float64", inversion: str | None = None
                ) -> tuple[np.ndarray, dict[str, Any]]:

@@ -20,6 +20,7 @@ from ..models.move import Move
 from ..models.report import Report
 from ..models.session import SessionDoc, SessionPatch
 from ..models.uploads import SessionCreate
+from ..state.kept import refresh_presets, set_presets
 from ..state.registry import Registry
 from ..state.session import Session, SessionStatus
 from .deps import OwnerDep, RegistryDep, SessionDep, safe_name
@@ -92,7 +93,7 @@ def list_sessions(owner: OwnerDep, reg: RegistryDep, request: Request, response:
             response_model=SessionDoc, responses=error_responses(*_AUTH, 404, 410))
 def get_session(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
     """Status (``building``, ``ready``, ``evicted``, ``stored``, ``failed``), progress, timings, presets."""
-    reg.sessions.refresh_presets(s)
+    refresh_presets(reg.sessions, s)
     return doc_of(reg, s)
 
 
@@ -112,7 +113,7 @@ async def patch_session(
     the last MOVE and the positions do not change, and a MOVE being solved
     meanwhile commits as usual. Apply one with POST .../deform.
     """
-    reg.sessions.set_presets(s, body.dump())
+    set_presets(reg.sessions, s, body.dump())
     return doc_of(reg, s)
 
 
@@ -265,7 +266,7 @@ async def current_positions(
 async def reset(s: SessionDep, reg: RegistryDep) -> dict[str, Any]:
     """Forget the last MOVE; the factorization and the presets stay."""
     await reg.moves.reset(s)
-    reg.sessions.refresh_presets(s)
+    refresh_presets(reg.sessions, s)
     return doc_of(reg, s)
 
 

@@ -4,7 +4,7 @@ Tables (created at start-up, under an advisory lock so that replicas starting
 together do not race)::
 
     tm_meshes    id, owner, created, meta           the mesh metas
-    tm_sessions  id, owner, mesh_id, created, last_used, version, record, presets
+    tm_sessions  id, owner, mesh_id, created, last_used, version, record, presets, history
     tm_expired   id, owner, expired_at              sessions removed for idleness (410 for a while)
     tm_rate      owner, tokens, at, granted         one token bucket per owner
 
@@ -12,10 +12,10 @@ Mesh *files* stay in the data directory (``meshes/<id>/``), which every
 replica mounts (a shared volume): a mesh is written once, parsed once per
 replica and then held in memory, and a path is what the mesh readers take.
 The database holds what is small and changes: metas, session records with
-their versions, expiry, rate buckets. A session's presets are a column of
-their own: a MOVE's commit (the versioned ``record``) never writes them and a
-presets write never touches the record or its version, so neither undoes
-the other and presets never make a MOVE conflict.
+their versions, expiry, rate buckets. A session's presets and its undo
+history are columns of their own: a MOVE's commit (the versioned ``record``)
+never writes them and their writes never touch the record or its version, so
+neither undoes the other and they never make a MOVE conflict.
 
 Every statement runs on the event loop's thread (one connection, autocommit);
 on a local network each is well under a millisecond. A lost connection is
@@ -36,7 +36,7 @@ from solver.mesh import Mesh
 
 from ..errors import ServiceError
 from ..security import Limiter, SharedRateLimiter
-from .store import FileStore, read_mesh_files, record_only, valid_id
+from .store import EMPTY_HISTORY, FileStore, read_mesh_files, record_only, valid_id
 
 __all__ = ["PgStore", "SCHEMA", "ORPHAN_AGE_S"]
 
@@ -53,11 +53,15 @@ CREATE TABLE IF NOT EXISTS tm_meshes (
 CREATE TABLE IF NOT EXISTS tm_sessions (
     id text PRIMARY KEY, owner text NOT NULL, mesh_id text NOT NULL, created double precision NOT NULL,
     last_used double precision NOT NULL, version bigint NOT NULL DEFAULT 0, record jsonb NOT NULL,
-    presets jsonb NOT NULL DEFAULT '[]'::jsonb);
-DO $$ BEGIN  -- tables made before presets existed: their sessions have none
+    presets jsonb NOT NULL DEFAULT '[]'::jsonb, history jsonb);
+DO $$ BEGIN  -- tables made before presets (or the history) existed: their sessions have none
     IF NOT EXISTS (SELECT 1 FROM information_schema.columns WHERE table_schema = current_schema()
                    AND table_name = 'tm_sessions' AND column_name = 'presets') THEN
         ALTER TABLE tm_sessions ADD COLUMN presets jsonb NOT NULL DEFAULT '[]'::jsonb;
+    END IF;
+    IF NOT EXISTS (SELECT 1 FROM information_schema.columns WHERE table_schema = current_schema()
+                   AND table_name = 'tm_sessions' AND column_name = 'history') THEN
+        ALTER TABLE tm_sessions ADD COLUMN history jsonb;
     END IF;
 END $$;
 CREATE INDEX IF NOT EXISTS tm_sessions_owner ON tm_sessions (owner);
@@ -259,6 +263,21 @@ class PgStore:
         if not valid_id(session_id):
             return False
         return self._exec("UPDATE tm_sessions SET presets = %s WHERE id = %s", (self._json(presets), session_id)) > 0
+
+    def save_history(self, session_id: str, history: dict[str, Any]) -> bool:
+        """Replace a session's undo history (record, version and last use untouched); False when it is gone."""
+        if not valid_id(session_id):
+            return False
+        return self._exec("UPDATE tm_sessions SET history = %s WHERE id = %s", (self._json(history), session_id)) > 0
+
+    def load_history(self, session_id: str) -> dict[str, Any] | None:
+        """A session's undo history, or None when it is gone."""
+        if not valid_id(session_id):
+            return None
+        rows = self._rows("SELECT history FROM tm_sessions WHERE id = %s", (session_id,))
+        if not rows:
+            return None
+        return rows[0][0] if isinstance(rows[0][0], dict) else dict(EMPTY_HISTORY)
 
     def load_presets(self, session_id: str) -> list[dict[str, Any]] | None:
         """A session's presets, or None when it is gone."""

@@ -11,11 +11,8 @@ truth and this process holds a cache of it: every request on a session
 records its use and reads the stored version; a newer version (a MOVE
 committed by another replica) is loaded before the request is served.
 
-A session's presets (named MOVEs a client keeps with it) are not part of its
-morph state: they are stored apart from the versioned record, so saving them
-neither bumps the version nor makes a concurrent MOVE conflict, and a MOVE's
-commit never writes them. With a shared store the answers that show them
-read them from the store first (another replica may have replaced them).
+What a client keeps with a session apart from its morph state (presets,
+undo history) is in :mod:`~service.state.kept`.
 """
 
 from __future__ import annotations
@@ -167,30 +164,6 @@ class Sessions(Mapping[str, Session]):
             return sorted(out, key=lambda s: s.created)
         return sorted((s for s in self._live.values() if s.owner == owner),
                       key=lambda s: s.created)
-
-    def set_presets(self, s: Session, presets: list[dict[str, Any]]) -> None:
-        """Replace a session's presets (validated by the route): the store first, then memory.
-
-        The session's lock is not taken (a MOVE being solved goes on) and its
-        version does not change.
-
-        Raises
-        ------
-        NotFound
-            The session's record is gone (another replica deleted it); nothing is stored.
-        """
-        if not self.store.save_presets(s.id, presets):
-            if self.store.shared:
-                self.drop_local(s)
-            raise NotFound("session", s.id)
-        s.presets = presets
-
-    def refresh_presets(self, s: Session) -> None:
-        """With a shared store: read the session's presets (another replica may have replaced them)."""
-        if self.store.shared:
-            presets = self.store.load_presets(s.id)
-            if presets is not None:
-                s.presets = presets
 
     async def spec(self, s: Session) -> dict[str, Any]:
         """The SPEC a session builds from (stored target surfaces resolved, once per process)."""

@@ -12,14 +12,15 @@ Layout (``data_dir``)::
     meshes/<mesh_id>/<files>         the uploaded file(s), byte for byte, or arrays.npz
     sessions/<session_id>.json       owner, mesh id, SPEC, last MOVE, timestamps
     sessions/presets/<id>.json       the session's named MOVEs (none when missing)
+    sessions/history/<id>.json       the session's undo history (empty when missing)
     sessions/expired/<id>.json       sessions removed for idleness (they answer 410 for a while)
 
 JSON files are replaced atomically, so a crash never leaves a half-written
 record; a restart reloads every session and rebuilds it on first use.
 
-A session's presets are kept apart from its record: a MOVE's commit writes
-the record (its version checked) and never the presets, and writing the
-presets never touches the record or its version.
+A session's presets and undo history are kept apart from its record: a
+MOVE's commit writes the record (its version checked) and never them, and
+writing them never touches the record or its version.
 """
 
 from __future__ import annotations
@@ -43,7 +44,10 @@ from solver.mesh import Mesh, mesh_from_arrays
 
 from ..security import Limiter, RateLimiter
 
-__all__ = ["Store", "FileStore", "new_id", "valid_id", "read_mesh_files", "record_only"]
+__all__ = ["Store", "FileStore", "EMPTY_HISTORY", "new_id", "valid_id", "read_mesh_files", "record_only"]
+
+#: The undo history of a session none was saved for: nothing applied, nothing undone.
+EMPTY_HISTORY: dict[str, Any] = {"applied": [], "undone": []}
 
 _ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
@@ -133,6 +137,12 @@ class Store(Protocol):
 
     def load_presets(self, session_id: str) -> list[dict[str, Any]] | None:
         """A session's presets (``[]`` when none were saved), or None when the session is gone."""
+
+    def save_history(self, session_id: str, history: dict[str, Any]) -> bool:
+        """Replace a session's undo history (record and version untouched); False when the session is gone."""
+
+    def load_history(self, session_id: str) -> dict[str, Any] | None:
+        """A session's undo history (:data:`EMPTY_HISTORY` when none was saved), or None when it is gone."""
 
     def list_sessions(self) -> list[dict[str, Any]]:
         """Every stored session record (with its presets)."""
@@ -231,6 +241,7 @@ class FileStore:
         self.meshes_dir = self.root / "meshes"
         self.sessions_dir = self.root / "sessions"
         self.presets_dir = self.sessions_dir / "presets"
+        self.history_dir = self.sessions_dir / "history"
         self.meshes_dir.mkdir(parents=True, exist_ok=True)
         self.sessions_dir.mkdir(parents=True, exist_ok=True)
 
@@ -335,6 +346,24 @@ class FileStore:
             return None
         return self._presets(session_id)
 
+    def save_history(self, session_id: str, history: dict[str, Any]) -> bool:
+        """Replace a session's history file (atomically); False when the session has no record."""
+        if not self._has_record(session_id):
+            return False
+        self.history_dir.mkdir(exist_ok=True)
+        _write_json(self.history_dir / f"{session_id}.json", history)
+        return True
+
+    def load_history(self, session_id: str) -> dict[str, Any] | None:
+        """A session's history, or None when it has no record."""
+        if not self._has_record(session_id):
+            return None
+        try:
+            doc = json.loads((self.history_dir / f"{session_id}.json").read_text())
+        except (OSError, ValueError):  # none saved
+            return dict(EMPTY_HISTORY)
+        return doc if isinstance(doc, dict) else dict(EMPTY_HISTORY)
+
     def touch_session(self, session_id: str, now: float) -> int | None:
         """Nothing to record (uses are kept in memory); the stored version."""
         rec = self.load_session(session_id)
@@ -409,10 +438,11 @@ class FileStore:
         return out
 
     def delete_session(self, session_id: str) -> None:
-        """Remove a session record, then its presets."""
+        """Remove a session record, then its presets and history."""
         if valid_id(session_id):
             (self.sessions_dir / f"{session_id}.json").unlink(missing_ok=True)
             (self.presets_dir / f"{session_id}.json").unlink(missing_ok=True)
+            (self.history_dir / f"{session_id}.json").unlink(missing_ok=True)
 
     # ------------------------------------------------------------- tombstones
     def save_expired(self, session_id: str, owner: str, at: float) -> None:

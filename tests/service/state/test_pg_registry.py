@@ -203,6 +203,28 @@ def test_a_database_outage_answers_503_with_retry_after_and_loses_nothing(tmp_pa
         pg.remove()
 
 
+def test_the_undo_history_is_shared_by_the_replicas_and_never_makes_a_move_conflict(tmp_path, db):
+    with replicas(tmp_path, db) as (a, b):
+        mid = a.post("/v1/meshes", files=[("file", ("bracket.inp", BRACKET.read_bytes()))]).json()["id"]
+        sid = a.post("/v1/sessions", json={"mesh_id": mid, "spec": BRACKET_SPEC}).json()["id"]
+        assert b.get(f"/v1/sessions/{sid}/history").json() == {"applied": [], "undone": []}
+        ra = a.app.state.registry
+        s = ra.sessions.lookup("public", sid)  # A's copy, at version 0
+        kept = {"applied": MOVES[:2], "undone": MOVES[2:]}
+        assert b.put(f"/v1/sessions/{sid}/history", json=kept).json() == kept
+        assert a.get(f"/v1/sessions/{sid}/history").json() == kept  # saved on B, read on A
+        a.portal.call(ra.moves.deform, s, MOVES[1])  # solved from version 0 after B's write: no 409
+        assert s.version == 1
+        bad = {"applied": MOVES[:1], "undone": [{"rotate": 1}]}
+        assert err(a.put(f"/v1/sessions/{sid}/history", json=bad))["code"] == "invalid_request"
+        with psycopg.connect(db, autocommit=True) as c:
+            record, history, version = c.execute("SELECT record, history, version FROM tm_sessions WHERE id = %s",
+                                                 (sid,)).fetchone()
+        assert history == kept and "history" not in record and version == 1
+        assert b.delete(f"/v1/sessions/{sid}").status_code == 204
+        assert a.get(f"/v1/sessions/{sid}/history").status_code == 404
+
+
 def test_a_database_outage_under_concurrent_moves_answers_only_503s_and_loses_nothing(tmp_path):
     """A real server and four clients sending MOVEs at once while the real PostgreSQL is stopped and
     started again: every answer is 200 or 503 (with Retry-After), the outage is seen and

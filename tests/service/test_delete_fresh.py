@@ -26,12 +26,14 @@ from schemathesis.specs.openapi.checks import response_schema_conformance, statu
 from service.app import create_app
 from service.demo import DEMO_MESH, DEMO_SESSION
 
+from .st_transport import send
+
 pytestmark = pytest.mark.fuzz  # generated requests: make test, not make check
 _DATA = tempfile.mkdtemp(prefix="tetmorph-delete-")
 app = create_app(data_dir=_DATA, demo=True, rate_limit_per_s=0, max_sessions=100_000, job_wait_s=30)
 client = TestClient(app)
 client.__enter__()  # the demo mesh and session exist; the one lifespan of the run
-schema = schemathesis.openapi.from_dict(app.openapi())  # not from_asgi: no lifespan of schemathesis's
+schema = schemathesis.openapi.from_dict(app.openapi())  # cases go through the client (st_transport)
 DEMO_SPEC = client.get(f"/v1/sessions/{DEMO_SESSION}").json()["spec"]
 #: A batch long enough to be running when it is cancelled.
 BATCH = {"shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}},
@@ -70,24 +72,12 @@ def give_fresh_ids(case: Any) -> dict[str, str]:
     return made
 
 
-def send(case: Any) -> Any:
-    """The case sent through this module's client: one lifespan for the whole run.
-
-    (Over ASGI, schemathesis runs the app's lifespan itself and ends it after each test item,
-    which closes the registry's build pool under the sessions made here.)
-    """
-    kwargs = case.as_transport_kwargs(base_url=str(client.base_url))
-    if not kwargs.get("cookies"):
-        kwargs.pop("cookies", None)
-    return client.request(**kwargs)
-
-
 @schema.include(method="DELETE").parametrize()
 @settings(max_examples=6, deadline=None, suppress_health_check=list(HealthCheck))
 def test_delete_of_a_fresh_resource_removes_it_and_answers_as_documented(case):
     made = give_fresh_ids(case)
     try:
-        response = send(case)
+        response = send(client, case)
         case.validate_response(response, checks=[not_a_server_error, status_code_conformance,
                                                  response_schema_conformance])
         if case.method == "DELETE":  # schemathesis also probes other methods on the path (405)

@@ -7,13 +7,13 @@ may still be refused for what a JSON Schema cannot state; those refusals are lis
 :data:`BEYOND_THE_SCHEMA`, each with why, and matched by their typed code and details, so that
 any other refusal fails the test (schemathesis's ``positive_data_acceptance`` check).
 
-Strings are generated without NUL: the service refuses NUL in every text (``refuse_nul``; no
-file format or name can hold it), which the API description states once for all fields.
+Strings are generated without NUL: the service refuses a NUL anywhere a request carries text
+(``service.api.deps.refuse_nul``, one rule for every field: PostgreSQL cannot store it), a rule of
+the transport that the schema does not repeat on each string.
 """
 
 from __future__ import annotations
 
-import json
 import tempfile
 from collections.abc import Callable
 from typing import Any
@@ -34,14 +34,14 @@ from schemathesis.specs.openapi.checks import (
 from service.app import create_app
 from service.demo import DEMO_MESH, DEMO_SESSION
 
+from .st_transport import send
+
 pytestmark = pytest.mark.fuzz  # generated requests: make test, not make check
 _DATA = tempfile.mkdtemp(prefix="tetmorph-positive-")
 app = create_app(data_dir=_DATA, demo=True, rate_limit_per_s=0, max_sessions=100_000, job_wait_s=30)
 client = TestClient(app)
 client.__enter__()  # the demo mesh and session exist; the one lifespan of the run
-# from the document, not over ASGI: schemathesis would run the app's lifespan itself and end it after
-# each test item, closing the registry's pools under the next
-schema = schemathesis.openapi.from_dict(app.openapi())
+schema = schemathesis.openapi.from_dict(app.openapi())  # cases go through the client (st_transport)
 schema.config.generation.update(modes=[GenerationMode.POSITIVE], allow_x00=False)
 
 Refusal = Callable[[dict[str, Any], Any], bool]
@@ -125,24 +125,11 @@ def _on_the_demo(case: Any) -> None:
         params["mesh_id"] = DEMO_MESH
 
 
-def send(case: Any) -> Any:
-    """The case sent through this module's client, as schemathesis sends it over ASGI."""
-    kwargs = case.as_transport_kwargs(base_url=str(client.base_url))
-    if not kwargs.get("cookies"):
-        kwargs.pop("cookies", None)
-    if kwargs.get("files"):  # form values other than text go as their JSON text
-        kwargs["files"] = [(k, (name, v if isinstance(v, (str, bytes)) else json.dumps(v)))
-                           for k, (name, v, *_) in kwargs["files"]]
-    response = client.request(**kwargs)
-    response.request.read()  # a multipart body is a stream; the checks read what was sent
-    return response
-
-
 @schema.exclude(method="DELETE").parametrize()  # DELETE on fresh resources: test_delete_fresh.py
 @settings(max_examples=20, deadline=None, suppress_health_check=list(HealthCheck))
 def test_schema_valid_requests_are_accepted_and_answered_as_documented(case):
     _on_the_demo(case)
-    response = send(case)
+    response = send(client, case)
     case.validate_response(response, checks=[not_a_server_error, status_code_conformance, content_type_conformance,
                                              response_schema_conformance])
     if not beyond_the_schema(response, case):

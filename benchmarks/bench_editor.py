@@ -58,9 +58,9 @@ def main() -> None:
         pg.goto(base + "/")
         t0 = time.perf_counter()
         pg.set_input_files("#upload", str(deck))
-        pg.wait_for_function("window.tetmorph.state.V !== null", timeout=300000)
+        pg.wait_for_function("window.tetmorph.mesh().open", timeout=300000)
         load_s = time.perf_counter() - t0
-        tets = pg.evaluate("window.tetmorph.state.T.length / 4")
+        tets = pg.evaluate("window.tetmorph.tets().length / 4")
         pg.select_option("#sets", "FIXED")
         pg.click("#set-apply")
         pg.check("input[name=role][value='2']")
@@ -68,25 +68,25 @@ def main() -> None:
         pg.click("#set-apply")
         t0 = time.perf_counter()
         pg.click("#create")
-        pg.wait_for_function("window.tetmorph.state.sessionId !== null", timeout=300000)
+        pg.wait_for_function("window.tetmorph.session().id !== null", timeout=300000)
         session_s = time.perf_counter() - t0
         lat, frame_ms, apply_ms, rtt, brtt = [], [], [], [], []
+        b_last = None
         for k in range(1, a.moves + 1):
             pg.fill("#tz", str(0.5 * k))
             t0 = time.perf_counter()
             pg.click("#apply-move")
-            pg.wait_for_function(f"window.tetmorph.state.lastSeq === {k}", timeout=60000)
+            pg.wait_for_function(f"window.tetmorph.session().lastSeq === {k}", timeout=60000)
             pg.evaluate("() => new Promise((r) => requestAnimationFrame(() => r()))")  # drawn
             lat.append(time.perf_counter() - t0)
-            frame_ms.append(pg.evaluate("window.tetmorph.state.report.solve_ms"))
-            apply_ms.append(pg.evaluate("window.tetmorph.state.applyMs"))
-            rtt.append(pg.evaluate("window.tetmorph.state.roundTripMs"))
-            b_ms = pg.evaluate("window.tetmorph.state.boundaryRoundTripMs")
-            pg.evaluate("window.tetmorph.state.boundaryRoundTripMs = undefined")
-            if b_ms is not None:
+            frame_ms.append(pg.evaluate("window.tetmorph.report().solve_ms"))
+            apply_ms.append(pg.evaluate("window.tetmorph.view().applyMs"))
+            rtt.append(pg.evaluate("window.tetmorph.session().roundTripMs"))
+            b_ms = pg.evaluate("window.tetmorph.session().boundaryRoundTripMs")
+            if b_ms is not None and b_ms != b_last:  # a boundary frame of this MOVE was drawn
                 brtt.append(b_ms)
-        counts = pg.evaluate("(() => { const s = window.tetmorph.state; "
-                             "return [s.boundaryReceived || 0, s.boundaryFrames || 0]; })()")
+            b_last = b_ms
+        counts = pg.evaluate("[window.tetmorph.session().boundaryReceived, window.tetmorph.view().boundaryFrames]")
         views = time_views(pg, a.moves) if a.views else None
         b.close()
     print("| tets | page load + geometry s | session build s | MOVE → frame on screen ms (median) | p95 ms "
@@ -122,7 +122,7 @@ VIEWS = [
 def time_views(pg, moves: int) -> dict[str, tuple[float, float, float]]:
     """Per view: median frame ms, and median send -> applied and apply ms of MOVEs sent with it on."""
     out = {}
-    seq = pg.evaluate("window.tetmorph.state.seq")
+    seq = pg.evaluate("window.tetmorph.session().seq")
     for name, on, off in VIEWS:
         if on:
             pg.evaluate(on)
@@ -133,9 +133,9 @@ def time_views(pg, moves: int) -> dict[str, tuple[float, float, float]]:
             seq += 1
             pg.fill("#tz", str(0.5 * k + 0.25))
             pg.click("#apply-move")
-            pg.wait_for_function(f"window.tetmorph.state.lastSeq === {seq}", timeout=60000)
-            sent.append(pg.evaluate("window.tetmorph.state.roundTripMs"))
-            applied.append(pg.evaluate("window.tetmorph.state.applyMs"))
+            pg.wait_for_function(f"window.tetmorph.session().lastSeq === {seq}", timeout=60000)
+            sent.append(pg.evaluate("window.tetmorph.session().roundTripMs"))
+            applied.append(pg.evaluate("window.tetmorph.view().applyMs"))
         if off:
             pg.evaluate(off)
         out[name] = (frame, float(np.median(sent)), float(np.median(applied)))

@@ -193,7 +193,7 @@ def differs(a: bytes, b: bytes) -> int:
 def upload(pg, *paths: Path, name: str | None = None, timeout: float = 60000) -> None:
     pg.set_input_files("#upload", [str(p) for p in paths])
     expected = name or paths[0].name
-    pg.wait_for_function(f"window.tetmorph.state.V !== null && window.tetmorph.state.meshName === {expected!r}",
+    pg.wait_for_function(f"window.tetmorph.mesh().open && window.tetmorph.mesh().name === {expected!r}",
                          timeout=timeout)
 
 
@@ -209,11 +209,10 @@ def assign_set(pg, name: str, role: int) -> None:
 
 def create(pg, policy: str = "warn", timeout: float = 60000) -> None:
     pg.select_option("#policy", policy)
-    before = json.dumps(pg.evaluate("window.tetmorph.state.sessionId"))
+    before = json.dumps(pg.evaluate("window.tetmorph.session().id"))
     pg.click("#create")
-    pg.wait_for_function(f"window.tetmorph.state.sessionId !== null && window.tetmorph.state.sessionId !== {before}"
-                         " && window.tetmorph.state.ws && (window.tetmorph.state.ws.open || "
-                         "window.tetmorph.state.ws.readyState === 1)", timeout=timeout)
+    pg.wait_for_function(f"(() => {{ const s = window.tetmorph.session(); return s.id !== null && s.id !== {before}"
+                         " && s.stream && (s.stream.open || s.stream.readyState === 1); })()", timeout=timeout)
 
 
 def bracket_session(pg, policy: str = "warn") -> None:
@@ -225,7 +224,7 @@ def bracket_session(pg, policy: str = "warn") -> None:
 
 def settle(pg, timeout: float = 30000) -> None:
     """Wait until the last MOVE sent has come back over the WebSocket."""
-    pg.wait_for_function("window.tetmorph.state.seq > 0 && window.tetmorph.state.lastSeq === window.tetmorph.state.seq",
+    pg.wait_for_function("(() => { const s = window.tetmorph.session(); return s.seq > 0 && s.lastSeq === s.seq; })()",
                          timeout=timeout)
 
 
@@ -243,7 +242,7 @@ def positions(pg) -> np.ndarray:
 
 
 def rest(pg) -> np.ndarray:
-    return np.array(pg.evaluate("Array.from(window.tetmorph.state.V0)")).reshape(-1, 3)
+    return np.array(pg.evaluate("window.tetmorph.rest()")).reshape(-1, 3)
 
 
 def report_row(pg, key: str) -> str | None:

@@ -24,10 +24,10 @@ def test_the_editor_runs_under_its_policy_and_the_policy_refuses_injected_script
             pg.wait_for_timeout(100)
         pg.click("#welcome-demo")
         for _ in range(300):  # the demo session opens and its stream connects (WebSocket: connect-src 'self')
-            if pg.evaluate("() => window.tetmorph.state.sessionId === 's_demo' && window.tetmorph.state.ws.open"):
+            if pg.evaluate("() => window.tetmorph.session().id === 's_demo' && window.tetmorph.session().stream.open"):
                 break
             pg.wait_for_timeout(100)
-        assert pg.evaluate("() => window.tetmorph.state.ws.open")
+        assert pg.evaluate("() => window.tetmorph.session().stream.open")
         assert violations == [] and errors == [], (violations, errors)
         # an inline script added to the page is refused by the same policy
         pg.evaluate("() => { const s = document.createElement('script'); s.textContent = 'window.injected = 1';"

@@ -96,12 +96,12 @@ def test_the_editor_tutorial_step_by_step(pages, server, tmp_path, request):
     assign_set(pg, "FIXED", 1)
     assign_set(pg, "LOAD", 1)
     assign_set(pg, "HOLE", 2)
-    role = np.array(pg.evaluate("Array.from(window.tetmorph.state.role)"))
+    role = np.array(pg.evaluate("window.tetmorph.role()"))
     fixed = np.union1d(deck.sets["FIXED"], deck.sets["LOAD"])
     assert (role[fixed] == 1).all() and (role[deck.sets["HOLE"]] == 2).all()
     assert (role == 1).sum() == fixed.size and (role == 2).sum() == deck.sets["HOLE"].size
     create(pg, "warn")
-    sid = pg.evaluate("window.tetmorph.state.sessionId")
+    sid = pg.evaluate("window.tetmorph.session().id")
     picture(pg, folder, "3-regions")
 
     # 4. the gizmo dragged with the mouse: the bore moves, the fixed sets stay
@@ -158,4 +158,4 @@ def test_the_editor_tutorial_step_by_step(pages, server, tmp_path, request):
     assert all(got_raw[ids[i]] == rest_raw[ids[i]] for i in fixed)  # the fixed nodes' lines, character for character
     assert np.abs(X - X0).max() > 3.9  # and the bore's did change
     picture(pg, folder, "7-download", "#sec-download")
-    assert sid == pg.evaluate("window.tetmorph.state.sessionId")
+    assert sid == pg.evaluate("window.tetmorph.session().id")

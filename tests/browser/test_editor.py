@@ -23,7 +23,7 @@ def select_and_create(pg, handle_by_box: bool = True, policy: str = "warn") -> N
     pg.click("#set-apply")
     pg.check("input[name=role][value='2']")
     if handle_by_box:  # handle: a box drawn with the mouse around the x = 100 end
-        ids = pg.evaluate("Array.from(window.tetmorph.state.sets['LOAD'])")
+        ids = pg.evaluate("window.tetmorph.set('LOAD')")
         pts = pg.evaluate("(ids) => ids.map((i) => window.tetmorph.screenOf(i))", ids)
         xs, ys = [p["x"] for p in pts], [p["y"] for p in pts]
         pg.check("input[name=tool][value='box']")
@@ -38,13 +38,13 @@ def select_and_create(pg, handle_by_box: bool = True, policy: str = "warn") -> N
         pg.click("#set-apply")
     pg.select_option("#policy", policy)
     pg.click("#create")
-    pg.wait_for_function("window.tetmorph.state.sessionId !== null", timeout=30000)
+    pg.wait_for_function("window.tetmorph.session().id !== null", timeout=30000)
 
 
 def test_upload_select_drag_download_matches_the_library(page, server, tmp_path):
     load_bracket(page)
     select_and_create(page)
-    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
+    role = np.array(page.evaluate("window.tetmorph.role()"))
     load_set = read_mesh(BRACKET).sets["LOAD"]
     assert (role[load_set] == 2).all() and (role == 1).sum() == read_mesh(BRACKET).sets["FIXED"].size
     before = shot(page, "editor-before-drag")
@@ -56,7 +56,7 @@ def test_upload_select_drag_download_matches_the_library(page, server, tmp_path)
     p1 = np.array(page.evaluate("window.tetmorph.positions()"))
     assert np.abs(p1 - p0).max() > 1.0  # the mesh moved by more than a millimetre
     assert differs(before, after) > 2000  # and the picture on screen changed
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     with httpx.Client(base_url=server) as c_:
         server_pos = np.array(c_.get(f"/v1/sessions/{sid}/positions").json()["positions"])
         doc = c_.get(f"/v1/sessions/{sid}").json()
@@ -70,7 +70,7 @@ def test_upload_select_drag_download_matches_the_library(page, server, tmp_path)
     got = np.asarray(meshio.read(path).points)
     expected = precompute(read_mesh(BRACKET), doc["spec"]).solve(doc["last_move"]).V
     np.testing.assert_allclose(got, expected, atol=1e-9)
-    assert json.loads(json.dumps(page.evaluate("window.tetmorph.state.lastMove"))) == doc["last_move"]
+    assert json.loads(json.dumps(page.evaluate("window.tetmorph.session().lastMove"))) == doc["last_move"]
 
 
 def test_numeric_moves_undo_and_reset(page, server):
@@ -90,8 +90,8 @@ def test_numeric_moves_undo_and_reset(page, server):
     np.testing.assert_allclose(np.array(page.evaluate("window.tetmorph.positions()")), first, atol=1e-5)
     page.click("#reset")
     confirm(page)
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
-    V0 = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)"))
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
+    V0 = np.array(page.evaluate("window.tetmorph.rest()"))
     np.testing.assert_array_equal(np.array(page.evaluate("window.tetmorph.positions()")), V0)
 
 
@@ -102,19 +102,19 @@ def test_clipping_shows_interior_tets_and_colours_bad_ones(page):
     page.fill("#ax", "1"), page.fill("#ay", "0"), page.fill("#az", "0"), page.fill("#angle", "150")
     page.click("#apply-move")
     settle(page)
-    bad = page.evaluate("window.tetmorph.state.badCount")
+    bad = page.evaluate("window.tetmorph.view().badCount")
     assert bad > 0
     plain = shot(page, "editor-unclipped")
     page.check("#clip")
     page.select_option("#clip-axis", "1")
-    page.wait_for_function("window.tetmorph.state.cut > 0")
-    cut = page.evaluate("window.tetmorph.state.cut")
+    page.wait_for_function("window.tetmorph.view().cut > 0")
+    cut = page.evaluate("window.tetmorph.view().cut")
     clipped = shot(page, "editor-clipped")
     assert differs(plain, clipped) > 2000
     # moving the plane changes which tets are cut
     page.fill("#clip-pos", "0.2")
     page.dispatch_event("#clip-pos", "input")
-    page.wait_for_function(f"window.tetmorph.state.cut !== {cut}")
+    page.wait_for_function(f"window.tetmorph.view().cut !== {cut}")
     assert "tets in the section" in page.inner_text("#cut-count")
 
 
@@ -129,7 +129,7 @@ def test_error_panel_shows_the_report_of_a_rejected_move(page):
     assert "inverted_elements" in text and "safe fraction" in text
     shot(page, "editor-error-panel")
     # the session stayed where it was: the rest shape
-    V0 = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)"))
+    V0 = np.array(page.evaluate("window.tetmorph.rest()"))
     np.testing.assert_array_equal(np.array(page.evaluate("window.tetmorph.positions()")), V0)
 
 
@@ -138,19 +138,19 @@ def test_brush_paints_vertices_near_the_cursor(page):
     page.check("input[name=role][value='2']")
     page.check("input[name=tool][value='brush']")
     # press on the middle of the x = 100 end face as drawn, and paint a short stroke
-    ids = page.evaluate("Array.from(window.tetmorph.state.sets['LOAD'])")
+    ids = page.evaluate("window.tetmorph.set('LOAD')")
     pts = page.evaluate("(ids) => ids.map((i) => window.tetmorph.screenOf(i))", ids)
     x, y = np.mean([q["x"] for q in pts]), np.mean([q["y"] for q in pts])
     page.mouse.move(x, y - 4)
     page.mouse.down()
     page.mouse.move(x, y + 4, steps=4)
     page.mouse.up()
-    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
-    V = np.array(page.evaluate("Array.from(window.tetmorph.state.V0)")).reshape(-1, 3)
+    role = np.array(page.evaluate("window.tetmorph.role()"))
+    V = np.array(page.evaluate("window.tetmorph.rest()")).reshape(-1, 3)
     painted = np.flatnonzero(role == 2)
     assert painted.size > 0
     # all of them on the boundary and near the x = 100 end (brush radius 4% of the diagonal)
     diag = float(np.linalg.norm(V.max(0) - V.min(0)))
     assert V[painted, 0].min() > 100 - 0.15 * diag
-    boundary = np.array(page.evaluate("Array.from(window.tetmorph.state.boundary)"))
+    boundary = np.array(page.evaluate("window.tetmorph.boundary()"))
     assert boundary[painted].all()

@@ -138,12 +138,12 @@ def test_regions_list_with_counts_visibility_delete_modifiers_and_front_only_box
     box_over(page, (88, -3, 10), (102, 23, 10))  # through: the top and the bottom of the x > 88 end
     r = regions(page)
     assert r["FIXED"]["count"] == mesh.sets["FIXED"].size and r["FIXED"]["kind"] == "fixed"
-    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
+    role = np.array(page.evaluate("window.tetmorph.role()"))
     through = np.flatnonzero(role == 2)
     assert V[through, 2].min() < 1e-9 and V[through, 2].max() > 10 - 1e-9
     page.select_option("#box-mode", "front")
     box_over(page, (88, -3, 10), (102, 23, 10))  # plain drag: replaces the region, front surface only
-    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
+    role = np.array(page.evaluate("window.tetmorph.role()"))
     front = np.flatnonzero(role == 2)
     assert 0 < front.size < through.size
     assert V[front, 2].min() > 10 - 0.5  # no vertex of the hidden bottom face
@@ -180,14 +180,14 @@ def test_regions_list_with_counts_visibility_delete_modifiers_and_front_only_box
 def test_brush_cursor_preview(page):
     load_bracket(page)
     page.check("input[name=tool][value='brush']")
-    ids = page.evaluate("Array.from(window.tetmorph.state.sets['LOAD'])")
+    ids = page.evaluate("window.tetmorph.set('LOAD')")
     pts = page.evaluate("(ids) => ids.map((i) => window.tetmorph.screenOf(i))", ids)
     x, y = np.mean([q["x"] for q in pts]), np.mean([q["y"] for q in pts])
     page.mouse.move(x, y)
     ring = page.evaluate("window.tetmorph.ring()")
     assert ring["visible"]
     assert ring["position"][0] == pytest.approx(100, abs=1e-3)  # on the x = 100 end face
-    diag = page.evaluate("window.tetmorph.state.diag")
+    diag = page.evaluate("window.tetmorph.mesh().diag")
     assert ring["radius"] == pytest.approx(0.04 * diag)  # the brush radius, 4 % of the size
     page.fill("#brush", "10")
     page.mouse.move(x, y + 1)
@@ -208,7 +208,7 @@ def test_feature_candidates_are_one_click_regions(page):
     expected = next(c for c in feature_candidates(read_mesh(BRACKET), 30, 1e-3) if c.name == "hole_1")
     ids = np.array(expected.to_dict()["selection"]["ids"])
     assert r["kind"] == "fixed" and r["count"] == ids.size == 61
-    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
+    role = np.array(page.evaluate("window.tetmorph.role()"))
     assert set(np.flatnonzero(role == 1)) == set(ids.tolist())
     page.click("#features li:has-text('plane_6') button[data-kind=handle]")
     assert regions(page)["plane_6"]["kind"] == "handle"
@@ -229,7 +229,7 @@ def test_the_spec_is_shown_exported_and_imported(page, tmp_path):
     assert json.loads(path.read_text()) == shown
     page.click("#spec-close")
     create(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     with httpx.Client(base_url=page.base) as c:
         assert c.get(f"/v1/sessions/{sid}").json()["spec"] == shown  # what the dialog showed is what was sent
     # import: a SPEC with a box selection becomes regions
@@ -254,7 +254,7 @@ def test_the_spec_is_shown_exported_and_imported(page, tmp_path):
     create(page, policy="clamp")
     numeric_move(page, t=(0, 0, 3))
     settle(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     with httpx.Client(base_url=page.base) as c:
         assert list(c.get(f"/v1/sessions/{sid}").json()["last_move"]["handles"]) == ["tip"]
 
@@ -278,7 +278,7 @@ def test_several_handles_each_with_its_own_transform(page):
     settle(page)
     page.select_option("#handle-select", "LOAD")
     assert page.input_value("#tz") == "4"
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     with httpx.Client(base_url=page.base) as c:
         last = c.get(f"/v1/sessions/{sid}").json()["last_move"]["handles"]
     assert last["LOAD"]["translation"] == [0, 0, 4] and last["hole_1"]["translation"] == [0, 0, -2]
@@ -325,7 +325,7 @@ def test_relative_moves(page):
     page.click("#move-by")
     settle(page)
     assert page.input_value("#angle") == "90" and page.input_value("#az") == "1"
-    h = next(iter(page.evaluate("window.tetmorph.state.lastMove")["handles"].values()))
+    h = next(iter(page.evaluate("window.tetmorph.session().lastMove")["handles"].values()))
     np.testing.assert_allclose(h["translation"], [0, 0, 6], atol=1e-12)
     np.testing.assert_allclose(h["rotation"]["quaternion"], [np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)], atol=1e-9)
 
@@ -351,7 +351,7 @@ def test_undo_and_redo_with_a_visible_history(page):
     np.testing.assert_allclose(positions(page), snaps[1], atol=1e-6)
     assert page.input_value("#tz") == "2"
     page.click("#history li[data-k='0']")
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     np.testing.assert_array_equal(positions(page), rest(page))
     page.click("#history li[data-k='3']")
     settle(page)
@@ -374,14 +374,14 @@ def test_named_presets_are_kept_with_the_session(page):
     moved = save_lift_preset(page)
     page.click("#reset")
     confirm(page)
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
+    sid = page.evaluate("window.tetmorph.session().id")
     # leave the session and open it again from the list: the preset is still there
     page.click("#sessions-btn")
     page.click(f"#sessions-table tr[data-id={sid}] button[data-act=close]")
-    page.wait_for_function("window.tetmorph.state.sessionId === null")
+    page.wait_for_function("window.tetmorph.session().id === null")
     page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
-    page.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}'")
+    page.wait_for_function(f"window.tetmorph.session().id === '{sid}'")
     page.click("#presets li:has-text('lift 5') button[data-act=apply]")
     settle(page)
     np.testing.assert_allclose(positions(page), moved, atol=1e-6)
@@ -391,14 +391,14 @@ def test_named_presets_are_kept_with_the_session(page):
 def test_presets_live_on_the_service_another_browser_sees_and_applies_them(pages, server):
     a = pages(server)
     moved = save_lift_preset(a)
-    sid = a.evaluate("window.tetmorph.state.sessionId")
+    sid = a.evaluate("window.tetmorph.session().id")
     stored = httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]
     assert [p["name"] for p in stored] == ["lift 5"]
-    assert stored[0]["move"] == a.evaluate("window.tetmorph.state.lastMove")  # the MOVE shown when saved
+    assert stored[0]["move"] == a.evaluate("window.tetmorph.session().lastMove")  # the MOVE shown when saved
     assert a.evaluate("Object.keys(localStorage).filter((k) => k.startsWith('tetmorph-presets'))") == []
     a.click("#reset")
     confirm(a)
-    a.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    a.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     a.close()  # the tab goes; the moved session stays on the service
     # another browser (a fresh context: nothing of the first one's storage), where an editor of before
     # left presets of this session in localStorage: they join the service's on open (its own names win)
@@ -408,8 +408,8 @@ def test_presets_live_on_the_service_another_browser_sees_and_applies_them(pages
     b.evaluate("([k, v]) => localStorage.setItem(k, v)", [f"tetmorph-presets:{sid}", json.dumps(legacy)])
     b.click("#sessions-btn")
     b.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
-    b.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}' && window.tetmorph.state.ws.open")
-    b.wait_for_function("window.tetmorph.state.presets.length === 2")
+    b.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open")
+    b.wait_for_function("window.tetmorph.session().presets.length === 2")
     b.evaluate("document.getElementById('sessions-dialog').close()")
     assert b.evaluate(f"localStorage.getItem('tetmorph-presets:{sid}')") is None
     stored = httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]
@@ -422,16 +422,16 @@ def test_presets_live_on_the_service_another_browser_sees_and_applies_them(pages
     np.testing.assert_allclose(positions(b), server_positions(server, sid), atol=1e-4)
     assert b.input_value("#tz") == "5" and b.input_value("#angle") == "20"
     b.click("#presets li:has-text('kept here') button[data-act=delete]")
-    b.wait_for_function("window.tetmorph.state.presets.length === 1")
+    b.wait_for_function("window.tetmorph.session().presets.length === 1")
     assert [p["name"] for p in httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]] == ["lift 5"]
     # a save the service refuses (the session was deleted behind the editor's back) is shown, and the
     # list stays the service's last one
     assert httpx.delete(f"{server}/v1/sessions/{sid}").status_code == 204
     b.fill("#preset-name", "too late")
     b.click("#preset-save")
-    b.wait_for_function("window.tetmorph.state.error && window.tetmorph.state.error.code === 'session_not_found'")
+    b.wait_for_function("window.tetmorph.error() && window.tetmorph.error().code === 'session_not_found'")
     assert b.is_visible("#errors") and "no longer exists" in b.inner_text("#error-text")
-    assert [p["name"] for p in b.evaluate("window.tetmorph.state.presets")] == ["lift 5"]
+    assert [p["name"] for p in b.evaluate("window.tetmorph.session().presets")] == ["lift 5"]
     assert [t.strip() for t in b.locator("#presets li .name").all_inner_texts()] == ["lift 5"]
 
 
@@ -441,14 +441,14 @@ def test_session_list_close_delete_and_reopening_a_mesh_offers_its_sessions(page
     bracket_session(a)
     numeric_move(a, t=(0, 0, 6))
     settle(a)
-    sid = a.evaluate("window.tetmorph.state.sessionId")
-    mesh_id = a.evaluate("window.tetmorph.state.meshId")
+    sid = a.evaluate("window.tetmorph.session().id")
+    mesh_id = a.evaluate("window.tetmorph.mesh().id")
     b = pages(server)
     b.select_option("#meshes", mesh_id)
     b.click("#open-mesh")
     b.wait_for_selector(f"#mesh-sessions tr[data-id={sid}]")
     b.click(f"#mesh-sessions tr[data-id={sid}] button[data-act=open]")
-    b.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}' && window.tetmorph.state.ws.open")
+    b.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open")
     np.testing.assert_allclose(positions(b), server_positions(server, sid), atol=1e-4)
     r = regions(b)
     assert r["FIXED"]["count"] == 46 and r["LOAD"]["count"] == 46
@@ -456,7 +456,7 @@ def test_session_list_close_delete_and_reopening_a_mesh_offers_its_sessions(page
     b.click("#sessions-btn")
     b.wait_for_selector(f"#sessions-table tr.current[data-id={sid}]")
     b.click(f"#sessions-table tr[data-id={sid}] button[data-act=close]")
-    b.wait_for_function("window.tetmorph.state.sessionId === null")
+    b.wait_for_function("window.tetmorph.session().id === null")
     with httpx.Client(base_url=server) as c:
         assert c.get(f"/v1/sessions/{sid}").status_code == 200  # closed here, kept there
         b.click(f"#sessions-table tr[data-id={sid}] button[data-act=delete]")
@@ -488,12 +488,12 @@ def test_a_session_is_saved_to_a_file_and_reloaded(pages, server, tmp_path):
     with b.expect_file_chooser() as fc:
         b.click("#load-session-btn")
     fc.value.set_files(str(path))
-    b.wait_for_function("window.tetmorph.state.sessionId !== null && window.tetmorph.state.history.length === 3")
+    b.wait_for_function("window.tetmorph.session().id !== null && window.tetmorph.session().historyLength === 3")
     settle(b)
     np.testing.assert_allclose(positions(b), snaps[0], atol=1e-6)
     assert b.get_attribute("#history li.active", "data-k") == "1"
     assert "p4" in b.inner_text("#presets")
-    sid = b.evaluate("window.tetmorph.state.sessionId")
+    sid = b.evaluate("window.tetmorph.session().id")
     assert [p["name"] for p in httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]] == ["p4"]
     b.click("#redo")
     settle(b)
@@ -505,7 +505,7 @@ def test_the_first_load_says_what_to_do_and_demo_opens_the_ready_session(pages, 
     welcome = pg.inner_text("#welcome")
     assert "Open the demo" in welcome and "Upload a mesh" in welcome
     pg.click("#welcome-demo")
-    pg.wait_for_function("window.tetmorph.state.sessionId === 's_demo' && window.tetmorph.state.ws.open")
+    pg.wait_for_function("window.tetmorph.session().id === 's_demo' && window.tetmorph.session().stream.open")
     assert pg.is_hidden("#welcome")
     mesh = read_mesh(DATA / "beam.node")
     spec = json.loads((ROOT / "examples" / "beam" / "spec.json").read_text())
@@ -531,7 +531,7 @@ def test_histogram_threshold_drags_and_counts_follow(page):
     x_of = page.evaluate("(t) => window.tetmorph.histogramX(t)", 0.2)
     x1 = page.evaluate("(t) => window.tetmorph.histogramX(t)", 0.5)
     drag(page, x_of, hist["y"] + hist["h"] / 2, x1, hist["y"] + hist["h"] / 2, steps=5)
-    t = page.evaluate("window.tetmorph.state.threshold")
+    t = page.evaluate("window.tetmorph.view().threshold")
     assert t == pytest.approx(0.5, abs=0.011)
     sj = scaled_jacobians(positions(page).astype(np.float64), read_mesh(BRACKET).T)
     assert report_row(page, "below") == f"{int((sj < t).sum()):,}"
@@ -539,7 +539,7 @@ def test_histogram_threshold_drags_and_counts_follow(page):
     assert page.input_value("#threshold") == f"{t:g}"
     page.fill("#threshold", "0.3")
     page.press("#threshold", "Enter")
-    assert page.evaluate("window.tetmorph.state.threshold") == 0.3
+    assert page.evaluate("window.tetmorph.view().threshold") == 0.3
     assert report_row(page, "below") == f"{int((sj < 0.3).sum()):,}"
 
 
@@ -583,7 +583,7 @@ def test_keyboard_only_upload_keys_and_esc(page):
         page.wait_for_timeout(50)
     assert choosers, "Enter on the Upload button opened no file dialog"
     choosers[0].set_files(str(BRACKET))
-    page.wait_for_function("window.tetmorph.state.meshName === 'bracket.inp'")
+    page.wait_for_function("window.tetmorph.mesh().name === 'bracket.inp'")
     assign_set(page, "FIXED", 1)
     assign_set(page, "LOAD", 2)
     create(page)
@@ -595,7 +595,8 @@ def test_keyboard_only_upload_keys_and_esc(page):
     page.fill("#tz", "3")
     page.press("#tz", "Enter")  # Enter in a number field applies
     settle(page)
-    assert next(iter(page.evaluate("window.tetmorph.state.lastMove")["handles"].values()))["translation"] == [0, 0, 3]
+    held = page.evaluate("window.tetmorph.session().lastMove")
+    assert next(iter(held["handles"].values()))["translation"] == [0, 0, 3]
     page.fill("#dx", "2")
     page.press("#dx", "Enter")
     settle(page)
@@ -604,7 +605,7 @@ def test_keyboard_only_upload_keys_and_esc(page):
     page.check("input[name=role][value='0']")
     page.check("input[name=tool][value='box']")
     box = canvas_box(page)
-    before = page.evaluate("Array.from(window.tetmorph.state.role)")
+    before = page.evaluate("window.tetmorph.role()")
     page.mouse.move(box["x"] + 20, box["y"] + 20)
     page.mouse.down()
     page.mouse.move(box["x"] + box["w"] - 20, box["y"] + box["h"] - 20, steps=3)
@@ -612,7 +613,7 @@ def test_keyboard_only_upload_keys_and_esc(page):
     page.keyboard.press("Escape")
     assert page.is_hidden("#boxsel")
     page.mouse.up()
-    assert page.evaluate("Array.from(window.tetmorph.state.role)") == before  # nothing erased
+    assert page.evaluate("window.tetmorph.role()") == before  # nothing erased
     page.keyboard.press("Escape")
     assert page.is_checked("input[name=tool][value=orbit]")
 
@@ -638,7 +639,7 @@ def test_a_real_deck_mid_morph_for_the_readme(page):
     create(page)
     numeric_move(page, t=(0, 0, 0.03))
     settle(page)
-    assert page.is_hidden("#errors") and page.evaluate("window.tetmorph.state.report.inverted_elements") == 0
+    assert page.is_hidden("#errors") and page.evaluate("window.tetmorph.report().inverted_elements") == 0
     page.check("#ghost")
     page.uncheck("#bad")
     page.dispatch_event("#bad", "input")

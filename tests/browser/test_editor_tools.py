@@ -109,7 +109,7 @@ def test_the_gizmo_snaps_to_nodes(page):
     s = pts[cand.index(k)]
     assert np.hypot(s["x"] - target["x"] - 2, s["y"] - target["y"] - 1) < 13
     # and the session moved the handle's centre there
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     last = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]
     h = next(iter(last["handles"].values()))
     np.testing.assert_allclose(np.array(h["pivot"]) + np.array(h["translation"]), V[k], atol=1e-5)
@@ -117,7 +117,7 @@ def test_the_gizmo_snaps_to_nodes(page):
     page.uncheck("#snap-node")
     page.click("#reset")
     page.click("#confirm-ok")
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     _drag_to(page, target["x"] + 2, target["y"] + 1)
     settle(page)
     pivot = np.array(page.evaluate("window.tetmorph.pivot()")["position"])
@@ -140,8 +140,8 @@ def test_a_section_plane_at_any_orientation(page):
     page.select_option("#clip-axis", "n")
     page.fill("#clip-normal", "1 1 0")
     page.press("#clip-normal", "Enter")
-    page.wait_for_function("window.tetmorph.state.cut > 0")
-    assert page.evaluate("window.tetmorph.state.cut") == expected([1, 1, 0])
+    page.wait_for_function("window.tetmorph.view().cut > 0")
+    assert page.evaluate("window.tetmorph.view().cut") == expected([1, 1, 0])
     assert "tets in the section" in page.inner_text("#cut-count")
     # a plane facing the camera
     page.click("[data-view=iso]")
@@ -150,7 +150,7 @@ def test_a_section_plane_at_any_orientation(page):
     cam = page.evaluate("window.tetmorph.camera()")
     view = np.array(cam["position"]) - np.array(cam["target"])
     np.testing.assert_allclose(n, view / np.linalg.norm(view), atol=1e-4)
-    page.wait_for_function(f"window.tetmorph.state.cut === {expected(n)}")
+    page.wait_for_function(f"window.tetmorph.view().cut === {expected(n)}")
 
 
 def test_hide_isolate_show_and_opacity(page):
@@ -161,7 +161,7 @@ def test_hide_isolate_show_and_opacity(page):
     inside[mesh.sets["LOAD"]] = True
     whole = inside[F].all(axis=1)
     assert 0 < whole.sum() < len(F)
-    visible = lambda: page.evaluate("window.tetmorph.state.visibleFaces")  # noqa: E731
+    visible = lambda: page.evaluate("window.tetmorph.view().visibleFaces")  # noqa: E731
     assert visible() == len(F)
     page.select_option("#show-what", "set:LOAD")
     page.click("#hide-sel")
@@ -228,7 +228,7 @@ def test_local_axes_from_three_picked_nodes_drive_the_numeric_moves(page):
     page.fill("#tz", "2")
     page.click("#apply-move")
     settle(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     h = next(iter(httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"].values()))
     np.testing.assert_allclose(h["translation"], 5 * e1 + 2 * e3, atol=1e-5)
     assert [page.input_value(f"#{k}") for k in ("tx", "ty", "tz")] == ["5", "0", "2"]
@@ -262,7 +262,7 @@ def test_a_turn_about_an_axis_and_a_pivot_picked_on_the_model(page):
     page.select_option("#dpivot", "A")
     page.click("#move-by")
     settle(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     h = next(iter(httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"].values()))
     w, x, y, z = h["rotation"]["quaternion"]
     ab = (V[b] - V[a]) / np.linalg.norm(V[b] - V[a])
@@ -306,12 +306,12 @@ def test_the_undo_history_survives_a_reload_and_reopening(page):
         page.click("#apply-move")
         settle(page)
         shapes.append(positions(page))
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     page.reload()
     page.wait_for_function("window.tetmorph !== undefined")
     page.click("#sessions-btn")
     page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
-    page.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}' && window.tetmorph.state.ws.open")
+    page.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open")
     assert page.locator("#history li").count() == 4 and not page.is_disabled("#undo")
     np.testing.assert_allclose(positions(page), shapes[2], atol=1e-4)
     page.click("#undo")
@@ -351,7 +351,7 @@ def test_a_mirror_plane_from_the_section_goes_into_the_spec_and_is_drawn(page):
     page.fill("#sym-normal", "0 2 0")
     page.click("#sym-add")
     create(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     stored = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["spec"]["symmetry"]
     assert stored == [{"name": "mirror1", "plane": {"point": [50, 10, 5], "normal": [0, 1, 0]}, "tolerance": 0.1}]
     numeric_move(page, t=(0, 0, 5))
@@ -360,7 +360,7 @@ def test_a_mirror_plane_from_the_section_goes_into_the_spec_and_is_drawn(page):
     page.wait_for_function("window.tetmorph !== undefined")
     page.click("#sessions-btn")
     page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
-    page.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}'")
+    page.wait_for_function(f"window.tetmorph.session().id === '{sid}'")
     assert page.locator("#sym-list li").count() == 1
     assert page.evaluate("window.tetmorph.spec()")["symmetry"] == stored
 
@@ -372,22 +372,22 @@ def test_presets_are_shapes_with_sliders_and_a_plan_runs_as_a_doe(page, tmp_path
     lifted = positions(page)
     page.fill("#preset-name", "lift")
     page.click("#preset-save")
-    page.wait_for_function("window.tetmorph.state.presets.length === 1")
+    page.wait_for_function("window.tetmorph.session().presets.length === 1")
     numeric_move(page, t=(0, 0, 0), axis=(1, 0, 0), angle=20)
     settle(page)
     page.fill("#preset-name", "twist")
     page.click("#preset-save")
-    page.wait_for_function("window.tetmorph.state.presets.length === 2")
+    page.wait_for_function("window.tetmorph.session().presets.length === 2")
     page.click("#reset")
     page.click("#confirm-ok")
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     for name, presses in (("lift", 10), ("twist", 20)):  # lift 0.5, twist 1 with the keys on the sliders
         page.focus(f"#shapes input[data-shape={name}]")
         for _ in range(presses):
             page.keyboard.press("ArrowRight")
     assert page.inner_text("#shapes [data-val=lift]") == "0.5" and page.inner_text("#shapes [data-val=twist]") == "1"
     settle(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     h = next(iter(httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"].values()))
     np.testing.assert_allclose(h["translation"], [0, 0, 2.5], atol=1e-9)  # translations add, weighted
     w, x, y, z = h["rotation"]["quaternion"]  # rotations add as logarithms: twist's 20 degrees about x
@@ -438,7 +438,7 @@ def test_a_cyclic_sector_is_set_up_in_the_panel_and_kept_in_the_spec(page):
     assert got["selections"]["Nright"] == {"set": "Nright"} and got["selections"]["Nleft"] == {"set": "Nleft"}
     assert differs(before, page.locator("#canvas").screenshot()) > 30  # the axis is drawn
     create(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     stored = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["spec"]
     assert stored["cyclic"] == [entry] and stored["selections"]["Nleft"] == {"set": "Nleft"}
     numeric_move(page, t=(0.02, 0, 0))

@@ -109,8 +109,8 @@ def test_the_bad_element_overlay_is_clipped(page):
     numeric_move(page, axis=(1, 0, 0), angle=150)  # twists the x = 100 end: poor tets there
     settle(page)
     V = positions(page)
-    T = np.array(page.evaluate("Array.from(window.tetmorph.state.T)")).reshape(-1, 4)
-    sj = np.array(page.evaluate("Array.from(window.tetmorph.state.sj)"))
+    T = np.array(page.evaluate("window.tetmorph.tets()")).reshape(-1, 4)
+    sj = np.array(page.evaluate("window.tetmorph.quality()"))
     bad = sj < 0.2
     assert bad.sum() > 0
     lo, hi = V[:, 0].min(), V[:, 0].max()
@@ -121,7 +121,7 @@ def test_the_bad_element_overlay_is_clipped(page):
     page.select_option("#clip-axis", "0")
     page.fill("#clip-pos", f"{pos:.3f}")
     page.dispatch_event("#clip-pos", "input")
-    page.wait_for_function("window.tetmorph.state.cut > 0")
+    page.wait_for_function("window.tetmorph.view().cut > 0")
     page.wait_for_timeout(300)
     with_bad = page.locator("#canvas").screenshot()
     page.uncheck("#bad")
@@ -177,7 +177,7 @@ def test_a_rejected_move_restores_the_pose_and_the_report_and_reset_clears_the_e
     # 7: Reset takes the error panel away with the MOVE
     page.click("#reset")
     confirm(page)
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     assert page.is_hidden("#errors")
 
 
@@ -186,7 +186,7 @@ def test_clamp_puts_the_gizmo_at_the_applied_fraction(page):
     bracket_session(page, policy="clamp")
     numeric_move(page, **BIG_MOVE)
     settle(page)
-    rep = page.evaluate("window.tetmorph.state.report")
+    rep = page.evaluate("window.tetmorph.report()")
     assert rep["clamped"] and 0 < rep["applied_fraction"] < 1
     f = rep["applied_fraction"]
     np.testing.assert_allclose(pivot_translation(page), [-90 * f, 0, 0], atol=1e-6)
@@ -195,7 +195,7 @@ def test_clamp_puts_the_gizmo_at_the_applied_fraction(page):
     assert float(page.input_value("#tx")) == pytest.approx(-90 * f, abs=1e-3)
     assert float(page.input_value("#angle")) == pytest.approx(170 * f, abs=1e-3)
     # the server applied exactly that
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     with httpx.Client(base_url=page.base) as c:
         last = c.get(f"/v1/sessions/{sid}").json()["last_move"]
     h = next(iter(last["handles"].values()))
@@ -227,8 +227,8 @@ def test_numeric_fields_follow_drags_and_undo_and_apply_keeps_the_drag(page):
 # 10 ---------------------------------------------------------------------------------------
 def test_a_tetgen_mesh_uploads_with_its_ele(page):
     upload(page, DATA / "beam.node", DATA / "beam.ele", name="beam.node")
-    assert page.evaluate("window.tetmorph.state.V.length / 3") == 208
-    assert page.evaluate("window.tetmorph.state.elements") == 450
+    assert page.evaluate("window.tetmorph.mesh().vertices") == 208
+    assert page.evaluate("window.tetmorph.mesh().elements") == 450
     assert page.is_hidden("#errors")
 
 
@@ -247,7 +247,7 @@ def test_sessions_do_not_leak_and_the_session_limit_has_a_way_out(pages, tight_s
         create(pg)
         assert len(sessions_on(tight_server)) == 1
     # another client takes the second slot; a fresh tab then meets the limit
-    mesh_id = pg.evaluate("window.tetmorph.state.meshId")
+    mesh_id = pg.evaluate("window.tetmorph.mesh().id")
     with httpx.Client(base_url=tight_server) as c:
         r = c.post("/v1/sessions", json={"mesh_id": mesh_id, "spec": {"selections": {
             "a": {"set": "FIXED"}, "b": {"set": "LOAD"}}, "fixed": ["a"], "handles": {"b": "b"}}})
@@ -255,7 +255,7 @@ def test_sessions_do_not_leak_and_the_session_limit_has_a_way_out(pages, tight_s
     pg2 = pages(tight_server)
     pg2.select_option("#meshes", mesh_id)
     pg2.click("#open-mesh")
-    pg2.wait_for_function("window.tetmorph.state.V !== null")
+    pg2.wait_for_function("window.tetmorph.mesh().open")
     assign_set(pg2, "FIXED", 1)
     assign_set(pg2, "LOAD", 2)
     pg2.click("#create")
@@ -293,7 +293,7 @@ def test_closing_the_tab_mid_build_deletes_the_session(pages, tight_server):
     numeric_move(pg, t=(0, 0, 3))
     settle(pg)
     assert "Kept on the service when this tab closes" in pg.inner_text("#session-note")
-    sid = pg.evaluate("window.tetmorph.state.sessionId")
+    sid = pg.evaluate("window.tetmorph.session().id")
     pg.close()
     time.sleep(1.0)
     assert any(s["id"] == sid for s in sessions_on(tight_server))
@@ -344,7 +344,7 @@ def test_the_repair_numbers_are_the_reports(page):
     create(page, policy="clamp")
     numeric_move(page, **REPAIR_MOVE)
     settle(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     with httpx.Client(base_url=page.base) as c:
         rep = c.get(f"/v1/sessions/{sid}").json()["last_report"]
     rp = rep["repair"]
@@ -369,15 +369,15 @@ def test_a_busy_indicator_with_elapsed_time_during_builds_and_solves(page):
     page.wait_for_function("(() => { const b = document.getElementById('busy'); if (b.hidden) return false;"
                            " const m = /building (\\d+\\.\\d) s/.exec(b.textContent);"
                            " return m && Number(m[1]) >= 0.3; })()", timeout=30000)
-    page.wait_for_function("window.tetmorph.state.sessionId !== null && window.tetmorph.state.ws && "
-                           "window.tetmorph.state.ws.open", timeout=60000)
+    page.wait_for_function("window.tetmorph.session().id !== null && window.tetmorph.session().stream && "
+                           "window.tetmorph.session().stream.open", timeout=60000)
     assert page.is_hidden("#busy")
     cdp.send("Network.emulateNetworkConditions", {"offline": False, "latency": 0, "downloadThroughput": -1,
                                                    "uploadThroughput": -1})
     numeric_move(page, t=(0, 0, 4))
     settle(page)
     page.wait_for_function("document.getElementById('busy').hidden")
-    log = page.evaluate("window.tetmorph.state.busyLog")
+    log = page.evaluate("window.tetmorph.busyLog()")
     assert any(e["what"] == "building" and e["shown"] and e["ms"] >= 300 for e in log)
     assert any(e["what"] == "solving" for e in log)
 

@@ -72,7 +72,7 @@ def test_create_session_starts_from_the_rest_shape(page):
     mesh = read_mesh(BRACKET)
     at_rest = int((scaled_jacobians(mesh.V, mesh.T) < 0.2).sum())
     assert report_row(page, "below") == f"{at_rest:,}"
-    assert page.evaluate("window.tetmorph.state.badCount") == at_rest
+    assert page.evaluate("window.tetmorph.view().badCount") == at_rest
 
 
 # 2 ----------------------------------------------------------------------------------------
@@ -92,7 +92,7 @@ def test_download_defaults_to_the_decks_format_and_says_what_a_conversion_drops(
     orig = [ln for ln in BRACKET.read_text().splitlines() if not data_line.match(ln) or "*" in ln]
     assert mine == orig
     got = read_mesh(path)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     np.testing.assert_allclose(got.V, server_positions(server, sid), atol=1e-6)
     for name, ids in read_mesh(BRACKET).sets.items():
         np.testing.assert_array_equal(np.sort(got.sets[name]), np.sort(ids))
@@ -160,7 +160,7 @@ def test_the_stream_reconnects_after_the_service_restarts(browser, tmp_path):
             bracket_session(pg)
             numeric_move(pg, t=(0, 0, 5))
             settle(pg)
-            sid = pg.evaluate("window.tetmorph.state.sessionId")
+            sid = pg.evaluate("window.tetmorph.session().id")
             proc.send_signal(signal.SIGTERM)
             proc.wait(timeout=30)
             pg.wait_for_function("/reconnecting/.test(document.getElementById('session-status').textContent)",
@@ -197,7 +197,7 @@ def test_a_stream_that_cannot_come_back_refuses_moves_without_moving_the_gizmo(p
     bracket_session(page)
     numeric_move(page, t=(0, 0, 5))
     settle(page)
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     assert httpx.delete(f"{server}/v1/sessions/{sid}").status_code == 204  # gone behind the editor's back
     numeric_move(page, t=(0, 0, 9))  # the service ends the stream on it: the handle goes back
     page.wait_for_function("/stream closed/.test(document.getElementById('session-status').textContent)",
@@ -224,10 +224,10 @@ def test_delete_delete_all_and_reset_ask_first(page, server):
     np.testing.assert_array_equal(positions(page), moved)
     page.click("#reset")
     confirm(page, ok=True)
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     np.testing.assert_array_equal(positions(page), rest(page))
-    mine = page.evaluate("window.tetmorph.state.sessionId")
-    body = {"mesh_id": page.evaluate("window.tetmorph.state.meshId"), "spec": page.evaluate("window.tetmorph.spec()")}
+    mine = page.evaluate("window.tetmorph.session().id")
+    body = {"mesh_id": page.evaluate("window.tetmorph.mesh().id"), "spec": page.evaluate("window.tetmorph.spec()")}
     with httpx.Client(base_url=server, timeout=60) as c:
         others = [c.post("/v1/sessions", json=body).json()["id"] for _ in range(2)]
         ids = lambda: {s["id"] for s in c.get("/v1/sessions").json()}  # noqa: E731
@@ -246,7 +246,7 @@ def test_delete_delete_all_and_reset_ask_first(page, server):
         assert ids() == {mine}
         # with no session open, "all but the open one" would be all of them: not offered
         page.click(f"#sessions-table tr[data-id={mine}] button[data-act=close]")
-        page.wait_for_function("window.tetmorph.state.sessionId === null")
+        page.wait_for_function("window.tetmorph.session().id === null")
         assert page.is_disabled("#sessions-delete-others")
         assert ids() == {mine}
 
@@ -260,7 +260,7 @@ def test_panels_do_not_clip(pages, server, size):
     upload(pg, deck)
     assign_set(pg, "BC_RIMTIRE", 1)
     assign_set(pg, "BC_SURF", 2)
-    body = {"mesh_id": pg.evaluate("window.tetmorph.state.meshId"), "spec": pg.evaluate("window.tetmorph.spec()")}
+    body = {"mesh_id": pg.evaluate("window.tetmorph.mesh().id"), "spec": pg.evaluate("window.tetmorph.spec()")}
     other = httpx.post(f"{server}/v1/sessions", json=body, timeout=120).json()["id"]
     pg.select_option("#meshes", body["mesh_id"])
     pg.click("#open-mesh")  # the mesh's other session is offered in the Session section
@@ -327,11 +327,11 @@ def test_a_surface_says_it_is_one_and_offers_tetrahedralize(page, server, tmp_pa
     assert "surface" in page.inner_text("#mesh-name")
     assert page.is_disabled("#create")
     page.click("#tetrahedralize")
-    page.wait_for_function("window.tetmorph.state.elements > 0", timeout=180000)
-    mid = page.evaluate("window.tetmorph.state.meshId")
+    page.wait_for_function("window.tetmorph.mesh().elements > 0", timeout=180000)
+    mid = page.evaluate("window.tetmorph.mesh().id")
     info = httpx.get(f"{server}/v1/meshes/{mid}").json()["info"]
-    assert info["tetrahedra"] > 0 and page.evaluate("window.tetmorph.state.elements") == info["elements"]
-    assert page.evaluate("window.tetmorph.state.V.length / 3") == info["vertices"]
+    assert info["tetrahedra"] > 0 and page.evaluate("window.tetmorph.mesh().elements") == info["elements"]
+    assert page.evaluate("window.tetmorph.mesh().vertices") == info["vertices"]
     assert page.is_hidden("#surface-note") and not page.is_disabled("#create")
 
 
@@ -360,12 +360,12 @@ def test_nothing_of_one_mesh_stays_on_the_next(pages, demo_server):
     assert "displacement" not in pg.inner_text("#legend")
     assert [pg.input_value(f"#{k}") for k in ("tx", "ty", "tz", "angle")] == ["0", "0", "0", "0"]
     assert pg.eval_on_selector("#handle-select", "s => s.options.length") == 0
-    assert pg.input_value("#meshes") == pg.evaluate("window.tetmorph.state.meshId")
+    assert pg.input_value("#meshes") == pg.evaluate("window.tetmorph.mesh().id")
     # the demo, opened from the top bar: the header names it
     pg.click("#demo")
-    pg.wait_for_function("window.tetmorph.state.sessionId === 's_demo'")
+    pg.wait_for_function("window.tetmorph.session().id === 's_demo'")
     assert pg.input_value("#meshes") == "m_demo_beam"
-    assert pg.evaluate("window.tetmorph.state.meshName") in pg.inner_text("#mesh-name")
+    assert pg.evaluate("window.tetmorph.mesh().name") in pg.inner_text("#mesh-name")
     handles = httpx.get(f"{demo_server}/v1/sessions/s_demo").json()["handles"]
     assert pg.eval_on_selector("#handle-select", "s => Array.from(s.options).map((o) => o.value)") == handles
 
@@ -382,16 +382,16 @@ def test_a_set_region_is_the_whole_set_again_on_reopen(page):
     settle(page)
     whole = mesh.sets["BC_RIMTIRE"]
     assert regions(page)["BC_RIMTIRE"]["count"] == whole.size
-    sid = page.evaluate("window.tetmorph.state.sessionId")
+    sid = page.evaluate("window.tetmorph.session().id")
     page.reload()
     page.wait_for_function("window.tetmorph !== undefined")
     page.click("#sessions-btn")
     page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
-    page.wait_for_function(f"window.tetmorph.state.sessionId === '{sid}' && window.tetmorph.state.ws.open",
+    page.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open",
                            timeout=120000)
     r = regions(page)["BC_RIMTIRE"]
     assert r["count"] == whole.size and r["source"] == {"set": "BC_RIMTIRE"}
-    role = np.array(page.evaluate("Array.from(window.tetmorph.state.role)"))
+    role = np.array(page.evaluate("window.tetmorph.role()"))
     assert (role[whole] == 1).all() and (role == 1).sum() == whole.size
     assert page.evaluate("window.tetmorph.spec()")["selections"]["BC_RIMTIRE"] == {"set": "BC_RIMTIRE"}
 
@@ -407,16 +407,16 @@ def test_ctrl_z_in_a_move_field_undoes_the_morph_and_esc_leaves_the_field(page):
     page.press("#tz", "Enter")
     settle(page)
     assert page.evaluate("document.activeElement.id") == "tz"
-    seq = page.evaluate("window.tetmorph.state.seq")
+    seq = page.evaluate("window.tetmorph.session().seq")
     page.keyboard.press("Control+z")
-    page.wait_for_function(f"window.tetmorph.state.seq > {seq}", timeout=5000)
+    page.wait_for_function(f"window.tetmorph.session().seq > {seq}", timeout=5000)
     settle(page)
     np.testing.assert_allclose(positions(page), first, atol=1e-5)
     assert page.input_value("#tz") == "5"
     page.keyboard.press("Escape")
     assert page.evaluate("document.activeElement === document.body")
     page.keyboard.press("Control+z")
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     np.testing.assert_array_equal(positions(page), rest(page))
 
 
@@ -424,7 +424,7 @@ def test_ctrl_z_in_a_move_field_undoes_the_morph_and_esc_leaves_the_field(page):
 def test_the_demo_opens_at_rest_with_a_snap_step_of_its_size(pages, demo_server):
     pg = pages(demo_server)
     pg.click("#demo")
-    pg.wait_for_function("window.tetmorph.state.sessionId === 's_demo' && window.tetmorph.state.ws.open")
+    pg.wait_for_function("window.tetmorph.session().id === 's_demo' && window.tetmorph.session().stream.open")
     np.testing.assert_array_equal(positions(pg), rest(pg))
     np.testing.assert_allclose(positions(pg), server_positions(demo_server, "s_demo"), atol=1e-6)
     V = rest(pg)
@@ -452,7 +452,7 @@ def test_the_report_keeps_the_mesh_after_reset(page):
     settle(page)
     page.click("#reset")
     confirm(page, ok=True)
-    page.wait_for_function("window.tetmorph.state.report && window.tetmorph.state.report.reset === true")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
     assert report_row(page, "mesh") == "bracket.inp"
     assert report_row(page, "elements") == "4,228" and report_row(page, "vertices") == "1,213"
     assert report_row(page, "max_displacement") == "0 mm"

@@ -13,8 +13,9 @@ def test_the_boundary_frame_is_drawn_first_then_the_full_frame(page):
     bracket_session(page)
     numeric_move(page, t=(0, 0, 2.0))
     settle(page)
-    st = page.evaluate("(() => { const s = window.tetmorph.state; return {received: s.boundaryReceived || 0, "
-                       "drawn: s.boundaryFrames || 0, skipped: s.boundarySkipped || 0, full: s.frames}; })()")
+    st = page.evaluate("(() => { const s = window.tetmorph.session(), v = window.tetmorph.view(); "
+                       "return {received: s.boundaryReceived, drawn: v.boundaryFrames, skipped: s.boundarySkipped, "
+                       "full: v.frames}; })()")
     assert st["received"] >= 1 and st["full"] >= 1  # both kinds arrived
     assert st["drawn"] + st["skipped"] == st["received"]  # each boundary frame painted, or overtaken by its full frame
     mesh = read_mesh(BRACKET)

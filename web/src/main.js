@@ -547,7 +547,6 @@ brushSize();
 // views of the parts (the gizmo, the camera, the colours drawn).
 window.tetmorph = Object.freeze({
   ...stateAccessors(),
-  state,  // the whole state, read-only, while the tests move to the accessors
   pivotScreen: () => viewer.toPage(moves.pivot.position),
   pivot: () => ({ position: moves.pivot.position.toArray(), quaternion: moves.pivot.quaternion.toArray(),
     centroid: state.centroid, handle: moves.active }),

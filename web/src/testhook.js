@@ -11,12 +11,14 @@
 //   tetmorph.boundary()  per vertex, 1 on the boundary, else 0
 //   tetmorph.set(name)   the vertex ids of a named set of the file      (null: no such set)
 //   tetmorph.role()      per vertex, 0 in no region, 1 fixed, 2 handle  (null: no mesh)
-//   tetmorph.session()   {id, stream, seq, lastSeq, lastMove, presets, historyLength,
-//                        boundaryReceived, boundarySkipped}: the open session (id null: none);
-//                        stream is {open, readyState} of its WebSocket, or null; seq is the last
-//                        MOVE sent, lastSeq the last answered; presets [{name, move}]
+//   tetmorph.session()   {id, stream, seq, lastSeq, lastMove, presets, historyLength, roundTripMs,
+//                        boundaryRoundTripMs, boundaryReceived, boundarySkipped}: the open session
+//                        (id null: none); stream is {open, readyState} of its WebSocket, or null;
+//                        seq is the last MOVE sent, lastSeq the last answered; presets
+//                        [{name, move}]; the round trips (ms) are of the last MOVE answered
 //   tetmorph.view()      {clip, threshold, cut, badCount, invertedTets, visibleFaces, frames,
-//                        boundaryFrames}: view options and the counts derived from the positions
+//                        applyMs, boundaryFrames, boundaryApplyMs}: view options, and the counts
+//                        and times (ms) derived from the positions
 //   tetmorph.quality()   scaled Jacobian per tet, now                   (null: no mesh)
 //   tetmorph.report()    the REPORT the panel shows, or null
 //   tetmorph.error()     the error shown ({code, message, text, ...}), or null
@@ -43,11 +45,12 @@ export function stateAccessors() {
       stream: state.ws ? { open: state.ws.open, readyState: state.ws.readyState } : null,
       seq: state.seq, lastSeq: state.lastSeq, lastMove: copy(state.lastMove),
       presets: copy(state.presets), historyLength: state.history.length,
+      roundTripMs: state.roundTripMs, boundaryRoundTripMs: state.boundaryRoundTripMs,
       boundaryReceived: state.boundaryReceived, boundarySkipped: state.boundarySkipped,
     }),
     view: () => ({ clip: state.clip, threshold: state.threshold, cut: state.cut, badCount: state.badCount,
       invertedTets: state.invertedTets, visibleFaces: state.visibleFaces, frames: state.frames,
-      boundaryFrames: state.boundaryFrames }),
+      applyMs: state.applyMs, boundaryFrames: state.boundaryFrames, boundaryApplyMs: state.boundaryApplyMs }),
     quality: () => list(state.sj),
     report: () => copy(state.report),
     error: () => copy(state.error),

@@ -154,3 +154,18 @@ def test_brush_paints_vertices_near_the_cursor(page):
     assert V[painted, 0].min() > 100 - 0.15 * diag
     boundary = np.array(page.evaluate("window.tetmorph.boundary()"))
     assert boundary[painted].all()
+
+
+def test_the_test_hook_answers_copies_and_holds_no_state(page):
+    load_bracket(page)
+    page.select_option("#sets", "FIXED")
+    page.click("#set-apply")
+    hook = page.evaluate("(() => { const t = window.tetmorph; return {state: 'state' in t, frozen: Object.isFrozen(t),"
+                         " fns: Object.keys(t).filter((k) => typeof t[k] !== 'function')}; })()")
+    assert hook == {"state": False, "frozen": True, "fns": ["qualityColors"]}
+    fixed = read_mesh(BRACKET).sets["FIXED"]
+    # what an accessor answers is a copy: changing it changes nothing the editor holds
+    after = page.evaluate("(() => { const r = window.tetmorph.role(); r.fill(0); const m = window.tetmorph.mesh();"
+                          " m.name = 'x'; return [window.tetmorph.role(), window.tetmorph.mesh().name]; })()")
+    role = np.array(after[0])
+    assert (role[fixed] == 1).all() and (role == 1).sum() == len(fixed) and after[1] == BRACKET.name

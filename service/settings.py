@@ -56,7 +56,8 @@ class Settings(BaseSettings):
     max_file_cells: int = Field(MAX_CELLS, gt=0, le=MAX_CELLS, description="Most elements an uploaded file "
                                 "may declare; checked as max_file_points (422 too_many_cells).")
     head_timeout_s: float = Field(10.0, gt=0, description="Longest a client may take to send a request's "
-                                  "line and headers; a slower connection is closed (tetmorph serve).")
+                                  "line and headers, or may pause in its body (which must also average "
+                                  "1 KiB/s after that long); a slower connection is closed (tetmorph serve).")
     max_elements: int = Field(5_000_000, gt=0, description="Most volume elements per mesh (422 above).")
     max_sessions: int = Field(64, gt=0, description="Most live sessions per API key (429 above).")
     rate_limit_per_s: float = Field(200.0, ge=0,

@@ -10,6 +10,13 @@ def _counts() -> list[int]:
 
 
 def test_overlapping_blocks_restore_openblas_after_the_last_exit():
+    import time
+
+    # a solve left running by an earlier test of this process may still be inside a block: let it end
+    deadline = time.monotonic() + 10
+    while threads._BLAS_USERS and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert threads._BLAS_USERS == 0, "a block was entered and never left"
     before = _counts()
     assert before  # numpy's own OpenBLAS is there to set
     a, b = threads.one_blas_thread(), threads.one_blas_thread()

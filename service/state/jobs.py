@@ -161,11 +161,13 @@ class JobRunner:
                 job.stop.set()
                 raise
             except Exception as e:  # noqa: BLE001 - stored on the job, answered by GET of the job
-                job.status, job.stage, job.finished = "failed", "failed", time.time()
-                job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
-                             "message": getattr(e, "message", str(e)), "details": getattr(e, "details", {})}
+                if job.status != "cancelled":
+                    job.status, job.stage, job.finished = "failed", "failed", time.time()
+                    job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
+                                 "message": getattr(e, "message", str(e)), "details": getattr(e, "details", {})}
                 return
-            job.status, job.stage, job.finished = "done", "done", time.time()
+            if job.status != "cancelled":  # a cancel whose work returned before the task's cancellation came
+                job.status, job.stage, job.finished = "done", "done", time.time()
 
     def get(self, owner: str, job_id: str) -> Job:
         """A job of ``owner``; 404 otherwise."""
@@ -269,7 +271,8 @@ class JobRunner:
                 job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
                              "message": getattr(e, "message", str(e)), "details": getattr(e, "details", {})}
                 return
-            job.status, job.stage, job.finished = "done", "done", time.time()
+            if job.status != "cancelled":
+                job.status, job.stage, job.finished = "done", "done", time.time()
 
     @staticmethod
     def _wait(conn: Any, proc: Any, limit: float) -> Any:

@@ -152,7 +152,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     """
     path = os.fspath(path)
     name = os.path.basename(path)
-    fmt = format_of(path, file_format)
+    fmt = reading_name(format_of(path, file_format))
     if fmt == "tetgen":
         path = tetgen_paths(path)[0]
     if not os.path.isfile(path):
@@ -208,7 +208,7 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -
     """
     path = os.fspath(path)
     name = os.path.basename(path)
-    fmt = format_of(path, file_format)
+    fmt = reading_name(format_of(path, file_format))
     if not os.path.isfile(path):
         raise UnreadableFileError(f"no such file: {path}", code="file_not_found", file=name)
     check_file(path, fmt)
@@ -227,6 +227,17 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -
         raise UnreadableFileError(f"{name!r} has no triangles (its cells: {counts or 'none'})",
                                   code="no_triangles", file=name, cells=counts)
     return _points(m), np.concatenate(parts)
+
+
+def reading_name(fmt: str | None) -> str | None:
+    """The format that reads a file named as ``fmt``: meshio's Gmsh 2.2 writer name reads as ``gmsh``.
+
+    Examples
+    --------
+    >>> reading_name("gmsh22"), reading_name("abaqus")
+    ('gmsh', 'abaqus')
+    """
+    return "gmsh" if fmt == "gmsh22" else fmt
 
 
 def _read(path: str, fmt: str) -> meshio.Mesh:

@@ -295,3 +295,18 @@ def test_a_gmsh_block_declaring_more_than_its_section_is_refused_before_it_is_re
     path = tmp_path / "ok.msh"
     path.write_text(head.format(nodes=4, elems=1))
     assert read_mesh(path).n == 4  # the same file, consistent, reads
+
+
+def test_the_gmsh22_name_reads_a_gmsh_file_and_keeps_its_size_bounds(tmp_path):
+    """meshio names its Gmsh 2.2 writer ``gmsh22``; a file given that name reads as Gmsh, bounds included."""
+    src = read_mesh(DATA / "mixed.msh")
+    path = tmp_path / "v22.msh"
+    meshio.write(path, meshio.read(DATA / "mixed.msh"), file_format="gmsh22", binary=False)
+    assert open(path).read().startswith("$MeshFormat\n2.2")
+    m = read_mesh(path, "gmsh22")
+    assert m.file_format == "gmsh" and np.array_equal(m.V, src.V) and np.array_equal(m.T, src.T)
+    msh = tmp_path / "huge.msh"
+    msh.write_text("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 400000000 1 400000000\n$EndNodes\n")
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(msh, "gmsh22")
+    assert e.value.code == "too_many_points"

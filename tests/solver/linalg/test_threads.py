@@ -4,11 +4,6 @@ from __future__ import annotations
 
 from solver.linalg import threads
 
-
-def _counts() -> list[int]:
-    return [c.get_num_threads() for c in threads._own_openblas()]
-
-
 _OVERLAP = """
 from solver.linalg import threads
 

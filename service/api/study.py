@@ -111,7 +111,14 @@ async def create_study(s: SessionDep, body: StudyCreate, owner: OwnerDep, reg: R
             for r in rows:
                 if job.stop.is_set():
                     return
-                await asyncio.to_thread(solve_row, r, template, reader, timeout)
+                run = asyncio.ensure_future(asyncio.to_thread(solve_row, r, template, reader, timeout,
+                                                              job.stop.is_set))
+                try:
+                    await asyncio.shield(run)
+                except asyncio.CancelledError:  # a DELETE, the session's deletion, the time limit
+                    job.stop.set()
+                    await run  # its solver killed, before the rows folder is removed
+                    raise
                 job.done += 1
             for r in rows:  # names inside the zip, not this replica's paths
                 if r.deck is not None:
@@ -145,7 +152,7 @@ def get_study(s: SessionDep, job_id: JobId, owner: OwnerDep, request: Request) -
 @router.delete("/sessions/{session_id}/study/{job_id}", response_model=JobDoc, summary="Cancel a study",
                responses=error_responses(*_AUTH, 404, 409, 410, s409="the study has finished (job_finished)"))
 def cancel_study(s: SessionDep, job_id: JobId, owner: OwnerDep, request: Request) -> dict[str, Any]:
-    """Stop the study before its next solver run; nothing of it is kept."""
+    """Stop the study, killing its running solver; nothing of it is kept."""
     job = _job(request, owner, s, job_id)
     request.app.state.jobs.cancel(job)
     return job.doc()

@@ -46,6 +46,8 @@ __all__ = ["StudyRow", "ccx_responses", "load_response", "load_reader", "morph_r
 
 #: Seconds a solver run may take before it is stopped and recorded as ``timeout``.
 DEFAULT_TIMEOUT_S = 600.0
+#: Seconds between two looks at a running solver's time limit and cancellation.
+_POLL_S = 0.1
 
 Response = Callable[[Path], dict[str, float]]
 
@@ -61,7 +63,8 @@ class StudyRow:
     status : str
         ``ok``; ``rejected`` or ``conflict`` (the morph, as in ``tetmorph doe``:
         not solved); ``solver_failed`` (non-zero exit, or ``*ERROR`` in its
-        output); ``timeout``; ``response_failed``.
+        output); ``timeout``; ``response_failed``; ``cancelled`` (its run was
+        killed by :func:`solve_row`'s ``cancelled``).
     inverted, min_scaled_jacobian, max_displacement : mesh figures of the morph
     deck : str or None
     solver_s : float or None
@@ -259,19 +262,36 @@ def check_solver(template: str) -> None:
                           command=words[0])
 
 
-def _solve(row: StudyRow, template: str, response: Response, timeout: float) -> None:
-    """Run the solver on the row's deck and read its responses into ``row``."""
+def _solve(row: StudyRow, template: str, response: Response, timeout: float,
+           cancelled: Callable[[], bool] | None = None) -> None:
+    """Run the solver on the row's deck and read its responses into ``row``.
+
+    The run is killed past ``timeout`` seconds (``timeout``), or within
+    ``_POLL_S`` of ``cancelled()`` answering true (``cancelled``).
+    """
     assert row.deck is not None
     deck = Path(row.deck).resolve()
     t0 = time.perf_counter()
-    try:
-        out = subprocess.run(_command(template, deck, row.row), cwd=deck.parent, capture_output=True, text=True,
-                             timeout=timeout)
-    except subprocess.TimeoutExpired:
-        row.solver_s, row.status, row.message = time.perf_counter() - t0, "timeout", f"stopped after {timeout:g} s"
-        return
+    deadline = time.monotonic() + timeout
+    with subprocess.Popen(_command(template, deck, row.row), cwd=deck.parent, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True) as proc:
+        while True:
+            try:
+                out, err = proc.communicate(timeout=max(0.0, min(_POLL_S, deadline - time.monotonic())))
+                break
+            except subprocess.TimeoutExpired:
+                stop = "cancelled" if cancelled is not None and cancelled() else None
+                if stop is None and time.monotonic() >= deadline:
+                    stop = "timeout"
+                if stop is None:
+                    continue
+                proc.kill()
+                proc.communicate()
+                row.solver_s, row.status = time.perf_counter() - t0, stop
+                row.message = f"stopped after {timeout:g} s" if stop == "timeout" else "cancelled"
+                return
     row.solver_s = time.perf_counter() - t0
-    read_run(row, deck, out.returncode, out.stdout + out.stderr, response)
+    read_run(row, deck, proc.returncode, out + err, response)
 
 
 def read_run(row: StudyRow, deck: Path, returncode: int, log: str, response: Response) -> None:
@@ -334,10 +354,26 @@ def study_rows(result: DoeResult) -> list[StudyRow]:
     return rows
 
 
-def solve_row(row: StudyRow, solver: str, response: Response, timeout: float = DEFAULT_TIMEOUT_S) -> None:
-    """Run the solver on a morphed row's deck and read its responses into ``row`` (a no-op for other rows)."""
+def solve_row(row: StudyRow, solver: str, response: Response, timeout: float = DEFAULT_TIMEOUT_S,
+              cancelled: Callable[[], bool] | None = None) -> None:
+    """Run the solver on a morphed row's deck and read its responses into ``row`` (a no-op for other rows).
+
+    Parameters
+    ----------
+    row : StudyRow
+        A row of :func:`morph_rows`; only an ``ok`` row with a deck is solved.
+    solver : str
+        The command, as for :func:`run_study`.
+    response : callable
+        ``response(deck) -> dict``.
+    timeout : float
+        Seconds the run may take; then it is killed and the row is ``timeout``.
+    cancelled : callable, optional
+        Asked while the solver runs; when it answers true the run is killed
+        and the row is ``cancelled``, with no log or responses read.
+    """
     if row.status == "ok" and row.deck is not None:
-        _solve(row, solver, response, timeout)
+        _solve(row, solver, response, timeout, cancelled)
 
 
 def run_study(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, output: str, solver: str,

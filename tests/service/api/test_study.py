@@ -6,7 +6,9 @@ import csv
 import io
 import time
 import zipfile
+from pathlib import Path
 
+import psutil
 import pytest
 
 from tests.conftest import DATA
@@ -22,8 +24,8 @@ SHAPES = {"shift": {"handles": {"bore": {"translation": [-1.0, 0, 0]}}}}
 PLAN = {"columns": ["shift"], "rows": [[0.0], [6.0], [80.0]]}
 
 
-def session(tc) -> str:
-    mid = tc.post("/v1/meshes", files=[("file", ("ccx_bracket.inp", DECK.read_bytes()))]).json()["id"]
+def session(tc, deck: Path = DECK) -> str:
+    mid = tc.post("/v1/meshes", files=[("file", ("ccx_bracket.inp", deck.read_bytes()))]).json()["id"]
     r = tc.post("/v1/sessions", json={"mesh_id": mid, "spec": SPEC})
     assert r.status_code in (201, 202), r.text
     return r.json()["id"]
@@ -106,3 +108,68 @@ def test_a_bad_plan_is_refused_before_the_job(tmp_path):
                                                        "plan": {"columns": ["nosuch"], "rows": [[1.0]]}})
         assert r.status_code == 422 and "nosuch" in err(r)["message"]
     assert not [p for p in tmp_path.rglob("*") if p.suffix in (".inp", ".zip") and "jobs" in p.parts]
+
+
+def long_deck(tmp_path) -> Path:
+    """The bracket deck with a first step of 1,500 eigenmodes: ccx runs for minutes and writes no file meanwhile.
+
+    (ccx ends by itself when a file it reopens between increments is gone; in one long
+    eigen-solve it opens none, as a large model's factorization.)
+    """
+    text = DECK.read_text()
+    at = text.index("*STEP")
+    long = "*STEP\n*FREQUENCY\n1500\n*BOUNDARY\nFIXED, 1, 3\n*END STEP\n"
+    path = tmp_path / "ccx_bracket.inp"
+    path.write_text(text[:at] + long + text[at:])
+    return path
+
+
+def solver_runs() -> list[psutil.Process]:
+    """The ccx processes this test process started."""
+    out = []
+    for p in psutil.Process().children(recursive=True):
+        try:
+            if p.name() == "ccx":
+                out.append(p)
+        except psutil.Error:
+            continue
+    return out
+
+
+def until(what, limit_s: float = 60.0):
+    """Poll ``what()`` until it answers something true; fail after ``limit_s``."""
+    deadline = time.monotonic() + limit_s
+    while not (got := what()):
+        assert time.monotonic() < deadline, f"{what.__name__} still false after {limit_s} s"
+        time.sleep(0.05)
+    return got
+
+
+@pytest.mark.ccx
+@pytest.mark.parametrize("delete", ["study", "session"])
+def test_deleting_a_study_or_its_session_kills_the_running_solver_and_keeps_nothing(tmp_path, delete):
+    data = tmp_path / "d"
+    with running(data, study_solvers={"ccx": "ccx -i {stem}"}) as tc:
+        sid = session(tc, long_deck(tmp_path))
+        plan = {"columns": ["shift"], "rows": [[0.0], [1.0]]}
+        r = tc.post(f"/v1/sessions/{sid}/study", json={"shapes": SHAPES, "plan": plan, "solver": "ccx",
+                                                       "timeout_s": 30})
+        assert r.status_code == 202, r.text
+        jid = r.json()["id"]
+        runs = until(solver_runs)  # row 1's ccx, in the job's rows folder
+        rows = next(data.glob(f"jobs/*/{jid}-rows"))
+        assert Path(runs[0].cwd()).is_relative_to(rows)
+        until(lambda: sum(runs[0].cpu_times()[:2]) > 1.5)  # past reading the deck (0.3 s): in the eigen-solve
+        if delete == "study":
+            c = tc.delete(f"/v1/sessions/{sid}/study/{jid}")
+            assert c.status_code == 200 and c.json()["status"] == "cancelled", c.text
+            assert tc.get(f"/v1/sessions/{sid}/study/{jid}").json()["status"] == "cancelled"
+            assert err(tc.get(f"/v1/sessions/{sid}/study/{jid}/result"))["code"] == "job_not_finished"
+        else:
+            assert tc.delete(f"/v1/sessions/{sid}").status_code == 204
+            assert tc.get(f"/v1/sessions/{sid}/study/{jid}").status_code in (404, 410)
+        _, alive = psutil.wait_procs(runs, timeout=10)
+        assert not alive, f"ccx still runs {len(alive)} process(es) of the deleted study"
+        until(lambda: not rows.exists(), 10)  # the rows' decks and solver files are removed
+        assert not solver_runs()  # row 2 never started
+        assert not list(data.glob(f"jobs/*/{jid}*"))  # no zip either

@@ -1,6 +1,6 @@
 """Bounds on the numbers tetmorph accepts, shared by the library's readers and parsers and the service's schema.
 
-A bound lives here once; the service's OpenAPI schema (``service/models/numbers.py``)
+A bound lives here once; the service's OpenAPI schema (through ``solver/documents/numbers.py``)
 and the library's checks read it from here.
 """
 

@@ -25,15 +25,17 @@ GOOD = {"selections": {"a": {"ids": [0]}, "b": {"box": {"min": [0, 0, 1], "max":
     ({"fixed": ["nope"]}, "unknown selection 'nope'"),
     ({"handles": {"h": "a"}}, "both fixed and a handle"),
     ({"handles": {"h": "b", "g": "b"}}, "more than one handle"),
-    ({"laplacian": "fancy"}, "laplacian must be one of"),
-    ({"constraints": {"method": "magic"}}, "method must be one of"),
-    ({"constraints": {"method": "penalty", "penalty_weight": -1}}, "penalty_weight must be > 0"),
-    ({"inversion": "ignore"}, "inversion must be one of"),
-    ({"selections": {"a": {"ids": [0], "box": {}}}, "fixed": ["a"], "handles": {}}, "exactly one of"),
+    ({"laplacian": "fancy"}, "SPEC.laplacian: Input should be 'cotangent' or 'uniform'"),
+    ({"constraints": {"method": "magic"}}, "SPEC.constraints.method: Input should be 'null_space', 'kkt'"),
+    ({"constraints": {"method": "penalty", "penalty_weight": -1}},
+     "SPEC.constraints.penalty_weight: Input should be greater than 0"),
+    ({"inversion": "ignore"}, "SPEC.inversion: Input should be 'warn', 'reject' or 'clamp'"),
+    ({"selections": {"a": {"ids": [0], "set": "A"}}, "fixed": ["a"], "handles": {}},
+     r"SPEC.selections.a: .*exactly one of ids, set, box, sphere, plane; got ids and set"),
     ({"selections": {"a": {"box": {"min": [1, 1, 1], "max": [0, 0, 0]}}}, "fixed": ["a"], "handles": {}},
      "exceeds max"),
     ({"selections": {"a": {"sphere": {"center": [0, 0], "radius": 1}}}, "fixed": ["a"], "handles": {}},
-     "3 numbers"),
+     r"SPEC.selections.a.sphere.center: List should have at least 3 items"),
 ])
 def test_spec_errors(patch, words):
     with pytest.raises(SpecError, match=words.replace("(", r"\(")):
@@ -62,8 +64,8 @@ def test_overlapping_handles_and_fixed_are_refused():
 
 @pytest.mark.parametrize("move,words", [
     ({"handles": {"x": {}}}, "unknown handle"),
-    ({"handles": {"h": {"translation": [1, 2]}}}, "3 numbers"),
-    ({"handles": {"h": {"scale": 0}}}, "scale must be > 0"),
+    ({"handles": {"h": {"translation": [1, 2]}}}, r"translation: List should have at least 3 items"),
+    ({"handles": {"h": {"scale": 0}}}, r"MOVE.handles.h.scale: Input should be greater than or equal to 0.001, got 0"),
     ({"handles": {"h": {"rotation": {"axis": [0, 0, 0], "angle_deg": 10}}}}, "non-zero"),
     ({"handles": {"h": {"rotation": {"quaternion": [0, 0, 0, 0]}}}}, "non-zero"),
     ({"handles": {"h": {"translation": [float("nan"), 0, 0]}}}, "finite"),

@@ -167,7 +167,7 @@ async def deform(
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
     if mode == "mesh":
         resolve_format(format)  # the whole request is valid before anything is solved or committed
-    r = await reg.moves.deform(s, move.dump(), inversion, quality, repair)
+    r = await reg.moves.deform(s, move, inversion, quality, repair)
     version = str(s.version)  # read before the next await: the version this MOVE committed
     if mode == "mesh":
         resp = await _mesh_response(reg, s, r.V, format, r.report, quality == "full")

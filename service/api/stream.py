@@ -196,7 +196,7 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
             try:
                 if boundary_first and policy != "reject":  # a rejected MOVE must never be drawn
                     t0 = time.perf_counter()
-                    d, stage, move = await reg.moves.boundary_stage(s, frame.move.dump())
+                    d, stage, move = await reg.moves.boundary_stage(s, frame.move)
                     if d.solve_mode == "split":
                         B = stage.P[on_boundary]
                         X = B if kind == "positions" else B - V0[on_boundary]
@@ -208,7 +208,7 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
                             continue
                     r = await reg.moves.complete_stage(s, d, stage, move, frame.inversion, frame.repair)
                 else:
-                    r = await reg.moves.deform(s, frame.move.dump(), frame.inversion, "basic", frame.repair)
+                    r = await reg.moves.deform(s, frame.move, frame.inversion, "basic", frame.repair)
             except Exception as e:  # noqa: BLE001 - every failed MOVE is answered, the session unchanged
                 if status_of(e) >= 500:
                     raise

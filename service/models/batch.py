@@ -13,9 +13,10 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, StrictStr
 from pydantic.config import JsonDict
 
+from solver.documents.numbers import INTEGRAL
+
 from .formats import MESH_FORMAT_VALUES
 from .move import Move
-from .numbers import INTEGRAL
 from .text import trimmed_name
 
 __all__ = ["PlanTable", "BatchCreate", "StudyCreate", "BoundsQuery", "shapes_document"]

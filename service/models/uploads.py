@@ -6,7 +6,8 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, StrictStr
 
-from .numbers import Coord, VertexId
+from solver.documents.numbers import Coord, VertexId
+
 from .spec import Selection, Spec
 
 __all__ = ["MeshArrays", "Band", "SessionCreate"]

@@ -1,8 +1,9 @@
 """The path of a MOVE: solved against its session's deformer, checked, and committed.
 
 :class:`MovePath` is the one way a MOVE becomes a session's state. Updates to
-one session are serialized by its lock. A MOVE is reduced and checked
-against the mesh's extent, solved in the builder's threads, and becomes the
+one session are serialized by its lock. A MOVE, validated once by its model
+(the request's, or here for a plain document), is checked by the library
+against the session's SPEC and mesh, solved in the builder's threads, and becomes the
 session's state (store first, then memory) only after every number of its
 result is finite. With a shared store a MOVE commits only if the version it
 was solved from is still the stored one; otherwise the session is reloaded
@@ -19,10 +20,10 @@ from typing import Any
 import numpy as np
 
 from solver.deform.deformer import Deformer, DeformResult
-from solver.mesh import Mesh
+from solver.documents.move import Move
+from solver.documents.validation import validated
 
 from ..errors import NotFound, ServiceError
-from ..models.move import check_move_extent, reduced_move
 from .builder import Builder, small_report
 from .session import Session
 from .sessions import Sessions
@@ -64,11 +65,10 @@ class MovePath:
         self.sessions = sessions
         self.store = store
         self.builder = builder
-        self._boxes: dict[int, tuple[Mesh, list[float], list[float]]] = {}
         #: Called with the seconds of every solved MOVE (the metrics set it).
         self.observe_solve: Callable[[float], None] = lambda seconds: None
 
-    async def deform(self, s: Session, move: dict[str, Any], inversion: str | None = None,
+    async def deform(self, s: Session, move: Move | dict[str, Any], inversion: str | None = None,
                      quality: str = "basic", repair: bool | None = None) -> DeformResult:
         """Solve one MOVE (serialized per session) and make it the session's state.
 
@@ -87,26 +87,24 @@ class MovePath:
         """
         async with s.lock:
             d = await self.sessions.deformer(s)
-            move = reduced_move(move)
-            check_move_extent(move, *self._bbox(d.mesh))
-            mv = d.parse_move(move)
+            doc = validated(Move, move, "MOVE")
+            mv = d.parse_move(doc)
             t0 = time.perf_counter()
             r = await self.builder.solve(d.solve, mv, inversion, quality, repair)
             self.observe_solve(time.perf_counter() - t0)
-            return self._commit(s, r, move)
+            return self._commit(s, r, doc.dump())
 
-    async def boundary_stage(self, s: Session, move: dict[str, Any]) -> tuple[Deformer, Any, dict[str, Any]]:
+    async def boundary_stage(self, s: Session, move: Move | dict[str, Any]) -> tuple[Deformer, Any, dict[str, Any]]:
         """The boundary positions of a MOVE first (nothing is committed): ``(deformer, stage, move)``.
 
         Pass them to :meth:`complete_stage` for the interior, the check and the commit.
         """
         async with s.lock:
             d = await self.sessions.deformer(s)
-            move = reduced_move(move)
-            check_move_extent(move, *self._bbox(d.mesh))
-            mv = d.parse_move(move)
+            doc = validated(Move, move, "MOVE")
+            mv = d.parse_move(doc)
             stage = await self.builder.solve(d.solve_boundary, mv)
-            return d, stage, move
+            return d, stage, doc.dump()
 
     async def complete_stage(self, s: Session, d: Deformer, stage: Any, move: dict[str, Any],
                              inversion: str | None = None, repair: bool | None = None) -> DeformResult:
@@ -148,15 +146,6 @@ class MovePath:
                                f"(version {solved_from}, now {s.version}); nothing was committed: retry",
                                session_id=s.id, version=solved_from, current=s.version)
         s.version = version
-
-    def _bbox(self, mesh: Mesh) -> tuple[list[float], list[float]]:
-        key = id(mesh)
-        box = self._boxes.get(key)
-        if box is None or box[0] is not mesh:
-            V = mesh.V[mesh.referenced] if mesh.referenced.any() else mesh.V
-            box = (mesh, V.min(0).tolist(), V.max(0).tolist())
-            self._boxes = {key: box, **dict(list(self._boxes.items())[:15])}
-        return box[1], box[2]
 
     async def positions(self, s: Session) -> np.ndarray:
         """Current deformed positions (rest positions before the first MOVE)."""

@@ -1,7 +1,8 @@
-"""The MOVE document: where the handles go, and the targets of the other constraints.
+"""A MOVE as the solver uses it: where the handles go, and the targets of the other constraints.
 
-:func:`parse_move` is strict, as :func:`~solver.constraints.spec.parse_spec`:
-numbers must be JSON numbers (not booleans or strings), finite and in range.
+:func:`parse_move` validates the document with its one model
+(:class:`solver.documents.move.Move`: JSON numbers only, not booleans or strings,
+finite and in range), then against the SPEC's names and the mesh's extent.
 Angles are reduced modulo 360 degrees (keeping their sign, so a 350 degree
 twist stays a twist, not a -10 degree turn); scales lie in ``SCALE_RANGE``;
 translations, pivots and targets lie within ``MOVE_RANGE`` mesh diagonals of
@@ -12,12 +13,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..limits import ANGLE_MAX, EXTENT, SCALE_MAX, SCALE_MIN, TARGET_AMOUNT_MAX
-from .spec import check_keys, expect, is_number, number, vec3
+from ..limits import EXTENT, SCALE_MAX, SCALE_MIN
+from .spec import expect
+
+if TYPE_CHECKING:
+    from ..documents.move import Rotation as RotationDoc
 
 __all__ = ["HandleMove", "Move", "MoveBounds", "RestTargets", "parse_move", "scaled_move", "axis_angle_matrix",
            "SCALE_RANGE", "MOVE_RANGE"]
@@ -167,10 +171,19 @@ class MoveBounds:
         return MOVE_RANGE * max(self.diagonal, 1e-300)
 
     def position(self, v: np.ndarray, where: str) -> np.ndarray:
-        """``v`` checked to lie within ``MOVE_RANGE`` diagonals of the centre."""
+        """``v`` checked to lie within ``MOVE_RANGE`` diagonals of the centre (else ``out_of_range``)."""
         d = float(np.linalg.norm(v - self.center))
-        expect(d <= self.translation, f"{where} lies {d:.3g} from the mesh centre, beyond {MOVE_RANGE:g} mesh "
-               f"diagonals ({self.translation:.3g})", field=where)
+        expect(d <= self.translation, f"{where}: distance from the mesh's centre {d:.3g} exceeds {MOVE_RANGE:g} "
+               f"bounding-box diagonals of the mesh ({self.translation:.3g})", code="out_of_range", field=where,
+               value=v.tolist(), bound=self.translation)
+        return v
+
+    def length(self, v: np.ndarray, where: str) -> np.ndarray:
+        """``v`` checked to be at most ``MOVE_RANGE`` diagonals long (else ``out_of_range``)."""
+        d = float(np.linalg.norm(v))
+        expect(d <= self.translation, f"{where}: length {d:.3g} exceeds {MOVE_RANGE:g} bounding-box diagonals "
+               f"of the mesh ({self.translation:.3g})", code="out_of_range", field=where, value=v.tolist(),
+               bound=self.translation)
         return v
 
 
@@ -219,23 +232,10 @@ def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
     return Move(handles, points, relative, features, motion, targets)
 
 
-def _scale(x: Any, where: str) -> float:
-    s = number(x, where)
-    expect(s > 0, f"{where} must be > 0, got {s}", field=where, value=s)
-    expect(SCALE_RANGE[0] <= s <= SCALE_RANGE[1], f"{where} must be in [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}], "
-           f"got {s:g}", field=where, value=s)
-    return s
-
-
-def _parse_rotation(rot: Any, where: str) -> np.ndarray:
-    check_keys(rot, ("axis", "angle_deg", "quaternion"), where)
-    if "quaternion" in rot:
-        expect("axis" not in rot and "angle_deg" not in rot,
-               f"{where}: give either axis+angle_deg or quaternion, not both", field=where)
-        q = rot["quaternion"]
-        expect(isinstance(q, list) and len(q) == 4 and all(is_number(v) for v in q),
-               f"{where}.quaternion must be 4 numbers [w, x, y, z]", field=f"{where}.quaternion")
-        qa = np.array([number(v, f"{where}.quaternion", -1e150, 1e150) for v in q])
+def _rotation_vector(rot: RotationDoc, where: str) -> np.ndarray:
+    """The rotation's ``(angle / 2) * axis`` (the quaternion logarithm), from a validated rotation."""
+    if rot.quaternion is not None:
+        qa = np.asarray(rot.quaternion, float)
         nq = float(np.linalg.norm(qa))
         expect(nq > 1e-150, f"{where}.quaternion must be non-zero", field=f"{where}.quaternion")
         qa = qa / nq
@@ -246,11 +246,11 @@ def _parse_rotation(rot: Any, where: str) -> np.ndarray:
         if nv == 0:
             return np.zeros(3)
         return math.atan2(nv, qa[0]) * v / nv
-    expect("axis" in rot and "angle_deg" in rot, f"{where} needs axis and angle_deg (or quaternion)", field=where)
-    axis = vec3(rot["axis"], f"{where}.axis", 1e150)
-    deg = math.fmod(number(rot["angle_deg"], f"{where}.angle_deg", -ANGLE_MAX, ANGLE_MAX), 360.0)  # exact, signed
+    assert rot.axis is not None and rot.angle_deg is not None  # the model requires both
+    deg = math.fmod(rot.angle_deg, 360.0)  # exact, signed
     if deg == 0.0:
         return np.zeros(3)
+    axis = np.asarray(rot.axis, float)
     na = float(np.linalg.norm(axis))
     expect(na > 1e-150, f"{where}.axis must be non-zero", field=f"{where}.axis")
     return (math.radians(deg) / 2.0) * axis / na
@@ -262,7 +262,9 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
 
     Parameters
     ----------
-    doc : dict
+    doc : dict or solver.documents.move.Move
+        The document (validated here by :class:`solver.documents.move.Move`), or an instance of that
+        model, already validated (the service's request bodies), which is not validated again:
         ``{"handles": {HANDLE: {"translation": [..], "rotation": {...}, "pivot": [..],
         "scale": s}}, "points": {POINT: [x, y, z]}, "relative": {NAME: {"offset": [..]}
         | {"scale": s}}, "features": {FEATURE: {"scale": s}}, "motion": {NAME:
@@ -285,6 +287,8 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     SpecError
         Unknown fields or names, a value that is not a JSON number, a
         non-finite or out-of-range number; ``details["field"]`` names it.
+        A translation, offset, pivot or target beyond ``MOVE_RANGE`` diagonals
+        has the code ``out_of_range``.
 
     Examples
     --------
@@ -295,58 +299,42 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     ...            ["h"]).to_dict()["handles"]["h"]["rotation"]["angle_deg"]
     10.0
     """
-    check_keys(doc, ("handles", "points", "relative", "features", "motion", "targets"), "MOVE")
-    names = names or {}
-    tmax = bounds.translation if bounds is not None else 1e150
+    from ..documents.move import Move as MoveDoc
+    from ..documents.validation import validated
 
-    def pos(x: Any, where: str) -> np.ndarray:
-        v = vec3(x, where, 1e150)
+    m = validated(MoveDoc, doc, "MOVE")
+    names = names or {}
+
+    def length(x: list[float] | None, where: str) -> np.ndarray:
+        v = np.zeros(3) if x is None else np.asarray(x, float)
+        return bounds.length(v, where) if bounds is not None else v
+
+    def pos(x: list[float], where: str) -> np.ndarray:
+        v = np.asarray(x, float)
         return bounds.position(v, where) if bounds is not None else v
 
     for key in ("points", "relative", "features", "motion", "targets"):
-        val = doc.get(key, {})
-        expect(isinstance(val, dict), f"MOVE.{key} must be an object", field=key)
-        bad = sorted(set(val) - set(names.get(key, ())))
+        bad = sorted(set(getattr(m, key)) - set(names.get(key, ())))
         expect(not bad, f"MOVE.{key} names unknown {key} {bad}; the SPEC defines {sorted(names.get(key, ()))}",
-               field=key, unknown=bad)
-    hs = doc.get("handles", {})
-    expect(isinstance(hs, dict), "MOVE.handles must be an object", field="handles")
-    unknown = sorted(set(hs) - set(handle_names))
+               field=f"MOVE.{key}", unknown=bad)
+    unknown = sorted(set(m.handles) - set(handle_names))
     expect(not unknown, f"MOVE names unknown handle(s) {unknown}; the SPEC defines {sorted(handle_names)}",
-           field="handles", unknown=unknown)
+           field="MOVE.handles", unknown=unknown)
     out = {}
-    for name, h in hs.items():
+    for name, h in m.handles.items():
         where = f"MOVE.handles.{name}"
-        check_keys(h, ("translation", "rotation", "pivot", "scale"), where)
-        t = vec3(h["translation"], f"{where}.translation", tmax) if "translation" in h else np.zeros(3)
-        r = _parse_rotation(h["rotation"], f"{where}.rotation") if "rotation" in h else np.zeros(3)
-        s = _scale(h.get("scale", 1.0), f"{where}.scale")
-        p = pos(h["pivot"], f"{where}.pivot") if "pivot" in h else None
-        out[name] = HandleMove(t, r, s, p)
-    points = {k: pos(v, f"MOVE.points.{k}") for k, v in doc.get("points", {}).items()}
+        t = length(h.translation, f"{where}.translation")
+        r = _rotation_vector(h.rotation, f"{where}.rotation") if h.rotation is not None else np.zeros(3)
+        p = pos(h.pivot, f"{where}.pivot") if h.pivot is not None else None
+        out[name] = HandleMove(t, r, 1.0 if h.scale is None else float(h.scale), p)
+    points = {k: pos(v, f"MOVE.points.{k}") for k, v in m.points.items()}
     relative: dict[str, dict[str, Any]] = {}
-    for k, v in doc.get("relative", {}).items():
-        where = f"MOVE.relative.{k}"
-        check_keys(v, ("offset", "scale"), where)
-        expect(len(v) == 1, f"{where} needs exactly one of offset or scale", field=where)
-        if "offset" in v:
-            relative[k] = {"offset": vec3(v["offset"], f"{where}.offset", tmax)}
+    for k, rel in m.relative.items():
+        if rel.offset is not None:
+            relative[k] = {"offset": length(rel.offset, f"MOVE.relative.{k}.offset")}
         else:
-            relative[k] = {"scale": _scale(v["scale"], f"{where}.scale")}
-    features = {}
-    for k, v in doc.get("features", {}).items():
-        where = f"MOVE.features.{k}"
-        check_keys(v, ("scale",), where)
-        features[k] = _scale(v.get("scale", 1.0), f"{where}.scale")
-    motion = {}
-    for k, v in doc.get("motion", {}).items():
-        where = f"MOVE.motion.{k}"
-        check_keys(v, ("point",), where)
-        expect("point" in v, f"{where} needs a point", field=where)
-        motion[k] = pos(v["point"], f"{where}.point")
-    targets = {}
-    for k, v in doc.get("targets", {}).items():
-        where = f"MOVE.targets.{k}"
-        check_keys(v, ("amount",), where)
-        targets[k] = number(v.get("amount", 1.0), f"{where}.amount", -TARGET_AMOUNT_MAX, TARGET_AMOUNT_MAX)
+            relative[k] = {"scale": float(rel.scale)}  # type: ignore[arg-type]  # one of the two, by the model
+    features = {k: float(v.scale) for k, v in m.features.items()}
+    motion = {k: pos(v.point, f"MOVE.motion.{k}.point") for k, v in m.motion.items()}
+    targets = {k: float(v.amount) for k, v in m.targets.items()}
     return Move(out, points, relative, features, motion, targets)

@@ -458,7 +458,9 @@ def parse_spec(doc: Any) -> Spec:
 
     Parameters
     ----------
-    doc : dict
+    doc : dict or solver.documents.spec.Spec
+        The document, validated first by its model (:class:`solver.documents.spec.Spec`, with file
+        paths allowed for target surfaces), or an instance of that model:
         ``{"selections": {...}, "fixed": [...], "handles": {...}, "laplacian": ...,
         "constraints": {"method": ..., "penalty_weight": ...}, "solve": ...,
         "rotation": ..., "inversion": ..., "points": [...], "relative": [...],
@@ -485,6 +487,13 @@ def parse_spec(doc: Any) -> Spec:
     >>> s.handles, s.method
     ({'h': 'b'}, 'null_space')
     """
+    from ..documents.spec import Spec as SpecDoc
+    from ..documents.validation import validated
+
+    if isinstance(doc, SpecDoc):  # validated by its caller (the service's request bodies)
+        doc = doc.dump()
+    else:  # types and static ranges, from the one definition; names and relations below
+        validated(SpecDoc, doc, "SPEC", context={"files": True})
     check_keys(doc, ("selections", "fixed", "handles", "domain", "laplacian", "constraints", "solve",
                      "rotation", "inversion", "points", "relative", "features", "motion", "sliding",
                      "symmetry", "cyclic", "targets", "conflicts", "repair", "thin_walls", "ties", "voids",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..constraints.move import Move, parse_move, scaled_move
 from ..constraints.spec import Spec, parse_spec
@@ -26,6 +26,9 @@ from ..validity.safe_fraction import SAFE_TOL
 from .policy import move_safe_fraction
 from .positions import InteriorBasis
 from .precompute import DeformData, deform_precompute
+
+if TYPE_CHECKING:
+    from ..documents.move import Move as MoveDocument
 from .solve import (
     BoundaryStage,
     Solved,
@@ -84,8 +87,8 @@ class Deformer:
         """Memory held by the factors, operators and rotation basis, in bytes."""
         return self.data.nbytes
 
-    def parse_move(self, move: Move | dict[str, Any]) -> Move:
-        """Parse a MOVE document against this SPEC's names and the mesh's extent."""
+    def parse_move(self, move: Move | MoveDocument | dict[str, Any]) -> Move:
+        """Parse a MOVE document (a dict, or its validated model) against this SPEC's names and the mesh's extent."""
         if isinstance(move, Move):
             return move
         return parse_move(move, self.handle_names, self.spec.names, self.data.constraints.bounds)

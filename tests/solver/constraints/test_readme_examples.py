@@ -63,6 +63,6 @@ def test_every_point_form_is_a_spec_point_a_relative_point_and_a_motion_point(fo
 
 
 def test_a_name_inside_a_relative_point_is_refused_naming_it():
-    with pytest.raises(SpecError, match=r"unknown field\(s\) \['name'\] in SPEC\.relative\[0\]\.points\[0\]"):
+    with pytest.raises(SpecError, match=r"unknown field 'name' in SPEC\.relative\[0\]\.points\[0\]"):
         parse_spec({"selections": SELECTIONS, "fixed": ["clamp"], "handles": {"end": "end"},
                     "relative": [{"name": "r", "points": [{"name": "x", "vertices": [1]}, {"vertices": [2]}]}]})

@@ -3,9 +3,9 @@
 An integer field takes what JSON Schema calls an integer: ``3`` and ``3.0`` alike (a number
 with no fraction), never ``3.5``, ``true`` or ``"3"``.
 
-Bounds that depend on the mesh (vertex ids below its vertex count,
-translations and points within :data:`EXTENT` bounding-box diagonals) are
-checked where the mesh is known (:mod:`service.models.bounds`).
+Bounds that depend on the mesh (vertex ids below its vertex count, translations and points within
+:data:`EXTENT` bounding-box diagonals) are checked where the mesh is known: by
+:func:`~solver.constraints.move.parse_move` against the deformer's mesh, and by the SPEC's parser.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Annotated, Any
 
 from pydantic import BeforeValidator, Field
 
-from solver.limits import (
+from ..limits import (
     ANGLE_MAX,
     COORD_MAX,
     EXTENT,
@@ -33,8 +33,15 @@ __all__ = ["Int", "INTEGRAL", "Coord", "Vec3", "Quat", "Scale", "Angle", "Weight
 # Every bound is :mod:`solver.limits`'s: the library's parsers and this schema read the same numbers.
 
 Coord = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-COORD_MAX, le=COORD_MAX)]
-Vec3 = Annotated[list[Coord], Field(min_length=3, max_length=3, description="[x, y, z]")]
-Quat = Annotated[list[Coord], Field(min_length=4, max_length=4, description="[w, x, y, z], non-zero")]
+
+def _listed(v: Any) -> Any:
+    """A tuple as the list it holds (a library caller's ``(1, 0, 0)``; JSON has lists only)."""
+    return list(v) if isinstance(v, tuple) else v
+
+
+Vec3 = Annotated[list[Coord], Field(min_length=3, max_length=3, description="[x, y, z]"), BeforeValidator(_listed)]
+Quat = Annotated[list[Coord], Field(min_length=4, max_length=4, description="[w, x, y, z], non-zero"),
+                 BeforeValidator(_listed)]
 Scale = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=SCALE_MIN, le=SCALE_MAX,
                                description=f"uniform scale factor in [{SCALE_MIN:g}, {SCALE_MAX:g}]")]
 Angle = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-ANGLE_MAX, le=ANGLE_MAX,

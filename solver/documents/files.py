@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SolverError
+from ..errors import SolverError
 
 __all__ = ["load_json", "dump_json"]
 

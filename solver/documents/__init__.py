@@ -1,0 +1,18 @@
+"""The documents tetmorph reads and writes: their models, and JSON files on disk.
+
+* :mod:`~solver.documents.numbers` -- the number types of every document (strict, finite, bounded by
+  :mod:`solver.limits`);
+* :mod:`~solver.documents.move` -- the MOVE document, as pydantic models. The library's
+  :func:`~solver.constraints.move.parse_move` and the service's OpenAPI schema both use them, so a MOVE
+  has one definition and is validated once;
+* :mod:`~solver.documents.validation` -- a model's validation errors as a :class:`~solver.errors.SpecError`
+  naming the field;
+* :mod:`~solver.documents.files` -- SPEC, MOVE and SHAPES files in, REPORTs out, for the command line.
+
+The models import pydantic; this package's ``__init__`` does not, so ``import solver`` stays as light
+as it was.
+"""
+
+from .files import dump_json, load_json
+
+__all__ = ["load_json", "dump_json"]

@@ -1,0 +1,112 @@
+"""The MOVE document: where the handles go, and the targets of the other constraints.
+
+These models are the MOVE's one definition. They state every type and every static range (from
+:mod:`solver.limits`), the library's :func:`~solver.constraints.move.parse_move` validates a MOVE with
+them, and the service's OpenAPI schema is generated from them. What depends on the SPEC and the mesh
+(names the SPEC defines, translations and points within :data:`~solver.limits.EXTENT` diagonals of the
+mesh, a non-zero axis) is checked by :func:`~solver.constraints.move.parse_move`.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..limits import EXTENT, TARGET_AMOUNT_MAX
+from .numbers import Angle, Quat, Scale, Vec3
+
+__all__ = ["Move", "HandleMove", "Rotation", "RelativeMove", "FeatureMove", "MotionMove", "TargetMove",
+           "TargetAmount"]
+
+_STRICT = ConfigDict(extra="forbid", strict=True)
+
+#: How far a target's nodes go: 0 at rest, 1 on the target surface.
+TargetAmount = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-TARGET_AMOUNT_MAX,
+                                      le=TARGET_AMOUNT_MAX)]
+
+
+class Rotation(BaseModel):
+    """``axis`` + ``angle_deg``, or a ``quaternion`` [w, x, y, z]."""
+
+    model_config = _STRICT
+    axis: Vec3 | None = None
+    angle_deg: Angle | None = None
+    quaternion: Quat | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> Rotation:
+        if self.quaternion is not None:
+            if self.axis is not None or self.angle_deg is not None:
+                raise ValueError("give either axis+angle_deg or quaternion, not both")
+        elif self.axis is None or self.angle_deg is None:
+            raise ValueError("a rotation needs axis and angle_deg (or quaternion)")
+        return self
+
+
+class HandleMove(BaseModel):
+    """Where one handle goes: ``pivot + translation + scale R (p0 - pivot)``."""
+
+    model_config = _STRICT
+    translation: Vec3 | None = Field(None, description=f"within {EXTENT:g} bounding-box diagonals")
+    rotation: Rotation | None = None
+    pivot: Vec3 | None = Field(None, description="default: the handle's rest centroid; within "
+                               f"{EXTENT:g} diagonals of the mesh's centre")
+    scale: Scale | None = None
+
+
+class RelativeMove(BaseModel):
+    """A new offset or scale of a SPEC ``relative`` constraint: exactly one of the two."""
+
+    model_config = _STRICT
+    offset: Vec3 | None = None
+    scale: Scale | None = None
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> RelativeMove:
+        if (self.offset is None) == (self.scale is None):
+            raise ValueError("needs exactly one of offset or scale")
+        return self
+
+
+class FeatureMove(BaseModel):
+    """The scale of a SPEC feature."""
+
+    model_config = _STRICT
+    scale: Scale = 1.0
+
+
+class MotionMove(BaseModel):
+    """The point a SPEC ``motion`` plane or line passes through."""
+
+    model_config = _STRICT
+    point: Vec3
+
+
+class TargetMove(BaseModel):
+    """How far the nodes of a SPEC ``targets`` entry go: 0 rest, 1 on the target surface."""
+
+    model_config = _STRICT
+    amount: TargetAmount = 1.0
+
+
+class Move(BaseModel):
+    """Where the handles go (docs/guide/documents.md).
+
+    A handle the MOVE does not name is at its rest position (identity
+    transform), not where an earlier MOVE put it: every MOVE is absolute.
+    """
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [
+        {"handles": {"tip": {"translation": [0, 0, 4], "rotation": {"axis": [1, 0, 0], "angle_deg": 15}}}}]})
+
+    handles: dict[str, HandleMove] = Field(default_factory=dict, max_length=10_000)
+    points: dict[str, Vec3] = Field(default_factory=dict, max_length=100_000)
+    relative: dict[str, RelativeMove] = Field(default_factory=dict, max_length=100_000)
+    features: dict[str, FeatureMove] = Field(default_factory=dict, max_length=10_000)
+    motion: dict[str, MotionMove] = Field(default_factory=dict, max_length=10_000)
+    targets: dict[str, TargetMove] = Field(default_factory=dict, max_length=1000)
+
+    def dump(self) -> dict[str, Any]:
+        """The document as given (fields not set are left out)."""
+        return self.model_dump(exclude_unset=True, mode="python")

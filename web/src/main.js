@@ -47,7 +47,7 @@ regions.busy = () => moves.dragging;
 const legend = () => drawLegend(meshView, state.regions);
 on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); cyclic.render(); });
 on("legend", legend);
-on("history", () => { renderHistory(moves); session.note(); session.keepHistory(); });
+on("history", () => { renderHistory(moves); session.note(); session.saveHistory(); });
 on("presets", () => { renderPresets(moves); shapes.render(); });
 on("active-handle", () => renderHandleSelect(moves));
 on("open-sessions", () => openSessionsDialog());
@@ -265,6 +265,9 @@ async function demo() {
     const doc = await getJson("/v1/sessions/s_demo");
     // the demo starts at rest: whatever moved it before is not the next visitor's starting point
     if (doc.last_move) await api("/v1/sessions/s_demo/reset", { method: "POST" });
+    // nor is its undo history
+    await api("/v1/sessions/s_demo/history", { method: "PUT", headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ applied: [], undone: [] }) });
   } catch (e) {
     if (e.status !== 404) { showError(e); return; }
     try { await openMesh("m_demo_beam"); } catch (e2) {

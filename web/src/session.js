@@ -16,8 +16,10 @@ const own = claim("session");
 
 // where editors before the service kept presets kept them in this browser (moved to the service on open)
 const legacyPresetKey = (id) => `tetmorph-presets:${id}`;
-// the undo history of a session, kept in this browser
-const historyKey = (id) => `tetmorph-history:${id}`;
+// where editors before the service kept a session's undo history in this browser (no longer read)
+const legacyHistoryKey = (id) => `tetmorph-history:${id}`;
+// most MOVEs each list of a history the service keeps (service/models/history.py)
+const HISTORY_MAX = 500;
 
 export class SessionControl {
   constructor(meshView, regions) {
@@ -29,6 +31,9 @@ export class SessionControl {
     this.building = null;    // id of a session being built for this tab
     this.presetQueue = Promise.resolve(); // preset changes, one after another
     this.pendingBoundary = null; // a boundary frame waiting for the next paint
+    this.historyOf = null;   // the session whose history the editor holds (read from the service, or new)
+    this.historyTimer = null; // the debounced PUT of the history
+    this.historyQueue = Promise.resolve(); // history PUTs, one after another
     meshView.viewer.beforeRender.push(() => this.drawPendingBoundary());
     window.addEventListener("pagehide", () => this.leaving());
   }
@@ -70,6 +75,7 @@ export class SessionControl {
       if (s.status !== "ready") throw Object.assign(new Error(`session ${s.status}`), { body: { error: s.error } });
       setProgress(1);
       this.start(s.id, handles);
+      this.historyOf = s.id;  // a new session: its history is the rest shape only
       own.presets = s.presets || [];
       if (after) after();
       emit("presets");
@@ -120,6 +126,7 @@ export class SessionControl {
 
   /** pagehide: delete this tab's unfinished session (still building, or never moved). */
   leaving() {
+    this.flushHistory(true);
     const id = this.building || (state.sessionId && this.own.has(state.sessionId) && state.history.length <= 1
       ? state.sessionId : null);
     if (!id) return;
@@ -147,9 +154,10 @@ export class SessionControl {
       emit("session");
       this.dropBoundary();
       this.meshView.applyPositions(data);
-      const kept = this.keptHistory(id);
-      // this browser's history of the session (its current entry is what the session holds), then
-      // the service's last MOVE when it was moved elsewhere since
+      const kept = await this.serviceHistory(id);
+      // the history kept with the session (its current entry is what the session holds), then
+      // the service's last MOVE when it was moved without it since
+      this.historyOf = id;
       this.moves.resume(kept, doc.last_move);
       own.presets = doc.presets || [];
       emit("presets");
@@ -175,6 +183,8 @@ export class SessionControl {
 
   /** Leave the session in this tab (it stays on the service). */
   close() {
+    this.flushHistory();
+    this.historyOf = null;
     this.dropBoundary();  // a boundary frame of the stream being closed is never drawn
     if (own.ws) own.ws.close();
     own.ws = null; own.sessionId = null; own.specSent = null; own.presets = [];
@@ -196,36 +206,54 @@ export class SessionControl {
     }
     this.own.delete(id);
     localStorage.removeItem(legacyPresetKey(id));
-    localStorage.removeItem(historyKey(id));
+    localStorage.removeItem(legacyHistoryKey(id));
     emit("sessions-changed");
     return true;
   }
 
   async list() { return getJson("/v1/sessions"); }
 
-  // ---------------------------------------------------------------- history kept in this browser
+  // ---------------------------------------------------------------- history kept with the session
   /**
-   * Keep the open session's history (up to 200 entries) in this browser, so that reopening the
-   * session, or reloading the page, brings back Undo and Redo.
+   * Keep the open session's undo history with the session on the service (PUT .../history), a
+   * moment after it last changed: reopening the session, from this browser or another, or
+   * reloading the page brings back Undo and Redo.
    */
-  keepHistory() {
+  saveHistory() {
     const id = state.sessionId;
-    if (!id || state.history.length <= 1) return;
-    const start = Math.max(0, state.history.length - 200);
-    const doc = { history: state.history.slice(start).map((e) => ({ label: e.label, move: e.move })),
-      index: state.historyIndex - start };
-    if (doc.index < 0) return;
-    if (start > 0) doc.history[0] = { label: "earlier moves", move: doc.history[0].move };
-    try { localStorage.setItem(historyKey(id), JSON.stringify(doc)); } catch { /* storage full: not kept */ }
+    if (!id || this.historyOf !== id) return;  // not read yet: saving now would replace it with nothing
+    clearTimeout(this.historyTimer);
+    this.historyTimer = setTimeout(() => this.flushHistory(), 300);
   }
 
-  /** The history this browser kept for a session, or null. */
-  keptHistory(id) {
+  /** PUT the history now when a save is waiting (keepalive: the page is going away). */
+  flushHistory(keepalive = false) {
+    if (this.historyTimer === null) return this.historyQueue;
+    clearTimeout(this.historyTimer);
+    this.historyTimer = null;
+    const id = state.sessionId;
+    if (!id || this.historyOf !== id) return this.historyQueue;
+    const body = JSON.stringify(historyDoc(state.history, state.historyIndex));
+    const put = () => api(`/v1/sessions/${id}/history`, { method: "PUT", keepalive,
+      headers: { "Content-Type": "application/json" }, body }).catch((e) => {
+      // a session gone or a history refused: the editor's history stays as it is, unsaved
+      if (state.sessionId === id && e.status !== 404 && e.status !== 410) {
+        setStatus(`session ${id} · the undo history was not saved on the service: ${e.message}`);
+      }
+    });
+    this.historyQueue = keepalive ? put() : this.historyQueue.then(put);
+    return this.historyQueue;
+  }
+
+  /** The history kept with a session on the service as editor entries and the index shown, or null. */
+  async serviceHistory(id) {
     try {
-      const doc = JSON.parse(localStorage.getItem(historyKey(id)) || "null");
-      if (!doc || !Array.isArray(doc.history) || !doc.history.length) return null;
-      const index = Math.min(Math.max(0, doc.index | 0), doc.history.length - 1);
-      return { history: doc.history, index };
+      const doc = await getJson(`/v1/sessions/${id}/history`);
+      const applied = doc.applied || [], undone = doc.undone || [];
+      if (!applied.length && !undone.length) return null;
+      const entry = (label) => (m) => ({ label: isRest(m) ? "rest" : label, move: isRest(m) ? null : m });
+      const history = [{ label: "rest", move: null }, ...applied.map(entry("move")), ...undone.map(entry("undone move"))];
+      return { history, index: applied.length };
     } catch { return null; }
   }
 
@@ -496,6 +524,25 @@ export class SessionControl {
     const t0 = performance.now();
     while (state.ws && !state.ws.open && performance.now() - t0 < ms) await new Promise((r) => setTimeout(r, 20));
   }
+}
+
+/** A MOVE that leaves every handle at rest (how the history on the service holds a reset). */
+const REST_MOVE = Object.freeze({ handles: {} });
+
+function isRest(m) {
+  return !m || Object.keys(m).every((k) => !m[k] || Object.keys(m[k]).length === 0);
+}
+
+/**
+ * The editor's history as the service keeps it: the MOVEs of the entries up to the one shown
+ * (applied, the last the session's), then those after it (undone, the next to redo first); the
+ * rest entry 0 is implied, and a reset is a MOVE of no handles. Each list keeps its 500 MOVEs
+ * nearest the entry shown.
+ */
+export function historyDoc(history, index) {
+  const move = (e) => e.move || REST_MOVE;
+  return { applied: history.slice(1, index + 1).map(move).slice(-HISTORY_MAX),
+    undone: history.slice(index + 1).map(move).slice(0, HISTORY_MAX) };
 }
 
 const LOSS_KINDS = { node_set: "node sets", element_set: "element sets", element_type: "element types" };

@@ -16,6 +16,8 @@
 //                        (id null: none); stream is {open, readyState} of its WebSocket, or null;
 //                        seq is the last MOVE sent, lastSeq the last answered; presets
 //                        [{name, move}]; the round trips (ms) are of the last MOVE answered
+//   tetmorph.history()   {index, entries: [{label, move}]}: the undo history, entry 0 the rest
+//                        shape (move null), entry index the one shown
 //   tetmorph.view()      {clip, threshold, cut, badCount, invertedTets, visibleFaces, frames,
 //                        applyMs, boundaryFrames, boundaryApplyMs}: view options, and the counts
 //                        and times (ms) derived from the positions
@@ -48,6 +50,8 @@ export function stateAccessors() {
       roundTripMs: state.roundTripMs, boundaryRoundTripMs: state.boundaryRoundTripMs,
       boundaryReceived: state.boundaryReceived, boundarySkipped: state.boundarySkipped,
     }),
+    history: () => ({ index: state.historyIndex,
+      entries: state.history.map((e) => ({ label: e.label, move: copy(e.move) })) }),
     view: () => ({ clip: state.clip, threshold: state.threshold, cut: state.cut, badCount: state.badCount,
       invertedTets: state.invertedTets, visibleFaces: state.visibleFaces, frames: state.frames,
       applyMs: state.applyMs, boundaryFrames: state.boundaryFrames, boundaryApplyMs: state.boundaryApplyMs }),

@@ -251,6 +251,8 @@ class JobRunner:
                 self._kill(job)
                 parent.close()
                 shutil.rmtree(work, ignore_errors=True)
+            if job.status == "cancelled":  # killed by cancel() while the pipe's wait was ending
+                return
             if msg is None:
                 job.status, job.stage, job.finished = "failed", "failed", time.time()
                 alive = time.time() - job.started < job.time_limit_s

@@ -10,8 +10,21 @@ import time
 
 import httpx
 import numpy as np
+import pytest
 
-from tests.browser.conftest import bracket_session, positions, settle
+from solver import read_mesh
+from tests.browser.conftest import (
+    BRACKET,
+    assign_set,
+    bracket_session,
+    create,
+    drag,
+    load_bracket,
+    numeric_move,
+    positions,
+    report_row,
+    settle,
+)
 
 
 def _service_history(base: str, sid: str) -> dict:
@@ -85,3 +98,50 @@ def test_the_undo_history_is_kept_with_the_session_on_the_service(pages, server)
     settle(other)
     np.testing.assert_allclose(positions(other), shapes[1], atol=1e-5)
     _wait_history(server, sid, [2, 4], [6])
+
+
+def test_a_painted_morph_domain_holds_the_rest_at_rest_and_a_far_moving_free_node_is_warned_of(page):
+    mesh = read_mesh(BRACKET)  # a 100 x 20 x 10 bar, FIXED at x = 0, LOAD at x = 100
+    V = mesh.V
+    load_bracket(page)
+    assign_set(page, "FIXED", 1)
+    assign_set(page, "LOAD", 2)
+    page.keyboard.press("1")  # the front view: x to the right, z up
+    # paint the domain with a box through the mesh around the part beyond x = 55
+    inside = np.flatnonzero(V[:, 0] > 55)
+    page.wait_for_timeout(1000)  # the view's camera has arrived
+    pts = np.array([[p["x"], p["y"]] for p in
+                    page.evaluate("(ids) => ids.map((i) => window.tetmorph.screenOf(i))", inside.tolist())])
+    x0, y0 = pts.min(0) - [2, 20]
+    x1, y1 = pts.max(0) + 20
+    page.check("input[name=role][value='3']")
+    page.check("input[name=tool][value='box']")
+    drag(page, x0, y0, x1, y1)
+    page.check("input[name=tool][value='orbit']")
+    assert page.inner_text("#domain-count").startswith("domain: ")
+    assert page.inner_text("#domain-count") != "domain: whole mesh"
+    # the domain is drawn: a node of it in no region wears the domain's tint, one outside it does not
+    free_in = int(next(i for i in inside if mesh.boundary[i] and not np.isin(i, mesh.sets["LOAD"])))
+    free_out = int(next(i for i in np.flatnonzero(V[:, 0] < 40) if mesh.boundary[i]))
+    assert page.evaluate(f"window.tetmorph.surfaceColor({free_in})") != page.evaluate(
+        f"window.tetmorph.surfaceColor({free_out})")
+    create(page)
+    sid = page.evaluate("window.tetmorph.session().id")
+    spec = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["spec"]
+    domain = np.asarray(spec["selections"][spec["domain"]]["ids"])
+    assert set(inside[mesh.referenced[inside]].tolist()) <= set(domain.tolist())
+    assert not np.any(V[domain, 0] < 50)  # the box left the first half out
+    numeric_move(page, axis=(0, 1, 0), angle=20)
+    settle(page)
+    P = positions(page)
+    d = np.linalg.norm(P - V, axis=1)
+    outside = np.setdiff1d(np.arange(len(V)), domain)
+    assert d[outside].max() < 1e-4  # everything outside the domain stayed at rest
+    assert d[domain].max() > 1.0
+    handle = mesh.sets["LOAD"]
+    free = np.setdiff1d(np.arange(len(V)), np.concatenate([handle, mesh.sets["FIXED"]]))
+    assert d[free].max() > d[handle].max() * 1.05  # measured: a free node moves farther than the handle
+    page.wait_for_selector("#report tr[data-key=free_exceeds]", timeout=10000)
+    warning = report_row(page, "free_exceeds")
+    assert warning is not None and "free node moves" in warning
+    assert float(report_row(page, "max_free_displacement").split()[0]) == pytest.approx(d[free].max(), rel=1e-2)

@@ -34,6 +34,9 @@ export function renderRegions(regions) {
     <button data-act="delete" data-id="${r.id}" title="delete the region">×</button></li>`).join("");
   const c = regions.counts();
   $("sel-count").textContent = `fixed ${c.fixed} · handle ${c.handle}`;
+  const d = regions.domainCount();
+  $("domain-count").textContent = d ? `domain: ${fmt(d)} vertices, the rest held at rest` : "domain: whole mesh";
+  $("domain-clear").disabled = !d;
 }
 
 export function wireRegions(regions) {

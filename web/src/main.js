@@ -398,6 +398,7 @@ $("set-apply").addEventListener("click", () => regions.assignSet($("sets").value
 $("add-fixed").addEventListener("click", () => { if (state.V) regions.add("fixed"); });
 $("add-handle").addEventListener("click", () => { if (state.V) regions.add("handle"); });
 $("clear-sel").addEventListener("click", () => { if (state.V) regions.clear(); });
+$("domain-clear").addEventListener("click", () => { if (state.V) regions.applyDomain([], "replace"); });
 $("find-features").addEventListener("click", async () => {
   if (!state.meshId) { showError("open a mesh first"); return; }
   setBusy("finding features");

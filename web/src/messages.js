@@ -38,6 +38,11 @@ export function explain(e) {
       text = `Region ${sel} selects no vertex.`;
       hint = "Paint or assign some vertices to it, or delete it.";
       break;
+    case "handle_outside_domain":
+      text = "A handle reaches outside the morph domain: every node outside the domain is held at rest, so a " +
+        "handle there could not move.";
+      hint = "Paint the domain over the handles too (paint as domain, Shift adds), or choose Whole mesh.";
+      break;
     case "unknown_set":
       text = `The mesh has no set named “${d.set}”.`;
       break;

@@ -113,6 +113,8 @@ const ROWS = [
   ["clamped", "clamped"], ["applied_fraction", "applied fraction"],
   ["inverted_elements_unclamped", "inverted before clamping"],
   ["constraint_residual_max", "constraint residual", true], ["max_displacement", "max displacement", true],
+  ["max_handle_displacement", "max handle displacement", true],
+  ["max_free_displacement", "max free displacement", true],
   ["solve_ms", "server update ms"], ["round_trip_ms", "round trip ms"], ["apply_ms", "frame applied ms"],
   ["reset", "reset"],
 ];
@@ -134,6 +136,12 @@ export function showReport(rep) {
     if (rep[k] === undefined || rep[k] === null) continue;
     const bad = (k === "inverted_elements" && rep[k] > 0) || (k === "clamped" && rep[k]);
     row(k, label, fmt(rep[k]) + (withUnit ? unitText() : ""), bad);
+  }
+  const hd = rep.max_handle_displacement, fd = rep.max_free_displacement;
+  if (hd !== undefined && hd !== null && fd !== undefined && fd !== null && fd > hd * (1 + 1e-6) + 1e-12) {
+    // a morph that moves something more than its handle surprises: say by how much, and where to look
+    row("free_exceeds", "warning", `a free node moves ${fmt(Number((fd / Math.max(hd, 1e-300)).toPrecision(3)))}× ` +
+      "as far as the handles: check the displacement colouring, or limit the morph with a domain", true);
   }
   if (rep.conflicting_constraints && rep.conflicting_constraints.length)
     row("conflicting", "conflicting constraints", fmt(rep.conflicting_constraints.length), true);

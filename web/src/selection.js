@@ -1,8 +1,11 @@
 // Regions: any number of named fixed and handle regions, each a set of vertices (a vertex is
 // in one region at most), with a colour, a visibility and a count. They are filled with a box
 // (through the mesh, or the front surface only), a brush on the surface, a named set of the
-// file, or a feature candidate; Shift adds, Ctrl subtracts. The SPEC the session is created
-// from is written from them, and a SPEC can be read back into them.
+// file, or a feature candidate; Shift adds, Ctrl subtracts. The same tools paint the morph
+// domain (SPEC.domain): the part of the mesh the morph may move, every node outside it held at
+// rest; a vertex may be in the domain and in a region. The domain is a volume: a box through the
+// mesh or the brush's ball takes the inner nodes in it as well. The SPEC the session is created from is
+// written from them, and a SPEC can be read back into them.
 import * as THREE from "three";
 import { $, radio } from "./dom.js";
 import { claim, emit, state } from "./state.js";
@@ -15,7 +18,10 @@ export const PALETTE = {
   fixed: [[0.16, 0.4, 0.85], [0.36, 0.3, 0.75], [0.1, 0.56, 0.78], [0.3, 0.36, 0.55]],
   handle: [[0.12, 0.6, 0.28], [0.45, 0.5, 0.1], [0.0, 0.58, 0.58], [0.84, 0.24, 0.55]],
 };
-const KINDS = { 1: "fixed", 2: "handle" };
+/** The morph domain's tint, on the vertices of it that are in no region. */
+export const DOMAIN_COLOR = [0.93, 0.8, 0.5];
+const KINDS = { 1: "fixed", 2: "handle", 3: "domain" };
+const DOMAIN_ROLE = 3;
 const NAME_OK = /^[A-Za-z0-9_.:=-]{1,64}$/;
 
 export class Regions {
@@ -28,7 +34,8 @@ export class Regions {
     this.reset();
     meshView.regionColor = (i) => {
       const r = this.owner ? this.byId.get(this.owner[i]) : null;
-      return r && r.visible ? r.color : null;
+      if (r && r.visible) return r.color;
+      return this.domain && this.domain[i] ? DOMAIN_COLOR : null;
     };
     // brush cursor preview: a ring on the surface under the pointer
     this.ring = new THREE.Mesh(new THREE.RingGeometry(0.93, 1, 64),
@@ -53,6 +60,8 @@ export class Regions {
     this.owner = state.V ? new Int32Array(state.V.length / 3) : null;
     own.role = state.V ? new Uint8Array(state.V.length / 3) : null;
     own.activeRegion = null;
+    this.domain = state.V ? new Uint8Array(state.V.length / 3) : null;  // 1: in the morph domain
+    this.domainSource = null;  // {set} while the domain is exactly a named set
     this.specExtra = {};
     this.extraSelections = {};
     emit("selection");
@@ -164,6 +173,7 @@ export class Regions {
     const role = this.role();
     if (role === 0) { this.apply(ids, "erase"); return; }
     const mode = ev && (ev.ctrlKey || ev.metaKey) ? "subtract" : ev && ev.shiftKey ? "add" : plain;
+    if (role === DOMAIN_ROLE) { this.applyDomain(ids, mode); return; }
     this.apply(ids, mode, this.target(KINDS[role]));
   }
 
@@ -183,11 +193,38 @@ export class Regions {
     if (!ids) return;
     const role = this.role();
     if (role === 0) { this.apply(ids, "erase"); return; }
+    if (role === DOMAIN_ROLE) { this.applyDomain(ids, "replace"); this.domainSource = { set: name }; return; }
     this.fromIds(name, KINDS[role], ids, { set: name });
+  }
+
+  // ---------------------------------------------------------------- the morph domain
+  /** Change the domain: "replace" (exactly these ids), "add" or "subtract" them; [] with replace: no domain. */
+  applyDomain(ids, mode) {
+    if (!this.domain) return;
+    if (mode === "replace") this.domain.fill(0);
+    const v = mode === "subtract" ? 0 : 1;
+    for (const i of ids) this.domain[i] = v;
+    this.domainSource = null;
+    this.changed();
+  }
+
+  /** Vertices in the domain (0: none, the whole mesh may move). */
+  domainCount() {
+    let n = 0;
+    if (this.domain) for (let i = 0; i < this.domain.length; i++) n += this.domain[i];
+    return n;
+  }
+
+  /** The domain's vertex ids (of elements only, with usedOnly). */
+  domainIds(usedOnly = false) {
+    const out = [];
+    if (this.domain) for (let i = 0; i < this.domain.length; i++) if (this.domain[i] && (!usedOnly || state.used[i])) out.push(i);
+    return out;
   }
 
   clear() {
     for (const r of [...state.regions]) this.remove(r.id);
+    if (this.domain && this.domainCount()) this.applyDomain([], "replace");
   }
 
   changed() {
@@ -238,7 +275,15 @@ export class Regions {
       selections[r.name] = r.source && r.source.set ? { set: r.source.set } : { ids: this.idsOf(r, true) };
       if (r.kind === "fixed") fixed.push(r.name); else handles[r.handleName || r.name] = r.name;
     }
-    return { ...this.specExtra, selections, fixed, handles, ...options };
+    const out = { ...this.specExtra, selections, fixed, handles, ...options };
+    if (this.domainCount()) {
+      const names = new Set(Object.keys(selections));
+      let name = "domain";
+      for (let k = 2; names.has(name); k++) name = `domain_${k}`;
+      selections[name] = this.domainSource ? { ...this.domainSource } : { ids: this.domainIds(true) };
+      out.domain = name;
+    }
+    return out;
   }
 
   /** Regions from a SPEC's selections (ids, set, box, sphere, plane; boundary_only). Unknown keys are kept. */
@@ -255,8 +300,15 @@ export class Regions {
       kindOf.set(selName, "handle");
       handleOf.set(selName, h);
     }
+    const domainName = extra.domain;
+    delete this.specExtra.domain;
     for (const [name, sel] of Object.entries(selections)) {
       const kind = kindOf.get(name);
+      if (name === domainName && !kind) {  // the domain, painted again
+        this.applyDomain(this.resolve(sel), "replace");
+        if (sel.set && !sel.boundary_only) this.domainSource = { set: sel.set };
+        continue;
+      }
       if (!kind) { this.extraSelections[name] = sel; continue; }  // kept as it is for the SPEC
       const ids = this.resolve(sel);
       const source = sel.set && !sel.boundary_only ? { set: sel.set } : null;
@@ -337,8 +389,10 @@ export class Regions {
     const v = new THREE.Vector3();
     let ids = [];
     const clip = this.meshView.options.clip ? this.meshView.clipPlane : null;
+    // the domain is a volume: a box through the mesh takes the nodes inside it too
+    const inner = this.role() === DOMAIN_ROLE && $("box-mode").value !== "front";
     for (let i = 0; i < state.boundary.length; i++) {
-      if (!state.boundary[i]) continue;
+      if (!state.boundary[i] && !(inner && state.used[i])) continue;
       if (clip && clip.distanceToPoint(v.set(state.V[3 * i], state.V[3 * i + 1], state.V[3 * i + 2])) < 0) continue;
       this.screenOf(i, v);
       if (v.z > 1) continue;
@@ -414,9 +468,9 @@ export class Regions {
     this.showRing(hit);
     if (!hit) return;
     const r = this.brushRadius();
-    const ids = [];
+    const ids = [], inner = this.role() === DOMAIN_ROLE;  // the domain: the nodes inside the ball too
     for (let i = 0; i < state.boundary.length; i++) {
-      if (!state.boundary[i]) continue;
+      if (!state.boundary[i] && !(inner && state.used[i])) continue;
       const dx = state.V[3 * i] - hit.point.x, dy = state.V[3 * i + 1] - hit.point.y, dz = state.V[3 * i + 2] - hit.point.z;
       if (dx * dx + dy * dy + dz * dz <= r * r) ids.push(i);
     }
@@ -432,7 +486,7 @@ export class Regions {
     ring.quaternion.setFromUnitVectors(new THREE.Vector3(0, 0, 1), nrm);
     ring.scale.setScalar(r);
     const role = this.role();
-    ring.material.color.setRGB(...(role === 0 ? [0.4, 0.4, 0.4] : this.activeColor(role)));
+    ring.material.color.setRGB(...(role === 0 ? [0.4, 0.4, 0.4] : role === DOMAIN_ROLE ? DOMAIN_COLOR : this.activeColor(role)));
     ring.visible = true;
   }
 

@@ -34,6 +34,7 @@ export class SessionControl {
     this.historyOf = null;   // the session whose history the editor holds (read from the service, or new)
     this.historyTimer = null; // the debounced PUT of the history
     this.historyQueue = Promise.resolve(); // history PUTs, one after another
+    this.displacementTimer = null; // the debounced read of the REPORT's handle and free displacements
     meshView.viewer.beforeRender.push(() => this.drawPendingBoundary());
     window.addEventListener("pagehide", () => this.leaving());
   }
@@ -339,6 +340,7 @@ export class SessionControl {
     const rep = header.report || {};
     this.moves.solved(header.seq, rep);
     showReport({ mesh: state.meshName, seq: header.seq, dropped: header.dropped, ...rep, round_trip_ms: rtt, apply_ms: state.applyMs });
+    if (rep.max_free_displacement === undefined) this.fetchDisplacements(header.seq);
     setBusy(null);
     if (header.seq !== state.seq) setBusy("solving", 250); // newer MOVEs are still out
     if (rep.inverted_elements > 0 && this.policy() === "warn") {
@@ -348,6 +350,26 @@ export class SessionControl {
       clearError();
     }
     this.note();
+  }
+
+  /**
+   * The REPORT's largest handle and free displacements, which the stream's frames do not carry:
+   * from the session's last REPORT, once the MOVEs sent have come back (a moment after the last
+   * frame, so a drag asks once), and shown when the REPORT shown is still of that MOVE.
+   */
+  fetchDisplacements(seq) {
+    clearTimeout(this.displacementTimer);
+    if (seq !== state.seq) return;
+    const id = state.sessionId;
+    this.displacementTimer = setTimeout(async () => {
+      let doc;
+      try { doc = await getJson(`/v1/sessions/${id}`); } catch { return; }
+      const rep = state.report, last = doc.last_report || {};
+      if (state.sessionId !== id || !rep || rep.seq !== seq || state.seq !== seq || rep.rejected) return;
+      if (last.max_free_displacement === undefined || last.max_free_displacement === null) return;
+      showReport({ ...rep, max_handle_displacement: last.max_handle_displacement,
+        max_free_displacement: last.max_free_displacement });
+    }, 150);
   }
 
   /** A text frame: a MOVE the service refused (the session stays where it was). */

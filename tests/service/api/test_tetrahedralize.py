@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import meshio
 import numpy as np
 import pytest
@@ -152,3 +154,32 @@ def test_tetrahedralize_refuses_surfaces_over_the_size_cap(tmp_path):
         e = err(r)
         assert r.status_code == 422 and e["code"] == "too_many_triangles" and e["details"]["triangles"] == len(F)
 
+
+
+def test_a_finished_tetrahedralization_is_not_cancelled_and_keeps_its_mesh(tmp_path):
+    V, F = sphere_surface(1, 1.0)
+    path = tmp_path / "ball.stl"
+    meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
+    with running(tmp_path / "d", job_wait_s=0) as tc:
+        r = tc.post("/v1/tetrahedralize", files=[("file", ("ball.stl", path.read_bytes()))],
+                    data={"edge_length_fac": "1", "epsilon": "0.1", "optimize": "false"})  # the coarsest: about 3 s
+        assert r.status_code == 202, r.text
+        jid = r.json()["id"]
+        deadline = time.monotonic() + 60
+        while (doc := tc.get(f"/v1/jobs/{jid}").json())["status"] in ("queued", "running"):
+            assert time.monotonic() < deadline
+            time.sleep(0.1)
+        assert doc["status"] == "done", doc
+        r = tc.delete(f"/v1/jobs/{jid}")
+        assert r.status_code == 409 and err(r)["code"] == "job_finished"
+        assert tc.get(f"/v1/jobs/{jid}").json()["status"] == "done"
+        mid = doc["mesh"]["id"]
+        assert [m["id"] for m in tc.get("/v1/meshes").json()] == [mid]  # the client's to delete
+        (tmp_path / "ball.vtu").write_bytes(tc.get(f"/v1/meshes/{mid}/file").content)
+        m = meshio.read(tmp_path / "ball.vtu")
+        T = m.cells_dict["tetra"]
+        P = m.points[T]
+        vol = np.einsum("ij,ij->i", P[:, 1] - P[:, 0], np.cross(P[:, 2] - P[:, 0], P[:, 3] - P[:, 0])) / 6
+        assert len(T) > 0 and vol.min() > 0  # the job's mesh, stored and oriented
+        assert tc.delete(f"/v1/meshes/{mid}").status_code == 204
+        assert tc.get(f"/v1/meshes/{mid}").status_code == 404

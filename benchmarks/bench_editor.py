@@ -19,11 +19,24 @@ displacement colour map, clipping plane, bad-element overlay off), the median ti
 complete frame (render, then one pixel read back, which waits for the frame to be drawn;
 ``window.tetmorph.measureFrames``) and the page's
 send → frame applied time of MOVEs sent with that view on.
+
+With ``--drag STEPS``, the handle is dragged instead, with the real mouse on the gizmo's centre
+(``--mesh wheel``: the tractor wheel deck of the shared data, BC_RIMTIRE fixed and BC_SURF the
+handle; ``--mesh demo``: the Demo of ``tetmorph serve --demo``; ``--mesh bracket``: the bracket
+above), ``--repeat`` drags of STEPS pointer moves each. Each step is timed from the pointer move
+to its MOVE's frame applied and the next frame painted ("drag → frame"). ``--load N`` starts N
+CPU-bound processes of its own for the drags (and stops them after). ``--root DIR`` serves the
+service and the built editor of another checkout (a ``git worktree`` of an earlier commit, its
+editor built with ``npm run build``), to compare side by side::
+
+    python benchmarks/bench_editor.py --mesh wheel --drag 20 --repeat 3 [--load 2] [--root DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
+import os
 import shutil
 import subprocess
 import sys
@@ -46,7 +59,15 @@ def main() -> None:
     ap.add_argument("--size", type=float, default=0.95)
     ap.add_argument("--moves", type=int, default=30)
     ap.add_argument("--views", action="store_true", help="also time each view's frames and MOVEs")
+    ap.add_argument("--drag", type=int, default=0, metavar="STEPS", help="time gizmo drags of STEPS pointer moves")
+    ap.add_argument("--mesh", choices=("bracket", "wheel", "demo"), default="bracket", help="the mesh of --drag")
+    ap.add_argument("--repeat", type=int, default=3, help="drags of --drag")
+    ap.add_argument("--load", type=int, default=0, help="CPU-bound processes running during the drags")
+    ap.add_argument("--root", type=Path, default=ROOT, help="the checkout whose service and editor are served")
     a = ap.parse_args()
+    if a.drag:
+        drags(a)
+        return
     deck = Path(tempfile.gettempdir()) / f"tetmorph-bracket-{a.size:g}.inp"
     if not deck.exists():
         subprocess.run([sys.executable, str(ROOT / "tests" / "data" / "make_bracket.py"), f"{a.size:g}", str(deck)],
@@ -54,7 +75,8 @@ def main() -> None:
     with serve_process(tempfile.mkdtemp()) as (base, _), sync_playwright() as p:
         b = p.chromium.launch(executable_path=shutil.which("chromium"),
                               args=["--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
-        pg = b.new_page(viewport={"width": 1300, "height": 800})
+        # bypass_csp: Playwright's string predicates run as eval, which the page's CSP refuses
+        pg = b.new_context(viewport={"width": 1300, "height": 800}, bypass_csp=True).new_page()
         pg.goto(base + "/")
         t0 = time.perf_counter()
         pg.set_input_files("#upload", str(deck))
@@ -105,6 +127,119 @@ def main() -> None:
         print("|---|---:|---:|---:|")
         for name, (fr, sent, applied) in views.items():
             print(f"| {name} | {fr:.1f} | {sent:.1f} | {applied:.1f} |")
+
+
+def _spin() -> None:
+    """A CPU-bound loop (the load of --load)."""
+    x = 0
+    while True:
+        x = (x * 1103515245 + 12345) % 2147483648
+
+
+WHEEL = Path("/work/shared/data/tet/tractor_wheel_coarse.INP")
+RAF = "() => new Promise((r) => requestAnimationFrame(() => r()))"
+
+
+def _open(pg, base: str, a: argparse.Namespace) -> str:
+    """Open the mesh of --mesh with its regions and a ready session; answers what it is."""
+    if a.mesh == "demo":
+        pg.click("#demo")
+        pg.wait_for_function("window.tetmorph.session().id === 's_demo' && window.tetmorph.session().stream"
+                             " && window.tetmorph.session().stream.open", timeout=300000)
+        return "Demo beam"
+    if a.mesh == "wheel":
+        deck = WHEEL if WHEEL.exists() else ROOT.parent / "shared" / "data" / "tet" / WHEEL.name
+        sets = ("BC_RIMTIRE", "BC_SURF")
+    else:
+        deck = Path(tempfile.gettempdir()) / f"tetmorph-bracket-{a.size:g}.inp"
+        if not deck.exists():
+            subprocess.run([sys.executable, str(ROOT / "tests" / "data" / "make_bracket.py"), f"{a.size:g}",
+                            str(deck)], check=True)
+        sets = ("FIXED", "LOAD")
+    pg.set_input_files("#upload", str(deck))
+    pg.wait_for_function("window.tetmorph.mesh().open", timeout=300000)
+    for role, name in zip(("1", "2"), sets, strict=True):
+        pg.check(f"input[name=role][value='{role}']")
+        pg.select_option("#sets", name)
+        pg.click("#set-apply")
+    pg.click("#create")
+    pg.wait_for_function("window.tetmorph.session().id !== null && window.tetmorph.session().stream"
+                         " && window.tetmorph.session().stream.open", timeout=300000)
+    return deck.name
+
+
+def _drag(pg, steps: int, sign: int) -> tuple[list[float], int]:
+    """One drag of the gizmo's centre, 4 px a step: per step, pointer move → frame applied and painted (s)."""
+    if pg.is_checked("#snap"):
+        pg.uncheck("#snap")
+    c = pg.evaluate("window.tetmorph.pivotScreen()")
+    pg.mouse.move(c["x"], c["y"])
+    pg.mouse.down()
+    out, missed = [], 0
+    for k in range(1, steps + 1):
+        seq = pg.evaluate("window.tetmorph.session().seq")
+        t0 = time.perf_counter()
+        pg.mouse.move(c["x"] + sign * 4 * k, c["y"] - 2 * k)
+        try:
+            pg.wait_for_function(f"(() => {{ const s = window.tetmorph.session(); return s.seq > {seq} && "
+                                 "s.lastSeq === s.seq; })()", timeout=20000)
+        except Exception:  # noqa: BLE001 - a pointer move that sent nothing (off the gizmo) or a frame lost
+            missed += 1
+            continue
+        pg.evaluate(RAF)
+        out.append(time.perf_counter() - t0)
+    pg.mouse.up()
+    return out, missed
+
+
+def drags(a: argparse.Namespace) -> None:
+    """--drag: drag → frame times on the mesh of --mesh, quiet or under --load."""
+    from playwright.sync_api import sync_playwright
+
+    root = a.root.resolve()
+    os.chdir(root)  # `python -m service.cli` serves the checkout of the working directory
+    sys.path.insert(0, str(root))
+    from service.process import serve_process
+
+    commit = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    data = Path(tempfile.mkdtemp())
+    if a.mesh == "demo":
+        from tests.browser.conftest import demo_process
+        server = demo_process(data)
+    else:
+        server = serve_process(data)
+    load = []
+    with server as served, sync_playwright() as p:
+        base = served if isinstance(served, str) else served[0]
+        b = p.chromium.launch(executable_path=shutil.which("chromium"),
+                              args=["--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        # bypass_csp: Playwright's string predicates run as eval, which the page's CSP refuses
+        pg = b.new_context(viewport={"width": 1300, "height": 800}, bypass_csp=True).new_page()
+        pg.goto(base + "/")
+        pg.wait_for_function("window.tetmorph !== undefined")
+        what = _open(pg, base, a)
+        tets = pg.evaluate("window.tetmorph.tets().length / 4")
+        _drag(pg, 3, 1)  # warm-up
+        try:
+            load = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(a.load)]
+            for proc in load:
+                proc.start()
+            per, missed = [], 0
+            for r in range(a.repeat):
+                t, m = _drag(pg, a.drag, -1 if r % 2 else 1)
+                per.append(t)
+                missed += m
+        finally:
+            for proc in load:
+                proc.terminate()
+                proc.join()
+        b.close()
+    every = np.concatenate(per) * 1e3
+    medians = [float(np.median(t)) * 1e3 for t in per if t]
+    print(f"| {commit} | {what} ({int(tets):,} tets) | {'quiet' if not a.load else f'{a.load} CPU-bound'} | "
+          f"{np.median(every):.0f} | {np.percentile(every, 95):.0f} | "
+          f"{' / '.join(f'{m:.0f}' for m in medians)} | {len(every)} | {missed} |")
 
 
 #: (label, page script switching the view on, script switching it off)

@@ -145,3 +145,51 @@ def test_a_painted_morph_domain_holds_the_rest_at_rest_and_a_far_moving_free_nod
     warning = report_row(page, "free_exceeds")
     assert warning is not None and "free node moves" in warning
     assert float(report_row(page, "max_free_displacement").split()[0]) == pytest.approx(d[free].max(), rel=1e-2)
+
+
+def test_the_gizmo_moves_along_the_local_axes(page):
+    bracket_session(page)
+    mesh = read_mesh(BRACKET)
+    V = mesh.V
+    load = mesh.sets["LOAD"]  # the x = 100 end face: local axes in its plane, none along a global one
+    a = load[np.argmin(V[load, 1] + V[load, 2])]
+    b = load[np.argmax(V[load, 1] - V[load, 2])]
+    c = load[np.argmax(V[load, 1] + V[load, 2])]
+    page.check("input[name=tool][value='pick']")
+    for i in (a, b, c):
+        p = page.evaluate("(i) => window.tetmorph.screenOf(i)", int(i))
+        page.mouse.click(p["x"], p["y"])
+    page.click("#csys-from-picks")
+    page.check("input[name=tool][value='orbit']")
+    page.uncheck("#snap")
+    e1 = (V[b] - V[a]) / np.linalg.norm(V[b] - V[a])
+    # along the local x axis on screen, from the gizmo's centre, until the pointer is over its x arrow
+    centre = np.array(page.evaluate("window.tetmorph.pivot()")["position"])
+    s0 = page.evaluate("window.tetmorph.pivotScreen()")
+    s1 = page.evaluate("(p) => window.tetmorph.worldToPage(p)", (centre + 5 * e1).tolist())
+    u = np.array([s1["x"] - s0["x"], s1["y"] - s0["y"]])
+    u /= np.linalg.norm(u)
+    grab = None
+    for r in range(15, 160, 3):
+        x, y = s0["x"] + r * u[0], s0["y"] + r * u[1]
+        page.mouse.move(x, y)
+        if page.evaluate("window.tetmorph.gizmoAxis()") == "X":
+            grab = (x, y)
+            break
+    assert grab is not None, "no x arrow of the gizmo along the local x axis"
+    page.mouse.down()
+    for k in range(1, 11):
+        page.mouse.move(grab[0] + 6 * k * u[0], grab[1] + 6 * k * u[1])
+        time.sleep(0.03)
+    page.mouse.up()
+    settle(page)
+    sid = page.evaluate("window.tetmorph.session().id")
+    (h,) = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"].values()
+    t = np.array(h["translation"])
+    assert np.linalg.norm(t) > 1
+    np.testing.assert_allclose(t / np.linalg.norm(t), e1, atol=1e-6)  # along the local x only
+    # the fields, in local axes, say so
+    tx, ty, tz = (float(page.input_value(f"#{k}")) for k in ("tx", "ty", "tz"))
+    assert tx == pytest.approx(np.linalg.norm(t), abs=1e-3) and ty == 0 and tz == 0
+    # and the handle's nodes moved by it (from the positions, against the mesh file)
+    np.testing.assert_allclose(positions(page)[load] - V[load], np.tile(t, (len(load), 1)), atol=1e-4)

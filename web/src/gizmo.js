@@ -1,7 +1,8 @@
 // Moving the handles: one transform per handle region (translation, rotation and scale about
 // its rest centroid), the translate/rotate gizmo on the active handle with snapping and a live
 // distance/angle read-out, numeric fields that always show the active handle's transform,
-// relative moves, the history behind Undo/Redo, and named presets.
+// relative moves, the history behind Undo/Redo, and named presets. With local axes on, the
+// numeric fields and the gizmo's arrows and rings are in the local x, y, z.
 import * as THREE from "three";
 import { TransformControls } from "three/addons/controls/TransformControls.js";
 import { $, radio } from "./dom.js";
@@ -64,10 +65,14 @@ export class Moves {
       viewer.orbit.enabled = !ev.value && radio("tool") === "orbit";
       if (ev.value) {
         this.refusedDrag = false;
+        // in local axes the gizmo turns with the axes, not the handle: the handle's turn is taken at the start
+        const h = state.transforms[this.active];
+        this.dragQ0 = h ? h.q.clone() : new THREE.Quaternion();
         // snap targets: the nodes where they are drawn when the drag begins (free ones move with it)
         this.snapV = $("snap-node").checked && state.V ? Float32Array.from(state.V) : null;
       }
       if (!ev.value && this.dragged) { this.dragged = false; this.commit("drag", this.dragSeq); }
+      if (!ev.value && this.frame()) this.loadPivot();  // the gizmo back to the local axes for the next drag
     });
     this.gizmo.addEventListener("objectChange", () => {
       if (!this.active) return;
@@ -187,17 +192,37 @@ export class Moves {
   }
 
   // ---------------------------------------------------------------- transforms
+  /**
+   * The pivot where the active handle is. In local axes the gizmo's arrows and rings are the local
+   * x, y, z (the pivot wears the axes' orientation, the gizmo in its local space); else the world's.
+   */
   loadPivot() {
     const h = state.transforms[this.active];
+    const qc = this.frameQuaternion();
+    this.gizmo.setSpace(qc ? "local" : "world");
     if (!h) return;
     this.pivot.position.set(h.centroid[0] + h.t[0], h.centroid[1] + h.t[1], h.centroid[2] + h.t[2]);
-    this.pivot.quaternion.copy(h.q);
+    this.pivot.quaternion.copy(qc || h.q);
   }
 
+  /**
+   * The handle's transform from the pivot. In local axes the pivot turned from the axes' orientation
+   * Qc to Q by a turn about a local axis: the handle turns by Q Qc⁻¹ (that turn, in world terms) from
+   * where it was when the drag began.
+   */
   storePivot() {
     const h = state.transforms[this.active], p = this.pivot.position;
     h.t = [p.x - h.centroid[0], p.y - h.centroid[1], p.z - h.centroid[2]];
-    h.q = this.pivot.quaternion.clone();
+    const qc = this.frameQuaternion();
+    h.q = qc ? this.pivot.quaternion.clone().multiply(qc.clone().invert()).multiply(this.dragQ0 || new THREE.Quaternion())
+      : this.pivot.quaternion.clone();
+  }
+
+  /** The orientation of the local axes in use (null: the global ones). */
+  frameQuaternion() {
+    const e = this.frame();
+    if (!e) return null;
+    return new THREE.Quaternion().setFromRotationMatrix(new THREE.Matrix4().makeBasis(e[0], e[1], e[2]));
   }
 
   /** The MOVE of every handle's current transform. */
@@ -400,12 +425,13 @@ export class Moves {
       const e2 = e3.clone().cross(e1);
       this.csys = { origin: A.toArray(), axes: [e1, e2, e3] };
     }
+    this.loadPivot();
     this.syncFields(true);
     return true;
   }
 
-  /** Use the local axes (when set) for the fields. */
-  useLocal(on) { this.local = on; this.syncFields(true); }
+  /** Use the local axes (when set) for the fields and the gizmo. */
+  useLocal(on) { this.local = on; this.loadPivot(); this.syncFields(true); }
 
   frame() { return this.local && this.csys ? this.csys.axes : null; }
 

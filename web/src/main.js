@@ -570,6 +570,7 @@ window.tetmorph = Object.freeze({
   measure: () => measure.values(),
   doeJob: () => state.doeJob,
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
+  gizmoAxis: () => moves.gizmo.axis,  // the gizmo handle under the pointer ("X", "XY", ...), or null
   ring: () => ({ visible: regions.ring.visible, position: regions.ring.position.toArray(), radius: regions.ring.scale.x }),
   ghostVisible: () => meshView.ghost.visible,
   dispMax: () => meshView.dispMax,

@@ -22,7 +22,7 @@ __all__ = ["main", "EXIT_NO_SERVICE", "missing_service_packages"]
 #: Exit code of ``tetmorph serve`` when the ``service`` extra is not installed.
 EXIT_NO_SERVICE = 3
 #: Modules of the ``service`` extra that ``serve`` imports.
-SERVICE_MODULES = ("fastapi", "uvicorn", "pydantic", "pydantic_settings", "multipart", "httpx",
+SERVICE_MODULES = ("fastapi", "uvicorn", "pydantic_settings", "multipart", "httpx",
                    "prometheus_client")
 
 

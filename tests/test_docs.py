@@ -187,8 +187,8 @@ def test_every_format_is_on_the_formats_page_with_what_it_keeps(site):
 
 def test_every_field_of_spec_move_and_report_is_on_the_documents_page(site):
     from service.models.move import Move
-    from service.models.report import Report
     from service.models.spec import Spec
+    from solver.documents.report import Report
 
     page = _page(site, "reference/documents")
     for model in (Spec, Move, Report):

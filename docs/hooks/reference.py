@@ -9,10 +9,10 @@
 * ``reference/rest.md`` from the app's OpenAPI document (one section per route);
 * ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES;
 * ``reference/formats.md`` from the measured table of ``service/format_table.py`` (``GET /v1/formats``);
-* ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``);
-* the pictures of real morphs, each solved and rendered from its page's SPEC and MOVE
-  (``docs/scripts/pictures.py``, its ``PICTURES``): the first tutorial's bracket, the sector tutorial's
-  cyclic sector, the design study's variants and the validity guide's inversion map.
+* ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``).
+
+The pictures of real morphs are files of ``docs/img/``, rendered by ``make docs-img``
+(``docs/scripts/pictures.py``).
 
 A note or a meaning kept for a setting or a code that no longer exists is a warning, which
 ``mkdocs build --strict`` turns into an error.
@@ -49,12 +49,9 @@ def on_files(files: Files, config: Any) -> Files:
         files.append(File.generated(config, uri, content=make()))
     sys.path.insert(0, str(ROOT / "docs" / "scripts"))
     import benchmark_plots
-    import pictures
 
     page = Path(config["docs_dir"]) / "benchmarks.md"
     files.append(File.generated(config, PLOT, content=benchmark_plots.update_ratio_svg(page.read_text())))
-    for uri, make in pictures.PICTURES.items():
-        files.append(File.generated(config, uri, content=make()))
     return files
 
 
@@ -348,11 +345,13 @@ def document_roots() -> list[tuple[str, Any, dict[str, Any]]]:
     """The documents the page describes: title, model and JSON schema of each."""
     import service.models.batch as batch
     import service.models.move as move
-    import service.models.report as report
     import service.models.spec as spec
+    import solver.documents.report as report
+    import solver.documents.shapes as shapes
 
     roots = [("SPEC", spec.Spec, "validation"), ("MOVE", move.Move, "validation"),
              ("Stream frame", move.StreamFrame, "validation"), ("REPORT", report.Report, "serialization"),
+             ("SHAPES", shapes.Shapes, "validation"),
              ("Batch (SHAPES and PLAN)", batch.BatchCreate, "validation"),
              ("Bounds query", batch.BoundsQuery, "validation")]
     return [(title, model, model.model_json_schema(mode=mode, ref_template="#/$defs/{model}"))

@@ -9,6 +9,7 @@ import numpy as np
 from fastapi import APIRouter, Body, Header, Query, Request, Response
 from pydantic import BaseModel
 
+from solver.documents.report import Report
 from solver.validity.quality import METRICS, element_quality, summarize_quality
 
 from ..binary import MEDIA_TYPE, encode_frame
@@ -17,7 +18,6 @@ from ..formats import export_mesh, resolve_format
 from ..models.error import error_responses
 from ..models.formats import MESH_FORMAT_VALUES
 from ..models.move import Move
-from ..models.report import Report
 from ..models.session import SessionDoc, SessionPatch
 from ..models.uploads import SessionCreate
 from ..state.kept import refresh_presets, set_presets

@@ -113,5 +113,9 @@ class BoundsQuery(BaseModel):
 
 
 def shapes_document(shapes: dict[str, Move]) -> dict[str, Any]:
-    """``{"shapes": {name: MOVE}}`` of validated MOVE models."""
-    return {"shapes": {k: m.dump() for k, m in shapes.items()}}
+    """``{"shapes": {name: MOVE}}`` holding the validated MOVE models themselves.
+
+    :func:`solver.workflows.parse_shapes` checks the names and takes the models as they are: a shape's
+    MOVE is not validated again.
+    """
+    return {"shapes": dict(shapes)}

@@ -9,8 +9,9 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, StrictStr, field_validator
 
+from solver.documents.report import Report
+
 from .move import Move
-from .report import Report
 from .text import HAS_TEXT
 
 __all__ = ["SessionStatus", "SessionDoc", "SessionPatch", "Preset", "PresetDoc", "PRESETS_MAX", "PRESET_NAME_MAX",

@@ -8,7 +8,7 @@ from pydantic import BaseModel, ValidationError
 
 from ..errors import SpecError
 
-__all__ = ["validated", "error_path"]
+__all__ = ["validated", "error_path", "describe"]
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -89,6 +89,15 @@ def _got(err: Any) -> str:
     return f", got {text[:60]}{'...' if len(text) > 60 else ''}"
 
 
+def describe(what: str, loc: tuple[Any, ...], err: Any) -> tuple[str, str, str]:
+    """``(field, where, message)`` of one pydantic error at ``loc`` under the document ``what``."""
+    if err.get("type") == "extra_forbidden":  # named in its parent, as the member that is not there
+        field, where = error_path(what, loc[:-1])
+        return field, where, f"unknown field {str(loc[-1])!r} in {where}"
+    field, where = error_path(what, loc)
+    return field, where, f"{where}: {str(err.get('msg', '')).removeprefix('Value error, ')}{_got(err)}"
+
+
 def validated(model: type[M], doc: Any, what: str, context: dict[str, Any] | None = None) -> M:
     """``doc`` as an instance of ``model``; else a :class:`SpecError` naming the first wrong field.
 
@@ -123,13 +132,9 @@ def validated(model: type[M], doc: Any, what: str, context: dict[str, Any] | Non
         errors = []
         for err in _fitting_members(list(e.errors(include_url=False))):
             loc = tuple(err.get("loc", ()))
-            if err.get("type") == "extra_forbidden":  # named in its parent, as the member that is not there
-                field, where = error_path(what, loc[:-1])
-                text = f"unknown field {str(loc[-1])!r} in {where}"
-            else:
-                field, where = error_path(what, loc)
-                text = f"{where}: {str(err.get('msg', '')).removeprefix('Value error, ')}{_got(err)}"
-            errors.append({"field": field, "where": where, "message": text})
+            field, where, text = describe(what, loc, err)
+            errors.append({"field": field, "where": where, "message": text, "loc": list(loc),
+                           "type": err.get("type"), "msg": str(err.get("msg", "")), "got": _got(err)})
         first = errors[0]
         more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
         raise SpecError(first["message"] + more, field=first["field"], errors=errors[:20]) from None

@@ -38,13 +38,11 @@ import numpy as np
 
 from ..constraints.move import Move
 from ..deform.deformer import Deformer
+from ..documents.shapes import RESERVED
 from ..errors import SpecError
 
 __all__ = ["Shapes", "LinearTarget", "parse_shapes", "combine", "variant_move", "PIVOT_TOL", "RESERVED"]
 
-#: Names a shape cannot take: the other columns of a DOE summary.
-RESERVED = ("row", "inverted", "min_scaled_jacobian", "max_displacement", "constraint_residual_max", "file",
-            "status")
 #: Pivots of one handle closer than this fraction of the mesh diagonal are one pivot.
 PIVOT_TOL = 1e-9
 
@@ -143,26 +141,16 @@ def _shape_error(name: str, e: SpecError) -> SpecError:
     return SpecError(f"shape {name!r}: {e.message}", code=e.code, shape=name, **details)
 
 
-def _amounts(doc: dict[str, Any], name: str) -> dict[str, float]:
-    """Target-surface amounts of a shape's MOVE (validated by the MOVE parser when it knows ``targets``)."""
-    out = {}
-    for key, v in (doc.get("targets") or {}).items():
-        a = v.get("amount") if isinstance(v, dict) else None
-        if not isinstance(a, (int, float)) or isinstance(a, bool) or not math.isfinite(a):
-            raise SpecError(f"shape {name!r}: MOVE.targets.{key}.amount must be a finite number, got {a!r}",
-                            code="invalid_shapes", shape=name, field=f"targets.{key}.amount")
-        out[str(key)] = float(a)
-    return out
-
-
 def parse_shapes(doc: Any, deformer: Deformer) -> Shapes:
     """Parse and validate a SHAPES document against a deformer's SPEC.
 
     Parameters
     ----------
-    doc : dict
+    doc : dict or solver.documents.shapes.Shapes
         ``{"shapes": {NAME: MOVE, ...}}``, at least one shape; each MOVE is a
         MOVE document (:func:`~solver.constraints.move.parse_move`) at value 1.
+        A dict is validated by :class:`solver.documents.shapes.Shapes`; an
+        instance of it is taken as validated.
     deformer : Deformer
 
     Returns
@@ -188,21 +176,24 @@ def parse_shapes(doc: Any, deformer: Deformer) -> Shapes:
     >>> s.names, s.translation[0, 0].tolist()
     (('lift',), [0.0, 0.0, 0.1])
     """
-    if not isinstance(doc, dict) or set(doc) != {"shapes"}:
+    from ..documents.shapes import Shapes as ShapesDoc
+    from ..documents.validation import describe, validated
+
+    if not isinstance(doc, (dict, ShapesDoc)) or (isinstance(doc, dict) and set(doc) != {"shapes"}):
         keys = sorted(doc) if isinstance(doc, dict) else type(doc).__name__
         raise SpecError(f"a SHAPES document is {{\"shapes\": {{NAME: MOVE, ...}}}}, got {keys}",
                         code="invalid_shapes", field="shapes")
-    shapes = doc["shapes"]
-    if not isinstance(shapes, dict) or not shapes:
-        raise SpecError("SHAPES.shapes must be a non-empty object of NAME: MOVE", code="invalid_shapes",
-                        field="shapes")
-    for name in shapes:
-        if not isinstance(name, str) or not name or name != name.strip() or any(ord(c) < 32 for c in name):
-            raise SpecError(f"shape name {name!r} must be a non-empty string without surrounding blanks or "
-                            "control characters", code="invalid_shapes", field="shapes", shape=name)
-        if name in RESERVED:
-            raise SpecError(f"shape name {name!r} is reserved (a DOE summary column: {list(RESERVED)})",
-                            code="invalid_shapes", field="shapes", shape=name)
+    try:
+        model = validated(ShapesDoc, doc, "SHAPES")
+    except SpecError as e:
+        first = e.details["errors"][0]
+        loc = tuple(first["loc"])
+        if len(loc) > 2 and loc[0] == "shapes":  # inside one shape's MOVE: named as the MOVE parser names it
+            field, _, text = describe("MOVE", loc[2:], {"type": first["type"], "msg": first["msg"]})
+            got = "" if first["type"] == "extra_forbidden" else first["got"]
+            raise SpecError(f"shape {loc[1]!r}: {text}{got}", shape=str(loc[1]), field=field) from None
+        raise SpecError(e.message, code="invalid_shapes", **e.details) from None
+    shapes = model.shapes
     names = tuple(shapes)
     K, handles = len(names), tuple(deformer.handle_names)
     H = len(handles)
@@ -276,9 +267,9 @@ def parse_shapes(doc: Any, deformer: Deformer) -> Shapes:
             feat_scale.setdefault(key, np.zeros(K))[k] = math.log(s)
     amounts: dict[str, np.ndarray] = {}
     for k, name in enumerate(names):
-        for key, a in _amounts(shapes[name], name).items():
-            amounts.setdefault(key, np.zeros(K))[k] = a
-    return Shapes(names=names, documents={n: shapes[n] for n in names}, handles=handles, moved=moved,
+        for target, tm in shapes[name].targets.items():  # the document's amounts (a MOVE parser may drop them)
+            amounts.setdefault(target, np.zeros(K))[k] = tm.amount
+    return Shapes(names=names, documents={n: shapes[n].dump() for n in names}, handles=handles, moved=moved,
                   translation=T, log_rotation=R, log_scale=S, pivots=pivots, centroids=centroids, points=points,
                   motion=motion, offsets=offsets, relative_log_scale=rel_scale, feature_log_scale=feat_scale,
                   target_amount=amounts)

@@ -12,14 +12,15 @@ from tests.conftest import DATA
 
 ROOT = Path(__file__).resolve().parents[2]
 
-# Make the web stack unimportable (as if the extra were not installed), then run the command.
+# Make the web stack unimportable (as if the extra were not installed), then run the command. pydantic
+# is not web code: the library's document models use it, so it is a dependency of the library itself.
 BLOCKED = """
 import sys
-for m in ("fastapi", "starlette", "uvicorn", "pydantic", "pydantic_settings", "httpx", "multipart"):
+for m in ("fastapi", "starlette", "uvicorn", "pydantic_settings", "httpx", "multipart"):
     sys.modules[m] = None
 from service.cli import main
 code = main(sys.argv[1:])
-leaked = sorted(m for m in ("fastapi", "pydantic", "uvicorn") if sys.modules.get(m) is not None)
+leaked = sorted(m for m in ("fastapi", "starlette", "uvicorn") if sys.modules.get(m) is not None)
 print("LEAKED", leaked, file=sys.stderr)
 sys.exit(code)
 """

@@ -88,7 +88,7 @@ class _TargetsAware:
         self._d, self.handle_names, self.data = d, d.handle_names, d.data
 
     def parse_move(self, doc):
-        return self._d.parse_move({k: v for k, v in doc.items() if k != "targets"})
+        return self._d.parse_move(doc.model_copy(update={"targets": {}}))
 
 
 def test_target_amounts_pass_through_additively(plate_deformer):
@@ -129,7 +129,7 @@ def test_relative_offset_and_scale_conflict(constrained):
     ({"shapes": {"bad": {"handles": {"end": {"scale": -1}}}}},
      r"shape 'bad': MOVE.handles.end.scale: Input should be greater than or equal to 0.001, got -1", "invalid_spec"),
     ({"shapes": {"bad": {"points": {"p": [0, 0, 0]}}}}, r"shape 'bad': .*unknown points", "invalid_spec"),
-    ({"shapes": {}}, "non-empty", "invalid_shapes"),
+    ({"shapes": {}}, "SHAPES.shapes: Dictionary should have at least 1 item", "invalid_shapes"),
     ({"shape": {}}, "SHAPES document", "invalid_shapes"),
     ({"shapes": {"a": {}}, "extra": 1}, "SHAPES document", "invalid_shapes"),
     ([{"a": {}}], "SHAPES document", "invalid_shapes"),

@@ -1,4 +1,9 @@
-"""The REPORT of an update (docs/reference/documents.md)."""
+"""The REPORT of an update (docs/reference/documents.md): what the library answers for each MOVE.
+
+The library writes the REPORT as a dict; this model describes it, field by field, for the service's
+OpenAPI schema and the reference pages. ``tests/solver/documents/test_report.py`` checks that every
+field the library writes is declared here.
+"""
 
 from __future__ import annotations
 
@@ -49,3 +54,24 @@ class Report(BaseModel):
     lu_backend: str | None = None
     refactorized: bool | None = None
     timings: dict[str, Any] | None = None
+    refine_steps: int | None = Field(None, description="iterative refinement steps of the mixed-precision solve")
+    degenerate_at_rest: dict[str, Any] | None = Field(None, description="{count, ids}: elements already degenerate "
+                                                      "in the rest mesh (first 100 ids)")
+    element_order: int | None = Field(None, description="2 for quadratic meshes")
+    min_jacobian_ratio: float | None = Field(None, description="quadratic meshes: smallest ratio of the smallest to "
+                                             "the largest Jacobian determinant of an element")
+    invalid_at_rest_elements: int | None = Field(None, description="quadratic meshes: elements invalid already at rest")
+    midside_relaxed: dict[str, Any] | None = Field(None, description="quadratic meshes: {midside_nodes, elements, "
+                                                   "...} the mid-side relaxation touched")
+    safe_fraction_solves: int | None = Field(None, description="solves the safe-fraction search took")
+    repair: dict[str, Any] | None = Field(None, description="what the repair did, when it ran")
+    quality: dict[str, Any] | None = Field(None, description="{before, after} per-metric summaries (quality=full)")
+    interior_precision: str | None = Field(None, description="the interior solve's precision: mixed or exact")
+    mean_value_residual: float | None = Field(None, description="split solve: relative residual of the interior "
+                                              "(mean value) system")
+    interior_refined: bool | None = Field(None, description="split solve: whether the interior was refined in "
+                                          "double precision")
+    enclosed_volume_ratio: float | None = Field(None, description="closed triangle surfaces: enclosed volume after "
+                                                "over before")
+    targets: dict[str, Any] | None = Field(None, description="per SPEC target: {amount, nodes, iterations, "
+                                           "max_distance, mean_distance}")

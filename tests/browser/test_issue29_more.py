@@ -19,6 +19,7 @@ from tests.browser.conftest import (
     bracket_session,
     create,
     drag,
+    image,
     load_bracket,
     numeric_move,
     positions,
@@ -193,3 +194,39 @@ def test_the_gizmo_moves_along_the_local_axes(page):
     assert tx == pytest.approx(np.linalg.norm(t), abs=1e-3) and ty == 0 and tz == 0
     # and the handle's nodes moved by it (from the positions, against the mesh file)
     np.testing.assert_allclose(positions(page)[load] - V[load], np.tile(t, (len(load), 1)), atol=1e-4)
+
+
+def test_a_target_surface_is_set_up_in_the_panel_and_drawn(page, tmp_path):
+    # a stored surface on the service: a square in the plane x = 110, beyond the bracket's end face
+    stl = tmp_path / "wall.stl"
+    corners = [(110, -5, -5), (110, 25, -5), (110, 25, 15), (110, -5, 15)]
+    tris = [(0, 1, 2), (0, 2, 3)]
+    stl.write_text("solid wall\n" + "".join(
+        "facet normal 1 0 0\n outer loop\n" + "".join(f"  vertex {x} {y} {z}\n" for x, y, z in (corners[i] for i in t))
+        + " endloop\nendfacet\n" for t in tris) + "endsolid wall\n")
+    with stl.open("rb") as f:
+        r = httpx.post(f"{page.base}/v1/meshes", files={"file": ("wall.stl", f)})
+    assert r.status_code == 201, r.text
+    wall = r.json()["id"]
+    load_bracket(page)
+    before = image(page.locator("#canvas").screenshot())
+    page.click("#sec-symmetry summary")
+    page.wait_for_selector(f"#tgt-surface option[value={wall}]", state="attached")
+    page.select_option("#tgt-set", "LOAD")
+    page.select_option("#tgt-surface", wall)
+    page.click("#tgt-add")
+    spec = page.evaluate("window.tetmorph.spec()")
+    assert spec["targets"] == [{"name": "target1", "selection": "LOAD", "surface": {"mesh_id": wall},
+                                "method": "closest"}]
+    assert spec["selections"]["LOAD"] == {"set": "LOAD"}
+    page.wait_for_function("window.tetmorph.targetSurfaces() === 1")
+    # drawn: the view changed where the square's centre is on screen
+    page.wait_for_timeout(200)
+    after = image(page.locator("#canvas").screenshot())
+    box = page.eval_on_selector("#canvas", "c => { const r = c.getBoundingClientRect(); return [r.left, r.top]; }")
+    p = page.evaluate("(p) => window.tetmorph.worldToPage(p)", [110, 10, 5])
+    x, y = int(p["x"] - box[0]), int(p["y"] - box[1])
+    assert np.abs(after[y - 3:y + 4, x - 3:x + 4] - before[y - 3:y + 4, x - 3:x + 4]).max() > 20
+    page.click("#tgt-list button[data-k='0']")
+    assert "targets" not in page.evaluate("window.tetmorph.spec()")
+    page.wait_for_function("window.tetmorph.targetSurfaces() === 0")

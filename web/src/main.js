@@ -20,7 +20,7 @@ import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshRep
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
 import { ShapesPanel } from "./shapes.js";
-import { CyclicPanel, SymmetryPanel } from "./symmetry.js";
+import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
 import { stateAccessors } from "./testhook.js";
@@ -38,6 +38,7 @@ session.moves = moves;
 const measure = new Measure(viewer, regions);
 const symmetry = new SymmetryPanel(viewer, meshView, regions);
 const cyclic = new CyclicPanel(viewer, regions);
+const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
@@ -45,7 +46,7 @@ regions.busy = () => moves.dragging;
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => drawLegend(meshView, state.regions);
-on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); cyclic.render(); });
+on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); cyclic.render(); targets.render(); });
 on("legend", legend);
 on("history", () => { renderHistory(moves); session.note(); session.saveHistory(); });
 on("presets", () => { renderPresets(moves); shapes.render(); });
@@ -570,7 +571,8 @@ window.tetmorph = Object.freeze({
   measure: () => measure.values(),
   doeJob: () => state.doeJob,
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
-  gizmoAxis: () => moves.gizmo.axis,  // the gizmo handle under the pointer ("X", "XY", ...), or null
+  gizmoAxis: () => moves.gizmo.axis,
+  targetSurfaces: () => targets.group.children.length,  // the target surfaces drawn  // the gizmo handle under the pointer ("X", "XY", ...), or null
   ring: () => ({ visible: regions.ring.visible, position: regions.ring.position.toArray(), radius: regions.ring.scale.x }),
   ghostVisible: () => meshView.ghost.visible,
   dispMax: () => meshView.dispMax,

@@ -3,6 +3,8 @@
 // view as a translucent square through the model. They go into the SPEC Create session sends and
 // come back from a session's SPEC when it is reopened.
 import * as THREE from "three";
+import { api, getJson } from "./api.js";
+import { decodeBundle } from "./binary.js";
 import { $ } from "./dom.js";
 import { fmt } from "./panels.js";
 import { state } from "./state.js";
@@ -164,5 +166,111 @@ export class SymmetryPanel {
       m.renderOrder = 4;
       this.group.add(m);
     }
+  }
+}
+
+/**
+ * Target surfaces (SPEC.targets): the boundary nodes of a named set land on a triangle surface
+ * stored on the service (uploaded as a mesh of no elements), named by its id. Each surface is
+ * drawn in the view, read from the service's geometry of that mesh.
+ */
+export class TargetPanel {
+  constructor(viewer, regions) {
+    this.viewer = viewer;
+    this.regions = regions;
+    this.group = new THREE.Group();
+    viewer.scene.add(this.group);
+    this.material = new THREE.MeshBasicMaterial({ color: 0xe07a10, transparent: true, opacity: 0.35,
+      side: THREE.DoubleSide, depthWrite: false });
+    this.geometries = new Map();  // mesh id -> THREE.BufferGeometry (or a Promise of it)
+    this.added = new Set();       // selections this panel put into the SPEC
+    this.surfaces = [];           // the stored surfaces: [{id, name}]
+    $("tgt-add").addEventListener("click", () => this.add());
+    $("sec-symmetry").addEventListener("toggle", () => { if ($("sec-symmetry").open) this.offerSurfaces(); });
+    $("tgt-list").addEventListener("click", (ev) => {
+      const b = ev.target.closest("button[data-k]");
+      if (b) this.remove(Number(b.dataset.k));
+    });
+  }
+
+  list() { return this.regions.specExtra.targets || []; }
+
+  /** The stored meshes that are surfaces (no volume elements), offered as targets. */
+  async offerSurfaces() {
+    try {
+      const meshes = await getJson("/v1/meshes");
+      this.surfaces = meshes.filter((m) => m.info && m.info.elements === 0).map((m) => ({ id: m.id, name: m.name || m.id }));
+    } catch { this.surfaces = []; }
+    const el = $("tgt-surface"), cur = el.value;
+    el.innerHTML = '<option value="">— stored surface —</option>' +
+      this.surfaces.map((m) => `<option value="${esc(m.id)}">${esc(m.name)} (${esc(m.id)})</option>`).join("");
+    if ([...el.options].some((o) => o.value === cur)) el.value = cur;
+  }
+
+  offerSets() {
+    const el = $("tgt-set"), cur = el.value;
+    el.innerHTML = '<option value="">— set —</option>' + Object.keys(state.sets || {}).map((n) => `<option>${esc(n)}</option>`).join("");
+    el.value = cur;
+  }
+
+  add() {
+    const set = $("tgt-set").value, mesh = $("tgt-surface").value, note = $("tgt-note");
+    if (!state.V) { note.textContent = "open a mesh first"; return; }
+    if (!set || !mesh) { note.textContent = "choose a named set and a stored surface (upload one first)"; return; }
+    note.textContent = "";
+    const names = new Set(this.list().map((t) => t.name));
+    let k = this.list().length + 1;
+    while (names.has(`target${k}`)) k++;
+    if (!state.regions.some((r) => r.name === set) && !this.regions.extraSelections[set]) {
+      this.regions.extraSelections[set] = { set };
+      this.added.add(set);
+    }
+    const entry = { name: `target${k}`, selection: set, surface: { mesh_id: mesh }, method: $("tgt-method").value };
+    this.regions.specExtra.targets = [...this.list(), entry];
+    this.render();
+  }
+
+  remove(k) {
+    const list = this.list().filter((_, i) => i !== k);
+    if (list.length) this.regions.specExtra.targets = list; else delete this.regions.specExtra.targets;
+    const used = new Set(list.map((t) => t.selection));
+    for (const n of [...this.added]) if (!used.has(n)) { delete this.regions.extraSelections[n]; this.added.delete(n); }
+    this.render();
+  }
+
+  /** The geometry of a stored surface, read once. */
+  geometry(id) {
+    if (!this.geometries.has(id)) {
+      this.geometries.set(id, (async () => {
+        const r = await api(`/v1/meshes/${id}/geometry`);
+        const { arrays } = decodeBundle(await r.arrayBuffer());
+        const g = new THREE.BufferGeometry();
+        g.setAttribute("position", new THREE.BufferAttribute(Float32Array.from(arrays.V), 3));
+        g.setIndex(new THREE.BufferAttribute(Uint32Array.from(arrays.F), 1));
+        return g;
+      })().catch(() => { this.geometries.delete(id); return null; }));
+    }
+    return this.geometries.get(id);
+  }
+
+  /** The list in the panel and the surfaces in the view. */
+  async render() {
+    this.offerSets();
+    const list = this.list();
+    $("tgt-list").innerHTML = list.map((t, k) => `<li data-name="${esc(t.name)}"><span class="name">${esc(t.name)}: ` +
+      `${esc(t.selection)} → ${esc(t.surface && t.surface.mesh_id ? t.surface.mesh_id : "inline surface")} (${esc(t.method || "closest")})` +
+      `</span><button data-k="${k}" title="remove the target">×</button></li>`).join("");
+    const ids = [...new Set(list.map((t) => t.surface && t.surface.mesh_id).filter(Boolean))];
+    const token = (this.renders = (this.renders || 0) + 1);
+    const geoms = await Promise.all(ids.map((id) => this.geometry(id)));
+    if (token !== this.renders) return;  // rendered again meanwhile: the later render draws
+    this.group.clear();  // the geometries are kept (read once per surface)
+    for (const g of geoms) {
+      if (!g) continue;
+      const m = new THREE.Mesh(g, this.material);
+      m.renderOrder = 5;
+      this.group.add(m);
+    }
+    this.viewer.draw();
   }
 }

@@ -4,6 +4,7 @@
 #   make test   create .venv, install everything, run the test suite
 #   make check  lint and the fast tests (no browser, cluster, CalculiX, fuzzing or slow marks)
 #   make docs   the documentation site into site/ (warnings as errors); make docs-serve on 127.0.0.1:8001;
+#               make docs-img renders the pictures of real morphs into docs/img (pyvista, off-screen);
 #               make docs-pictures retakes the editor tutorial's pictures
 #   make cluster       PostgreSQL, 3 replicas and HAProxy on 127.0.0.1 (balancer on :8100), detached
 #   make cluster-down  stop them
@@ -13,7 +14,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: run morph-demo test check docs docs-pictures docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
+.PHONY: run morph-demo test check docs docs-img gldeps docs-pictures docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -28,11 +29,27 @@ morph-demo: install
 	  --output out/beam_{i}.vtu --report out/report.json
 	@echo "deformed meshes in out/, reports in out/report.json"
 
-test: install web browser calculix clusterdeps
+test: install web browser calculix clusterdeps gldeps
 	$(BIN)/python -m pytest -q
 
-docs: install
+docs: install docs-img
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict -d site
+
+# The pictures of real morphs (docs/scripts/pictures.py, tests/test_docs_pictures.py), rendered by pyvista
+# off-screen through VTK's EGL window on Mesa's software renderer: no display, no GPU. Debian's Mesa EGL
+# and DRI drivers come from apt when missing.
+GLDEPS := libegl1 libegl-mesa0 libgl1-mesa-dri
+docs-img: install gldeps
+	$(BIN)/python docs/scripts/pictures.py docs
+
+gldeps:
+	@command -v dpkg >/dev/null || exit 0; missing=""; for p in $(GLDEPS); do \
+	  dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  echo "installing$$missing (apt)"; apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	else echo "ERROR: the docs' pictures need$$missing (apt install$$missing)"; exit 1; fi
 
 # The editor tutorial's pictures, taken by its browser test (tests/browser/test_docs_screenshots.py)
 docs-pictures: install web browser

@@ -22,8 +22,34 @@ import pictures  # noqa: E402 - docs/scripts is not a package
 STUDY = ROOT / "tests" / "solver" / "workflows" / "data"
 
 
-def _panels(fig) -> list:
-    return [ax for ax in fig.axes if ax.name == "3d"]
+def _actor(p, row: int, col: int, name: str):
+    """The actor ``name`` of panel (row, col) of a pictures scene."""
+    p.subplot(row, col)
+    return p.renderer.actors[name]
+
+
+def _mesh(p, row: int, col: int, name: str):
+    return _actor(p, row, col, name).mapper.dataset
+
+
+def _panel(pixels: np.ndarray, p, row: int, col: int) -> np.ndarray:
+    """The pixels of panel (row, col): the renderer's viewport of the window."""
+    h, w = pixels.shape[:2]
+    p.subplot(row, col)
+    x0, y0, x1, y1 = p.renderer.GetViewport()  # from the bottom left, in fractions of the window
+    return pixels[round((1 - y1) * h):round((1 - y0) * h), round(x0 * w):round(x1 * w)]
+
+
+def _near(pixels: np.ndarray, rgb, tol: int = 40) -> np.ndarray:
+    return (np.abs(pixels.astype(int) - np.array(rgb)).max(axis=-1) < tol)
+
+
+def test_every_picture_is_a_file_of_docs_img_linked_from_a_page():
+    pages = "".join(f.read_text() for f in (ROOT / "docs").rglob("*.md"))
+    for uri in pictures.PICTURES:
+        path = ROOT / "docs" / uri
+        assert path.read_bytes().startswith(b"\x89PNG"), uri
+        assert f"../{uri})" in pages, uri
 
 
 def _turn(deg: float) -> np.ndarray:
@@ -54,14 +80,21 @@ def test_the_morphed_sectors_stay_periodic_and_the_drawn_marks_meet(sector):
     for V in sector.V:
         assert np.linalg.norm(V - sector.V0, axis=1).max() > 0.5  # the rim did move
         assert np.abs(V[sector.B[pair]] - V[sector.A] @ R.T).max() < 1e-9
-    fig = pictures.sector_figure(sector)
-    panels = _panels(fig)
-    assert len(panels) == 1 + len(sector.moves)
-    for ax, V in zip(panels, [sector.V0, *sector.V], strict=True):
-        dots, crosses = (np.column_stack(c._offsets3d) for c in ax.collections[1:3])
-        np.testing.assert_allclose(dots, V[sector.A], atol=0)  # face A of the drawn shape
+    p = pictures.sector_scene(sector)
+    assert p.shape == (1, 1 + len(sector.moves))
+    R_back = _turn(-sector.angle_deg)
+    for i, V in enumerate([sector.V0, *sector.V]):
+        dots, crosses = (_mesh(p, 0, i, n).points for n in ("face A", "face B"))
+        np.testing.assert_allclose(dots, V[sector.A], atol=1e-12)  # face A of the drawn shape
+        np.testing.assert_allclose(crosses, V[sector.B] @ R_back.T, atol=1e-12)  # face B of the neighbour
         gap, _ = cKDTree(crosses).query(dots)
-        assert gap.max() < 1e-9  # every dot of face A has the neighbour's cross of face B on it
+        assert gap.max() < 1e-6  # every dot of face A has the neighbour's point of face B on it
+        shown = _mesh(p, 0, i, "sector")
+        np.testing.assert_allclose(shown.point_data["displacement"], np.linalg.norm(V - sector.V0, axis=1),
+                                   atol=1e-12)
+    pixels = pictures.render(p)
+    p.close()
+    assert _near(_panel(pixels, p, 0, 0), (255, 165, 0), 30).sum() > 50  # the orange dots are seen
 
 
 def test_the_doe_picture_has_one_panel_per_row_of_the_pages_plan_on_one_scale():
@@ -79,19 +112,20 @@ def test_the_doe_picture_has_one_panel_per_row_of_the_pages_plan_on_one_scale():
         shift = row[header.index("hole1_x")] * np.array(shapes["hole1_x"]["handles"]["hole1"]["translation"])
         np.testing.assert_allclose(V[hole1] - plate.points[hole1], np.tile(shift, (len(hole1), 1)), atol=1e-9)
     assert np.abs(d.V[0] - plate.points).max() < 1e-9  # row 1 is all zeros: the rest shape
-    fig = pictures.doe_figure(d)
-    panels = _panels(fig)
-    assert len(panels) == len(rows)
-    for i, (ax, row) in enumerate(zip(panels, values, strict=True)):
-        title = " ".join(ax.get_title().split())
+    p = pictures.doe_scene(d)
+    per_row = p.shape[1] - 1  # the last column holds the colour bar
+    largest = max(np.linalg.norm(V - plate.points, axis=1).max() for V in d.V)
+    for i, (V, row) in enumerate(zip(d.V, values, strict=True)):
+        actor = _actor(p, i // per_row, i % per_row, "variant")
+        np.testing.assert_allclose(actor.mapper.dataset.points, V, atol=1e-12)
+        lo, hi = actor.mapper.scalar_range  # one colour scale for every panel
+        assert lo == 0 and abs(hi - largest) < 1e-9
+        title = " ".join(_actor(p, i // per_row, i % per_row, "title").GetText(7).split())
         assert title.startswith(f"row {i + 1}:")
         for name, v in zip(header, row, strict=True):
             assert f"{name} {v:g}" in title
-    bars = [ax for ax in fig.axes if ax.name != "3d"]
-    assert len(bars) == 1  # one colour scale for every panel
-    largest = max(np.linalg.norm(V - plate.points, axis=1).max() for V in d.V)
-    lo, hi = bars[0].get_ylim()  # a vertical colour bar spans its scale
-    assert lo == 0 and abs(hi - largest) < 1e-9
+    assert len(p.scalar_bars) == 1
+    p.close()
 
 
 def _node_jacobians(V: np.ndarray, T10: np.ndarray) -> np.ndarray:
@@ -122,10 +156,39 @@ def test_the_inversion_picture_reddens_exactly_the_elements_with_a_non_positive_
     assert np.array_equal(np.sort(m.inverted), bad)
     assert not (_node_jacobians(m.V_clamped, T10) <= 0).any()  # clamped: none inverted
     assert np.linalg.norm(m.V_clamped - deck.points, axis=1).max() > 5  # ... and it did move
-    fig = pictures.inversion_figure(m)
-    panels = _panels(fig)
-    assert len(panels) == 2
-    for ax, n in zip(panels, (len(bad), 0), strict=True):
-        rgba = ax.collections[0].get_facecolor()
-        red = (rgba[:, 0] > 0.3) & (rgba[:, 1] < 0.1) & (rgba[:, 3] == 1)
-        assert red.sum() == 4 * n  # the four faces of every inverted element, and nothing else
+    p = pictures.inversion_scene(m)
+    assert p.shape == (1, 2)
+    red = _mesh(p, 0, 0, "inverted")
+    assert np.array_equal(np.sort(red.cell_data["element"]), bad)  # red: exactly the non-positive Jacobians
+    np.testing.assert_allclose(red.points, m.V, atol=0)
+    assert red.n_cells == len(bad)
+    assert "inverted" not in p.renderers[1].actors  # clamped: nothing red
+    assert tuple(_actor(p, 0, 0, "inverted").prop.color)[:3] == pytest.approx(pictures.RED, abs=0.01)
+    pixels = pictures.render(p)
+    p.close()
+    warn, clamp = (_panel(pixels, p, 0, c) for c in (0, 1))
+    reddish = (np.array(pictures.RED) * 255).astype(int)
+    assert _near(warn, reddish, 60).sum() > 200  # red is seen where it inverts ...
+    assert _near(clamp, reddish, 60).sum() == 0  # ... and nowhere on the clamped shape
+
+
+def test_the_bracket_picture_colours_the_morph_by_its_displacement():
+    V0, V, F = pictures.bracket_morph()
+    deck = meshio.read(ROOT / "tests" / "data" / "ccx_bracket.inp")
+    np.testing.assert_allclose(V0, deck.points, atol=0)
+    hole = deck.point_sets["HOLE"]
+    np.testing.assert_allclose(V[hole] - V0[hole], np.tile([-4.0, 0, 0], (len(hole), 1)), atol=1e-9)
+    fixed = np.concatenate([deck.point_sets["FIXED"], deck.point_sets["LOAD"]])
+    assert np.abs(V[fixed] - V0[fixed]).max() < 1e-9
+    p = pictures.displacement_scene(V0, V, F, "moved")
+    rest, moved = _mesh(p, 0, 0, "rest"), _mesh(p, 0, 1, "moved")
+    np.testing.assert_allclose(rest.points, V0, atol=0)
+    np.testing.assert_allclose(moved.points, V, atol=0)
+    np.testing.assert_allclose(moved.point_data["displacement"], np.linalg.norm(V - V0, axis=1), atol=1e-12)
+    largest = np.linalg.norm(V - V0, axis=1).max()
+    assert largest >= 4 and _actor(p, 0, 1, "moved").mapper.scalar_range == pytest.approx((0.0, largest), abs=1e-9)
+    pixels = pictures.render(p)
+    p.close()
+    yellow = (253, 231, 37)  # viridis at 1: the bore, moved the most
+    assert _near(_panel(pixels, p, 0, 1), yellow, 40).sum() > 100
+    assert _near(_panel(pixels, p, 0, 0), yellow, 40).sum() == 0

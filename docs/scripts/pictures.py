@@ -1,4 +1,8 @@
-"""Pictures of real morphs for the site, rendered when it is built (matplotlib, off-screen).
+"""Pictures of real morphs for the site, rendered off-screen with pyvista into ``docs/img/``.
+
+``make docs-img`` (run by ``make docs``) writes them; VTK draws without a display through its EGL
+window on Mesa's software renderer (the ``docs-img`` target installs Debian's Mesa EGL driver
+when it is missing).
 
 Each picture solves the morph its page shows, with the page's own SPEC and MOVE:
 
@@ -13,7 +17,8 @@ Each picture solves the morph its page shows, with the page's own SPEC and MOVE:
   inverted elements the REPORT names drawn in red, beside the same move with the ``clamp``
   inversion policy (:func:`inversion_morphs`).
 
-Run it alone to write the PNGs: ``python docs/scripts/pictures.py OUT_DIR`` (``OUT_DIR/img/...``).
+Run it alone to write the PNGs: ``python docs/scripts/pictures.py [DOCS_DIR]`` (``DOCS_DIR/img/...``,
+``docs/`` by default).
 """
 
 from __future__ import annotations
@@ -31,9 +36,10 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["displacement_png", "bracket_displacement_png", "SectorMorphs", "sector_morphs", "sector_figure",
-           "sector_png", "DoeVariants", "doe_variants", "doe_figure", "doe_png", "InversionMorphs",
-           "inversion_morphs", "inversion_figure", "inversion_png", "PICTURES"]
+__all__ = ["surface", "plotter", "png", "render", "displacement_scene", "displacement_png", "bracket_morph",
+           "bracket_displacement_png", "SectorMorphs", "sector_morphs", "sector_scene", "sector_png", "DoeVariants",
+           "doe_variants", "doe_scene", "doe_png", "InversionMorphs", "inversion_morphs", "inversion_scene",
+           "inversion_png", "PICTURES", "write"]
 
 ROOT = Path(__file__).resolve().parents[2]
 #: The first tutorial's SPEC and MOVE (docs/tutorials/morph-a-deck.md, steps 2 and 3).
@@ -44,59 +50,88 @@ BRACKET_MOVE = {"handles": {"bore": {"translation": [-4.0, 0.0, 0.0]}}}
 INVERSION_MOVE = {"handles": {"bore": {"rotation": {"axis": [0, 0, 1], "angle_deg": 110}}}}
 SECTOR_PAGE = ROOT / "docs" / "tutorials" / "sector-symmetry.md"
 STUDY_DATA = ROOT / "tests" / "solver" / "workflows" / "data"  # the design-study tutorial's files
-SUN = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+
 GREY = (0.75, 0.75, 0.78)
 
 
 # ------------------------------------------------------------------------------------------- drawing
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+#: Pixels of one panel; a picture of ``(rows, cols)`` panels is ``cols * w`` by ``rows * h``.
+PANEL = (480, 330)
 
 
-def _shade(P: np.ndarray, F: np.ndarray, rgb: np.ndarray) -> np.ndarray:
-    """Face colours ``rgb`` (k, 3) lit by a fixed sun, from the faces' normals."""
-    n = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
-    n /= np.linalg.norm(n, axis=1, keepdims=True) + 1e-300
-    return np.clip(rgb * (0.55 + 0.45 * np.clip(n @ SUN, 0.0, 1.0))[:, None], 0.0, 1.0)
+def _pv() -> Any:
+    """pyvista, rendering off-screen (VTK's EGL window without a display, its X window with one)."""
+    import os
+
+    if not os.environ.get("DISPLAY"):  # straight to EGL, without VTK's warning about a missing X server
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    pv.global_theme.font.family = "arial"
+    return pv
 
 
-def _frame(ax: Any, lo: np.ndarray, hi: np.ndarray, title: str, elev: float, azim: float, zoom: float = 1.2,
-           size: float | None = 10, y: float = 0.92) -> None:
-    """Limits, equal aspect, no axes, a title inside the panel (``size`` None: the default font size)."""
-    ax.set(xlim=(lo[0], hi[0]), ylim=(lo[1], hi[1]), zlim=(lo[2], hi[2]))
-    ax.set_title(title, y=y, **({} if size is None else {"fontsize": size}))
-    ax.set_box_aspect(hi - lo, zoom=zoom)
-    ax.set_axis_off()
-    ax.view_init(elev=elev, azim=azim)
+def surface(P: np.ndarray, F: np.ndarray, **point_data: np.ndarray) -> Any:
+    """The triangles ``F`` on the positions ``P`` as a ``pyvista.PolyData``, with ``point_data``."""
+    pv = _pv()
+    poly = pv.PolyData(np.asarray(P, dtype=float), np.column_stack([np.full(len(F), 3), F]).ravel())
+    for name, values in point_data.items():
+        poly.point_data[name] = values
+    return poly
 
 
-def _surface(ax: Any, polys: np.ndarray, colours: np.ndarray) -> None:
-    """Add filled triangles ``polys`` (k, 3, 3) to ``ax``, edged in their own colour (no seams between them)."""
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+def plotter(rows: int, cols: int, panel: tuple[int, int] = PANEL) -> Any:
+    """An off-screen ``pyvista.Plotter`` of ``rows`` x ``cols`` panels on white, without links between them."""
+    pv = _pv()
+    p = pv.Plotter(off_screen=True, shape=(rows, cols), window_size=(cols * panel[0], rows * panel[1]),
+                   border=False)
+    p.set_background("white")
+    return p
 
-    ax.add_collection3d(Poly3DCollection(polys, facecolors=colours, edgecolors=colours, linewidths=0.3))
+
+def _title(p: Any, text: str, size: int = 11) -> None:
+    p.add_text(text, position="upper_edge", font_size=size, color="black", name="title")
 
 
-def _png(fig: Any, tight: bool = True, dpi: int = 100) -> bytes:
-    """The figure as PNG bytes, without a creation date or software tag; the figure is closed.
+def _bar(p: Any, title: str) -> dict[str, Any]:
+    return {"title": title, "color": "black", "vertical": True, "position_x": 0.86, "position_y": 0.15,
+            "height": 0.7, "width": 0.06, "fmt": "%.2g", "title_font_size": 14, "label_font_size": 12}
 
-    ``tight`` crops the empty margins the 3D panels leave.
-    """
-    plt = _pyplot()
+
+def _view(p: Any, lo: np.ndarray, hi: np.ndarray, direction: tuple[float, float, float],
+          up: tuple[float, float, float] = (0.0, 0.0, 1.0), zoom: float = 1.0) -> None:
+    """Look at the box ``lo``..``hi`` from ``direction`` (parallel projection), the same in every panel."""
+    centre = 0.5 * (lo + hi)
+    d = np.asarray(direction, dtype=float)
+    d /= np.linalg.norm(d)
+    span = float(np.linalg.norm(hi - lo))
+    p.camera.position = tuple(centre + 3.0 * span * d)
+    p.camera.focal_point = tuple(centre)
+    p.camera.up = up
+    p.enable_parallel_projection()
+    p.reset_camera(bounds=(lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]))
+    p.camera.zoom(zoom)
+
+
+def png(p: Any) -> bytes:
+    """Render ``p`` and close it: PNG bytes without a date or a software tag."""
+    from PIL import Image
+
+    image = p.screenshot(return_img=True, transparent_background=False)
+    p.close()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None},
-                **({"bbox_inches": "tight", "pad_inches": 0.05} if tight else {}))
-    plt.close(fig)
+    Image.fromarray(np.asarray(image)[:, :, :3]).save(buf, format="PNG", optimize=True)
     return buf.getvalue()
 
 
-def displacement_png(V0: np.ndarray, V: np.ndarray, F: np.ndarray, title: str, units: str = "mm") -> bytes:
+def render(p: Any) -> np.ndarray:
+    """Render ``p`` (left open) and return its pixels, (h, w, 3) uint8."""
+    return np.asarray(p.screenshot(return_img=True, transparent_background=False))[:, :, :3]
+
+
+def displacement_scene(V0: np.ndarray, V: np.ndarray, F: np.ndarray, title: str, units: str = "mm") -> Any:
     """The boundary faces ``F`` at rest (grey) and moved (coloured by displacement), side by side.
 
     Parameters
@@ -112,34 +147,41 @@ def displacement_png(V0: np.ndarray, V: np.ndarray, F: np.ndarray, title: str, u
 
     Returns
     -------
-    bytes
-        A PNG without a creation date or software tag.
+    pyvista.Plotter
+        Two panels: the mesh ``rest``, then ``moved`` with the point data ``displacement``.
     """
-    plt = _pyplot()
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
     moved = np.linalg.norm(V - V0, axis=1)
-    norm, cmap = plt.Normalize(0.0, float(moved.max()) or 1.0), plt.get_cmap("viridis")
-    lo, hi = V0.min(0), V0.max(0)
-    fig = plt.figure(figsize=(12, 3.6))
-    for k, (P, name, colour) in enumerate(((V0, "rest", None), (V, title, moved[F].mean(axis=1)))):
-        ax = fig.add_subplot(1, 2, k + 1, projection="3d")
-        base = np.tile(GREY, (len(F), 1)) if colour is None else cmap(norm(colour))[:, :3]
-        ax.add_collection3d(Poly3DCollection(P[F], facecolors=_shade(P, F, base), edgecolors="none"))
-        _frame(ax, lo, hi, name, 38, -75, size=None, y=0.9)
-    fig.subplots_adjust(left=0, right=0.93, wspace=0)
-    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=fig.axes[1], shrink=0.6,
-                 label=f"displacement {units}")
-    return _png(fig, tight=False)
+    lo, hi = np.minimum(V0.min(0), V.min(0)), np.maximum(V0.max(0), V.max(0))
+    p = plotter(1, 2, (640, 360))
+    p.subplot(0, 0)
+    p.add_mesh(surface(V0, F), color=GREY, smooth_shading=False, name="rest")
+    _title(p, "rest")
+    _view(p, lo, hi, (0.35, -0.9, 0.75), zoom=1.3)
+    p.subplot(0, 1)
+    p.add_mesh(surface(V, F, displacement=moved), scalars="displacement", cmap="viridis",
+               clim=(0.0, float(moved.max()) or 1.0), name="moved", scalar_bar_args=_bar(p, f"displacement {units}"))
+    _title(p, title)
+    _view(p, lo, hi, (0.35, -0.9, 0.75), zoom=1.3)
+    return p
 
 
-def bracket_displacement_png() -> bytes:
-    """The first tutorial's morph: the bore of the CalculiX bracket moved 4 mm toward the clamp."""
+def displacement_png(V0: np.ndarray, V: np.ndarray, F: np.ndarray, title: str, units: str = "mm") -> bytes:
+    """:func:`displacement_scene` as PNG bytes."""
+    return png(displacement_scene(V0, V, F, title, units))
+
+
+def bracket_morph() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The first tutorial's morph of the CalculiX bracket: rest positions, morphed positions, boundary faces."""
     from solver import precompute, read_mesh
 
     mesh = read_mesh(ROOT / "tests" / "data" / "ccx_bracket.inp")
     result = precompute(mesh, BRACKET_SPEC).solve(BRACKET_MOVE)
-    return displacement_png(mesh.V, result.V, mesh.F, "bore moved 4 mm toward the clamp")
+    return mesh.V, result.V, mesh.F
+
+
+def bracket_displacement_png() -> bytes:
+    """The first tutorial's morph: the bore of the CalculiX bracket moved 4 mm toward the clamp."""
+    return displacement_png(*bracket_morph(), "bore moved 4 mm toward the clamp")
 
 
 def move_text(move: dict[str, Any]) -> str:
@@ -237,13 +279,14 @@ def _turn(deg: float) -> np.ndarray:
     return np.array([[math.cos(t), -math.sin(t), 0.0], [math.sin(t), math.cos(t), 0.0], [0.0, 0.0, 1.0]])
 
 
-def sector_figure(s: SectorMorphs) -> Any:
+def sector_scene(s: SectorMorphs) -> Any:
     """The sector at rest and after each MOVE, each with its two neighbours in the ring.
 
-    The tutorial's sector is drawn with its images turned by ± the cyclic angle (the ring's next
-    sectors, lighter), coloured by displacement on one scale. Its cut face A is marked by orange
-    dots, the face B of the neighbour that meets it by black crosses: they coincide when the
-    sector stays periodic.
+    The tutorial's sector (mesh ``sector``, coloured by displacement on one scale) is drawn with
+    its images turned by ± the cyclic angle (``neighbour-1``, ``neighbour+1``: the ring's next
+    sectors, light grey). Its cut face A is marked by orange dots (``face A``), the face B of the
+    neighbour that meets it by black points (``face B``): they coincide when the sector stays
+    periodic.
 
     Parameters
     ----------
@@ -251,46 +294,37 @@ def sector_figure(s: SectorMorphs) -> Any:
 
     Returns
     -------
-    matplotlib.figure.Figure
+    pyvista.Plotter
         One panel per shape: rest, then one per MOVE.
     """
-    plt = _pyplot()
     on_a, on_b = np.isin(s.F, s.A).all(axis=1), np.isin(s.F, s.B).all(axis=1)
     shapes = [(s.V0, "rest")] + [(V, move_text(m)) for V, m in zip(s.V, s.moves, strict=True)]
     moved = [np.linalg.norm(V - s.V0, axis=1) for V, _ in shapes]
-    norm, cmap = plt.Normalize(0.0, max(float(m.max()) for m in moved) or 1.0), plt.get_cmap("viridis")
+    top = max(float(m.max()) for m in moved) or 1.0
     R = {k: _turn(k * s.angle_deg) for k in (-1, 0, 1)}
-    ring = np.vstack([s.V0 @ R[k].T for k in R])
-    lo, hi = ring.min(0) - 1.0, ring.max(0) + 1.0
-    hi[2] += 2.0
-    fig = plt.figure(figsize=(3.8 * len(shapes), 3.6))
+    ring = np.vstack([V @ R[k].T for k in R for V, _ in shapes])
+    lo, hi = ring.min(0), ring.max(0)
+    p = plotter(1, len(shapes), (420, 400))
     for i, ((V, title), d) in enumerate(zip(shapes, moved, strict=True)):
-        ax = fig.add_subplot(1, len(shapes), i + 1, projection="3d")
-        polys, colours = [], []
-        for k, keep in ((-1, ~on_b), (0, ~on_a & ~on_b), (1, ~on_a)):  # the faces inside the ring are left out
-            F = s.F[keep]
-            P = V @ R[k].T
-            rgb = (np.tile(GREY, (len(F), 1)) if i == 0 else cmap(norm(d[F].mean(axis=1)))[:, :3])
-            if k:
-                rgb = 0.6 * rgb + 0.4
-            polys.append(P[F])
-            colours.append(_shade(P, F, rgb))
-        ax.computed_zorder = False  # the marks after the faces, in front of them
-        _surface(ax, np.concatenate(polys), np.vstack(colours))
-        ax.scatter(*V[s.A].T, s=6, c="tab:orange", depthshade=False, label="face A of the sector")
-        ax.scatter(*(V[s.B] @ R[-1].T).T, s=8, c="black", marker="x", linewidths=0.6, depthshade=False,
-                   label="face B of its neighbour")
-        _frame(ax, lo, hi, title, 35, -120, zoom=1.35)
-    fig.axes[0].legend(loc="lower left", fontsize=8, frameon=False)
-    fig.subplots_adjust(left=0, right=0.93, wspace=0, top=1, bottom=0)
-    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=fig.axes, shrink=0.6, pad=0.01,
-                 label="displacement mm")
-    return fig
+        p.subplot(0, i)
+        for k, keep in ((-1, ~on_b), (1, ~on_a)):  # the faces inside the ring are left out
+            p.add_mesh(surface(V @ R[k].T, s.F[keep]), color=(0.88, 0.88, 0.9), name=f"neighbour{k:+d}")
+        bar = {**_bar(p, "mm"), "position_x": 0.9, "width": 0.05} if i == len(shapes) - 1 else None
+        p.add_mesh(surface(V, s.F[~on_a & ~on_b], displacement=d), scalars="displacement", cmap="viridis",
+                   clim=(0.0, top), name="sector", show_scalar_bar=bar is not None, scalar_bar_args=bar or {})
+        p.add_points(V[s.A], color="orange", point_size=7, render_points_as_spheres=True, name="face A")
+        p.add_points(V[s.B] @ R[-1].T, color="black", point_size=3, render_points_as_spheres=True, name="face B")
+        _title(p, title, 10)
+        _view(p, lo, hi, (-0.45, -0.75, 0.9), zoom=1.25)
+    p.subplot(0, 0)
+    p.add_legend([("face A of the sector", "orange"), ("face B of its neighbour", "black")],
+                 bcolor="white", border=False, loc="lower left", size=(0.45, 0.1))
+    return p
 
 
 def sector_png() -> bytes:
-    """The sector tutorial's deck at rest and after its cyclic MOVEs (:func:`sector_figure`)."""
-    return _png(sector_figure(sector_morphs()))
+    """The sector tutorial's deck at rest and after its cyclic MOVEs (:func:`sector_scene`)."""
+    return png(sector_scene(sector_morphs()))
 
 
 # -------------------------------------------------------------------------------------------- the DOE
@@ -334,7 +368,7 @@ def doe_variants() -> DoeVariants:
     return DoeVariants(plate.V, plate.F, plan.columns, plan.values, [V[v.row] for v in doe.variants])
 
 
-def doe_figure(d: DoeVariants, per_row: int = 4) -> Any:
+def doe_scene(d: DoeVariants, per_row: int = 4) -> Any:
     """One panel per variant of the plan, titled with its design variables, one displacement scale.
 
     Parameters
@@ -345,32 +379,36 @@ def doe_figure(d: DoeVariants, per_row: int = 4) -> Any:
 
     Returns
     -------
-    matplotlib.figure.Figure
+    pyvista.Plotter
+        Panel ``i`` holds the mesh ``variant`` of row ``i`` of the plan (point data ``displacement``)
+        and its ``title``; a column of its own the one colour bar.
     """
-    plt = _pyplot()
     moved = [np.linalg.norm(V - d.V0, axis=1) for V in d.V]
-    norm, cmap = plt.Normalize(0.0, max(float(m.max()) for m in moved) or 1.0), plt.get_cmap("viridis")
+    top = max(float(m.max()) for m in moved) or 1.0
     every = np.vstack([d.V0, *d.V])
     lo, hi = every.min(0), every.max(0)
     rows = math.ceil(len(d.V) / per_row)
-    fig = plt.figure(figsize=(3.0 * per_row + 0.8, 2.1 * rows))
+    pv = _pv()
+    w, h = 330, 230
+    p = pv.Plotter(off_screen=True, shape=(rows, per_row + 1), window_size=(per_row * w + 110, rows * h),
+                   border=False, col_weights=[w] * per_row + [110], groups=[(np.s_[:], per_row)])
+    p.set_background("white")
     for i, (V, m) in enumerate(zip(d.V, moved, strict=True)):
-        ax = fig.add_subplot(rows, per_row, i + 1, projection="3d")
-        rgb = cmap(norm(m[d.F].mean(axis=1)))[:, :3]
-        _surface(ax, V[d.F], _shade(V, d.F, rgb))
+        p.subplot(i // per_row, i % per_row)
+        actor = p.add_mesh(surface(V, d.F, displacement=m), scalars="displacement", cmap="viridis",
+                           clim=(0.0, top), name="variant", show_scalar_bar=False)
         values = [f"{c} {v:g}" for c, v in zip(d.columns, d.values[i], strict=True)]
         half = (len(values) + 1) // 2
-        title = f"row {i + 1}: " + ", ".join(values[:half]) + "\n" + ", ".join(values[half:])
-        _frame(ax, lo, hi, title, 35, -70, zoom=1.4, size=8)
-    fig.subplots_adjust(left=0, right=0.92, wspace=0, hspace=0, top=1, bottom=0)
-    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=fig.axes, shrink=0.6, pad=0.01,
-                 label="displacement mm")
-    return fig
+        _title(p, f"row {i + 1}: " + ", ".join(values[:half]) + "\n" + ", ".join(values[half:]), 8)
+        _view(p, lo, hi, (0.3, -0.8, 0.9), zoom=1.2)
+    p.subplot(0, per_row)
+    p.add_scalar_bar(mapper=actor.mapper, **{**_bar(p, "mm"), "position_x": 0.2, "width": 0.35})
+    return p
 
 
 def doe_png() -> bytes:
-    """The design-study tutorial's variants as small multiples (:func:`doe_figure`)."""
-    return _png(doe_figure(doe_variants()), dpi=80)
+    """The design-study tutorial's variants as small multiples (:func:`doe_scene`)."""
+    return png(doe_scene(doe_variants()))
 
 
 # -------------------------------------------------------------------------------------- the inversion
@@ -436,11 +474,16 @@ POOR_SJ = 0.1
 TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
 
 
-def inversion_figure(m: InversionMorphs) -> Any:
+RED, ORANGE = (0.9, 0.0, 0.0), (1.0, 0.65, 0.0)
+
+
+def inversion_scene(m: InversionMorphs) -> Any:
     """The MOVE with ``warn`` (inverted elements red) beside the same MOVE with ``clamp``.
 
-    The surface is translucent grey; inverted elements (those the REPORT names) are drawn whole
-    in red, poor ones (scaled Jacobian below :data:`POOR_SJ`) in orange.
+    The surface (mesh ``surface``) is translucent grey; the inverted elements of the ``warn`` result
+    (those the REPORT names) are drawn whole in red (mesh ``inverted``, cell data ``element``: the
+    element of each tet), poor ones (scaled Jacobian below :data:`POOR_SJ`) in orange (mesh ``poor``).
+    The ``clamp`` panel reddens the elements whose scaled Jacobian is not positive.
 
     Parameters
     ----------
@@ -448,34 +491,34 @@ def inversion_figure(m: InversionMorphs) -> Any:
 
     Returns
     -------
-    matplotlib.figure.Figure
+    pyvista.Plotter
         Two panels: ``warn``, then ``clamp``.
     """
-    plt = _pyplot()
+    pv = _pv()
     warn, clamp = m.reports
     every = np.vstack([m.V0, m.V, m.V_clamped])
     lo, hi = every.min(0), every.max(0)
-    fig = plt.figure(figsize=(12, 3.2))
-    panels = ((m.V, m.sj, m.inverted, f"warn: {move_text(m.move)}, {warn['inverted_elements']} inverted (red)"),
+    p = plotter(1, 2, (640, 380))
+    panels = ((m.V, m.sj, m.inverted, f"warn: {move_text(m.move)}\n{warn['inverted_elements']} inverted (red)"),
               (m.V_clamped, m.sj_clamped, np.flatnonzero(m.sj_clamped <= 0),
-               f"clamp: {clamp['applied_fraction']:.3g} of it applied, {clamp['inverted_elements']} inverted"))
+               f"clamp: {clamp['applied_fraction']:.3g} of it applied\n{clamp['inverted_elements']} inverted"))
     for i, (V, sj, bad, title) in enumerate(panels):
-        ax = fig.add_subplot(1, 2, i + 1, projection="3d")
+        p.subplot(0, i)
         poor = np.setdiff1d(np.flatnonzero(sj < POOR_SJ), bad)
-        faces = [m.F] + [m.T[e][:, TET_FACES].reshape(-1, 3) for e in (poor, bad)]
-        rgba = []
-        for F, colour, alpha in zip(faces, (GREY, (1.0, 0.6, 0.1), (0.85, 0.05, 0.05)), (0.25, 0.45, 1.0),
-                                    strict=True):
-            rgba.append(np.column_stack([_shade(V, F, np.tile(colour, (len(F), 1))), np.full(len(F), alpha)]))
-        _surface(ax, V[np.vstack(faces)], np.vstack(rgba))
-        _frame(ax, lo, hi, f"{title}; {len(poor)} poor (orange)", 65, -80, zoom=1.2)
-    fig.subplots_adjust(left=0, right=1, wspace=0, top=1, bottom=0)
-    return fig
+        p.add_mesh(surface(V, m.F), color=GREY, opacity=0.2, name="surface")
+        for name, ids, colour in (("poor", poor, ORANGE), ("inverted", bad, RED)):
+            if len(ids):
+                cells = pv.UnstructuredGrid({pv.CellType.TETRA: m.T[ids]}, np.asarray(V, dtype=float))
+                cells.cell_data["element"] = ids
+                p.add_mesh(cells, color=colour, name=name, ambient=0.6, diffuse=0.4, specular=0.0)
+        _title(p, f"{title}, {len(poor)} poor (orange)", 10)
+        _view(p, lo, hi, (0.1, -0.35, 0.95), zoom=1.25)
+    return p
 
 
 def inversion_png() -> bytes:
-    """The inversion map and the clamped MOVE beside it (:func:`inversion_figure`)."""
-    return _png(inversion_figure(inversion_morphs()))
+    """The inversion map and the clamped MOVE beside it (:func:`inversion_scene`)."""
+    return png(inversion_scene(inversion_morphs()))
 
 
 #: Every picture, by its path under ``docs/``, and the function that solves and draws it.
@@ -485,8 +528,17 @@ PICTURES = {"img/tutorial-bracket-displacement.png": bracket_displacement_png,  
             "img/guide-inversion-clamp.png": inversion_png}  # guide/validity.md
 
 
-if __name__ == "__main__":
-    out = Path(sys.argv[1])
+def write(docs: Path) -> list[Path]:
+    """Solve and render every picture of :data:`PICTURES` into ``docs`` (its ``img/``); the paths written."""
+    written = []
     for uri, make in PICTURES.items():
-        (out / uri).parent.mkdir(parents=True, exist_ok=True)
-        (out / uri).write_bytes(make())
+        path = docs / uri
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(make())
+        written.append(path)
+    return written
+
+
+if __name__ == "__main__":
+    for written in write(Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "docs"):
+        print(written.relative_to(ROOT) if written.is_relative_to(ROOT) else written)

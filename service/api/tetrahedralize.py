@@ -119,7 +119,10 @@ async def tetrahedralize(
                                          {"tetrahedralization": info})
         return public(meta)
 
-    job = jobs.submit(owner, tetra_worker.run, (V, F, options), store)
+    async def unstore(doc: dict[str, Any]) -> None:  # cancelled while it was being stored
+        reg.catalogue.delete(owner, doc["id"], [])
+
+    job = jobs.submit(owner, tetra_worker.run, (V, F, options), store, unstore)
     assert job.task is not None
     try:
         await asyncio.wait_for(asyncio.shield(job.task), settings.job_wait_s)

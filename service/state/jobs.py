@@ -54,6 +54,10 @@ class Job:
     total: int = 0
     #: Set by :meth:`JobRunner.cancel`; a batch stops before its next block.
     stop: threading.Event = field(default_factory=threading.Event)
+    #: Held while the status changes: a DELETE (a route's thread) and the runner (the event loop) race.
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    #: The event loop that runs the job's task (cancelled from other threads through it).
+    loop: asyncio.AbstractEventLoop | None = None
     #: The finished batch's zip, and its summary counts.
     result_path: Any = None
     summary: dict[str, Any] | None = None
@@ -110,19 +114,21 @@ class JobRunner:
         return sum(1 for j in self.jobs.values() if j.status in ("queued", "running"))
 
     def submit(self, owner: str, target: Callable[..., None], args: tuple[Any, ...],
-               finish: Callable[[Any], Awaitable[dict[str, Any]]]) -> Job:
+               finish: Callable[[Any], Awaitable[dict[str, Any]]],
+               undo: Callable[[dict[str, Any]], Awaitable[None]] | None = None) -> Job:
         """Start a job: ``target(conn, work, *args)`` in a worker process, then ``await finish(message)``.
 
         ``work`` is a scratch folder of the job's own, removed when the process has
         ended, also when it was killed (cancelled, or past the time limit).
         ``target`` sends one message through ``conn``: ``("ok", ...)`` or
         ``("error", error_dict)``. ``finish`` turns an ``ok`` message into the
-        job's result (stored mesh document).
+        job's result (stored mesh document). A job cancelled while ``finish``
+        stores is not interrupted; ``undo(result)`` then removes what it stored.
         """
         self._expire()
-        job = Job(id=new_id("j"), owner=owner, time_limit_s=self.time_limit_s)
+        job = Job(id=new_id("j"), owner=owner, time_limit_s=self.time_limit_s, loop=asyncio.get_running_loop())
         self.jobs[job.id] = job
-        job.task = asyncio.ensure_future(self._run(job, target, args, finish))
+        job.task = asyncio.ensure_future(self._run(job, target, args, finish, undo))
         job.task.add_done_callback(lambda t: t.cancelled() or t.exception())
         return job
 
@@ -184,15 +190,22 @@ class JobRunner:
         ServiceError
             409 ``job_finished`` when it has already finished.
         """
-        if job.status not in ("queued", "running"):
-            raise ServiceError("job_finished", f"job {job.id} has already finished ({job.status})",
-                               job_id=job.id, status=job.status)
+        with job.lock:
+            if job.status not in ("queued", "running"):
+                raise ServiceError("job_finished", f"job {job.id} has already finished ({job.status})",
+                                   job_id=job.id, status=job.status)
+            storing = job.stage == "storing"
+            job.stop.set()
+            job.status, job.stage, job.finished = "cancelled", "cancelled", time.time()
+            job.error = {"type": "ServiceError", "code": "job_cancelled", "message": "cancelled", "details": {}}
+        if storing:  # the runner finishes storing, sees the cancel and undoes it: nothing is left half stored
+            return
         self._kill(job)
-        job.stop.set()
-        job.status, job.stage, job.finished = "cancelled", "cancelled", time.time()
-        job.error = {"type": "ServiceError", "code": "job_cancelled", "message": "cancelled", "details": {}}
         if job.task is not None:
-            job.task.cancel()
+            if job.loop is not None and job.loop.is_running():
+                job.loop.call_soon_threadsafe(job.task.cancel)  # a route's thread may call this
+            else:
+                job.task.cancel()
 
     def end_session(self, session_id: str) -> int:
         """Stop and forget every job of a session being deleted: a job is owned by its session.
@@ -232,7 +245,8 @@ class JobRunner:
                 job.result_path.unlink(missing_ok=True)
 
     async def _run(self, job: Job, target: Callable[..., None], args: tuple[Any, ...],
-                   finish: Callable[[Any], Awaitable[dict[str, Any]]]) -> None:
+                   finish: Callable[[Any], Awaitable[dict[str, Any]]],
+                   undo: Callable[[dict[str, Any]], Awaitable[None]] | None) -> None:
         if self._slots is None:
             self._slots = asyncio.Semaphore(self.workers)
         async with self._slots:
@@ -265,16 +279,27 @@ class JobRunner:
             if msg[0] == "error":
                 job.status, job.stage, job.finished, job.error = "failed", "failed", time.time(), msg[1]
                 return
-            job.stage = "storing"
+            with job.lock:
+                if job.status == "cancelled":
+                    return
+                job.stage = "storing"
             try:
-                job.result = await finish(msg)
+                result = await finish(msg)
             except Exception as e:  # noqa: BLE001 - stored on the job, answered by GET /v1/jobs/{id}
-                job.status, job.stage, job.finished = "failed", "failed", time.time()
-                job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
-                             "message": getattr(e, "message", str(e)), "details": getattr(e, "details", {})}
+                with job.lock:
+                    if job.status != "cancelled":
+                        job.status, job.stage, job.finished = "failed", "failed", time.time()
+                        job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
+                                     "message": getattr(e, "message", str(e)),
+                                     "details": getattr(e, "details", {})}
                 return
-            if job.status != "cancelled":
-                job.status, job.stage, job.finished = "done", "done", time.time()
+            with job.lock:
+                if job.status != "cancelled":
+                    job.result = result
+                    job.status, job.stage, job.finished = "done", "done", time.time()
+                    return
+            if undo is not None:  # cancelled while storing: what was stored goes
+                await undo(result)
 
     @staticmethod
     def _wait(conn: Any, proc: Any, limit: float) -> Any:

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic.json_schema import SkipJsonSchema
 
 from ..limits import EXTENT, TARGET_AMOUNT_MAX
 from .numbers import Angle, Quat, Scale, Vec3
@@ -27,12 +28,16 @@ TargetAmount = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-TARG
 
 
 class Rotation(BaseModel):
-    """``axis`` + ``angle_deg``, or a ``quaternion`` [w, x, y, z]."""
+    """``axis`` + ``angle_deg``, or a ``quaternion`` [w, x, y, z]; the schema's ``oneOf`` says so."""
 
-    model_config = _STRICT
-    axis: Vec3 | None = None
-    angle_deg: Angle | None = None
-    quaternion: Quat | None = None
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
+        "oneOf": [{"required": ["axis", "angle_deg"], "not": {"required": ["quaternion"]}},
+                  {"required": ["quaternion"],
+                   "not": {"anyOf": [{"required": ["axis"]}, {"required": ["angle_deg"]}]}}],
+        "examples": [{"axis": [0.0, 0.0, 1.0], "angle_deg": 15.0}, {"quaternion": [1.0, 0.0, 0.0, 0.0]}]})
+    axis: Vec3 | SkipJsonSchema[None] = None
+    angle_deg: Angle | SkipJsonSchema[None] = None
+    quaternion: Quat | SkipJsonSchema[None] = None
 
     @model_validator(mode="after")
     def _one_form(self) -> Rotation:
@@ -56,11 +61,17 @@ class HandleMove(BaseModel):
 
 
 class RelativeMove(BaseModel):
-    """A new offset or scale of a SPEC ``relative`` constraint: exactly one of the two."""
+    """A new offset or scale of a SPEC ``relative`` constraint: exactly one of the two.
 
-    model_config = _STRICT
-    offset: Vec3 | None = None
-    scale: Scale | None = None
+    The schema says so (``oneOf`` of the two, neither ``null``), so a body the
+    OpenAPI schema admits is one the parser takes.
+    """
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
+        "oneOf": [{"required": ["offset"]}, {"required": ["scale"]}],
+        "examples": [{"offset": [0.0, 0.0, 1.0]}, {"scale": 1.5}]})
+    offset: Vec3 | SkipJsonSchema[None] = None
+    scale: Scale | SkipJsonSchema[None] = None
 
     @model_validator(mode="after")
     def _exactly_one(self) -> RelativeMove:

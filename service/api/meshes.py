@@ -14,6 +14,7 @@ from pydantic.json_schema import SkipJsonSchema
 from solver.constraints.features import feature_candidates, feature_region
 from solver.constraints.selection import select
 from solver.constraints.spec import parse_spec
+from solver.constraints.symmetry_candidates import abaqus_cyclic, resolve_cyclic, symmetry_candidates
 from solver.errors import InvalidMeshError
 from solver.mesh import mesh_from_arrays
 from solver.ops.elements import check_tets
@@ -24,7 +25,7 @@ from ..errors import ServiceError
 from ..formats import SURFACE_FORMATS, export_mesh, offered, resolve_format
 from ..models.error import error_responses
 from ..models.formats import MESH_FORMAT_VALUES, UPLOAD_FORMAT_VALUES
-from ..models.mesh import MeshDoc
+from ..models.mesh import MeshDoc, MeshSymmetry
 from ..models.spec import check_selection_ids
 from ..models.uploads import Band, MeshArrays
 from .deps import MeshDep, OwnerDep, RegistryDep, safe_name
@@ -210,6 +211,25 @@ async def mesh_features(
         for c in out:
             c.pop("selection")
     return out
+
+
+@router.get("/meshes/{mesh_id}/symmetry", summary="Mirror planes and cyclic symmetry of a mesh",
+            response_model=MeshSymmetry,
+            responses=error_responses(*_AUTH, 404, 422, s422="surface_not_volume: the mesh is a triangle "
+                                      "surface (no volume elements to keep symmetric)"))
+async def mesh_symmetry(meta: MeshDep, reg: RegistryDep) -> dict[str, Any]:
+    """Candidate ``SPEC.symmetry`` planes and the deck's ``SPEC.cyclic`` entries, as ``tetmorph info`` lists them."""
+    mesh = await reg.catalogue.mesh(meta)
+    if mesh.is_surface:
+        raise InvalidMeshError(f"mesh {meta['id']} is a triangle surface ({mesh.surface.shape[0]} triangles), "
+                               "not a volume mesh: tetrahedralize it first (POST /v1/tetrahedralize)",
+                               code="surface_not_volume", field="mesh_id", mesh_id=meta["id"])
+
+    def find() -> dict[str, Any]:
+        return {"planes": symmetry_candidates(mesh),
+                "cyclic": [resolve_cyclic(mesh, e) for e in abaqus_cyclic(mesh.raw)]}
+
+    return await reg.run(find)
 
 
 @router.post("/meshes/{mesh_id}/feature-region", summary="Min-cut feature region inside a band",

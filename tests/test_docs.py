@@ -37,6 +37,20 @@ def test_every_relative_link_of_the_readme_points_to_a_file():
     assert not missing, f"README.md links to missing files: {missing}"
 
 
+#: A file of the repository named in prose: ``solver/linalg/constrained.py``, ``tests/data/plate.inp``, ...
+REPO_PATH = re.compile(r"(?<![\w/.$-])(?:solver|service|tests|benchmarks|examples|web|docker|docs)/"
+                       r"[\w./-]*\w\.[A-Za-z0-9]+\b")
+
+
+def test_every_file_the_pages_name_exists():
+    pages = [README, ROOT / "CONTRIBUTING.md", *sorted((ROOT / "docs").rglob("*.md")),
+             ROOT / "docs" / "hooks" / "reference_text.py"]
+    named = {(p.relative_to(ROOT).as_posix(), m) for p in pages for m in REPO_PATH.findall(p.read_text())}
+    assert len(named) > 100
+    missing = sorted(f"{page}: {path}" for page, path in named if not (ROOT / path).exists())
+    assert not missing, "pages name files that are not in the repository:\n" + "\n".join(missing)
+
+
 @pytest.fixture
 def checkout(tmp_path, monkeypatch) -> Path:
     """A working directory that reads like the repository's root, with an ``out/`` of its own.

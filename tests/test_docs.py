@@ -146,6 +146,23 @@ def test_every_setting_is_on_the_settings_page_with_its_variable_and_default(sit
             assert f"<code>{field.default}</code>" in row, (name, field.default)
 
 
+#: An environment variable a module reads: ``TETMORPH_*`` anywhere, or any name looked up in ``os.environ``.
+ENV_READ = re.compile(r"\b(TETMORPH_[A-Z0-9_]*[A-Z0-9])\b"
+                      r"|(?:environ\.get|getenv|environ\[)\(?\s*[\"']([A-Z][A-Z0-9_]+)[\"']"
+                      r"|[\"']([A-Z][A-Z0-9_]+)[\"'] (?:not )?in os\.environ")
+
+
+def test_every_environment_variable_the_code_reads_is_on_the_settings_page(site):
+    page = re.sub(r"<[^>]+>", "", _page(site, "reference/settings"))
+    read: dict[str, str] = {}
+    for source in sorted((ROOT / "solver").rglob("*.py")) + sorted((ROOT / "service").rglob("*.py")):
+        for groups in ENV_READ.findall(source.read_text()):
+            read.setdefault(next(g for g in groups if g), source.relative_to(ROOT).as_posix())
+    assert {"TETMORPH_SOLVER", "TETMORPH_DATABASE_URL", "NUMBA_THREADING_LAYER"} <= set(read)
+    missing = sorted(f"{name} ({where})" for name, where in read.items() if not re.search(rf"\b{name}\b", page))
+    assert not missing, f"read by the code, not on the settings page: {missing}"
+
+
 def _error_codes() -> dict[str, int | None]:
     """Every error code: the two error modules' tables and classes, and every literal code raised."""
     import service.errors as sv

@@ -216,16 +216,37 @@ def test_every_format_is_on_the_formats_page_with_what_it_keeps(site):
         assert cells[2:7] == marks, (f["name"], cells)
 
 
-def test_every_field_of_spec_move_and_report_is_on_the_documents_page(site):
-    from service.models.move import Move
-    from service.models.spec import Spec
+def _section(html_text: str, anchor: str) -> str:
+    """The part of a page from the heading with id ``anchor`` to the next heading."""
+    after = html_text.split(f'id="{anchor}"', 1)[1]
+    return re.split(r"<h[1-3][ >]", after, maxsplit=1)[0]
+
+
+def test_every_field_of_the_documents_and_their_parts_is_on_the_documents_page(site):
+    import json
+
+    from service.models.session import SessionPatch
+    from solver.documents.move import Move
     from solver.documents.report import Report
+    from solver.documents.shapes import Shapes
+    from solver.documents.spec import Spec
 
     page = _page(site, "reference/documents")
-    for model in (Spec, Move, Report):
-        section = page.split(f'id="{model.__name__.lower()}"', 1)[1]
-        for name in model.model_fields:
-            assert f"<code>{name}</code>" in section, (model.__name__, name)
+    checked = 0
+    for model in (Spec, Move, Report, Shapes, SessionPatch):
+        mode = "serialization" if model is Report else "validation"
+        schema = model.model_json_schema(mode=mode)
+        for name, s in [(model.__name__, schema), *schema.get("$defs", {}).items()]:
+            section = _section(page, name.lower())
+            for field in s.get("properties", {}):
+                assert f"<code>{field}</code>" in section, (name, field)
+                checked += 1
+        section = _section(page, model.__name__.lower())
+        for field, info in model.model_fields.items():
+            if info.default_factory is not None:  # a default made by a factory is shown too
+                default = json.dumps(info.default_factory())
+                assert f"<code>{default}</code>" in _row(section, f"<code>{field}</code>"), (model.__name__, field)
+    assert checked > 150
 
 
 def _needs_ccx(page: Path) -> bool:

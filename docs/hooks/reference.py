@@ -7,7 +7,8 @@
   from every code the ``solver`` and ``service`` packages raise, each with the HTTP status
   :func:`service.errors.status_of` gives it, its meaning and its fix;
 * ``reference/rest.md`` from the app's OpenAPI document (one section per route);
-* ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES;
+* ``reference/documents.md`` from the pydantic models of SPEC, MOVE, REPORT and SHAPES
+  (``solver/documents/``), and of the stream frame, batches, bounds and presets (``service/models/``);
 * ``reference/formats.md`` from the measured table of ``service/format_table.py`` (``GET /v1/formats``);
 * ``img/benchmark-update-ratio.svg`` from the tables of ``benchmarks.md`` (``docs/scripts/benchmark_plots.py``).
 
@@ -344,16 +345,19 @@ def formats_page() -> str:
 def document_roots() -> list[tuple[str, Any, dict[str, Any]]]:
     """The documents the page describes: title, model and JSON schema of each."""
     import service.models.batch as batch
-    import service.models.move as move
-    import service.models.spec as spec
+    import service.models.move as frame
+    import service.models.session as session
+    import solver.documents.move as move
     import solver.documents.report as report
     import solver.documents.shapes as shapes
+    import solver.documents.spec as spec
 
     roots = [("SPEC", spec.Spec, "validation"), ("MOVE", move.Move, "validation"),
-             ("Stream frame", move.StreamFrame, "validation"), ("REPORT", report.Report, "serialization"),
+             ("Stream frame", frame.StreamFrame, "validation"), ("REPORT", report.Report, "serialization"),
              ("SHAPES", shapes.Shapes, "validation"),
              ("Batch (SHAPES and PLAN)", batch.BatchCreate, "validation"),
-             ("Bounds query", batch.BoundsQuery, "validation")]
+             ("Bounds query", batch.BoundsQuery, "validation"),
+             ("Session presets", session.SessionPatch, "validation")]
     return [(title, model, model.model_json_schema(mode=mode, ref_template="#/$defs/{model}"))
             for title, model, mode in roots]
 
@@ -387,20 +391,23 @@ def documents_page() -> str:
 
 @functools.cache
 def model_classes() -> dict[str, Any]:
-    """The pydantic models of ``service.models`` by class name (for defaults made by factories)."""
+    """The pydantic models of ``solver.documents`` and ``service.models`` by class name (for defaults made
+    by factories)."""
     import importlib
     import pkgutil
 
     from pydantic import BaseModel
 
     import service.models as models
+    import solver.documents as documents
 
     found: dict[str, Any] = {}
-    for m in pkgutil.iter_modules(models.__path__):
-        mod = importlib.import_module(f"service.models.{m.name}")
-        for obj in vars(mod).values():
-            if isinstance(obj, type) and issubclass(obj, BaseModel) and obj.__module__ == mod.__name__:
-                found[obj.__name__] = obj
+    for package in (documents, models):
+        for m in pkgutil.iter_modules(package.__path__):
+            mod = importlib.import_module(f"{package.__name__}.{m.name}")
+            for obj in vars(mod).values():
+                if isinstance(obj, type) and issubclass(obj, BaseModel) and obj.__module__ == mod.__name__:
+                    found.setdefault(obj.__name__, obj)
     return found
 
 
@@ -433,17 +440,27 @@ def _fields_table(s: dict[str, Any], defs: dict[str, Any], link: str, model: str
             desc = items["description"]
         note = text.FIELD_NOTES.get(f"{model}.{field}")
         if note:
-            desc = f"{note}; {desc}" if desc else note
+            desc = _merge(note, desc)
             if notes is not None:
                 notes.discard(f"{model}.{field}")
         rows.append([code(field), _schema_type(f, defs, link), default, _limits(f), desc])
     return table(["field", "type", "default", "bounds", "description"], rows) if rows else ""
 
 
+def _merge(note: str, desc: str) -> str:
+    """A field's hand-written note and its model's description, once when one starts with the other
+    (punctuation aside)."""
+    a, b = (" ".join(s.split()) for s in (note, desc))
+    words_a, words_b = (" ".join(re.findall(r"\w+", s)) for s in (a, b))
+    if not b or words_b.startswith(words_a):
+        return b or a
+    return a if words_a.startswith(words_b) else f"{a}; {b}"
+
+
 def _model_section(name: str, s: dict[str, Any], defs: dict[str, Any], level: int, title: str = "",
                    notes: set[str] | None = None) -> str:
     head = "#" * level
-    doc = re.sub(r"\s*\(README[^)]*\)", "", (s.get("description") or "").strip())
+    doc = re.sub(r"\s*\((?:README|docs/)[^)]*\)", "", (s.get("description") or "").strip())
     extra = "" if s.get("additionalProperties", True) is not False else "Unknown fields are refused.\n\n"
     heading = f"{title} (`{name}`)" if title else name
     return (f"\n{head} {heading} {{#{name.lower()}}}\n\n" + (doc + "\n\n" if doc else "") + extra

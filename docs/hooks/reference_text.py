@@ -373,11 +373,13 @@ keeps, and what it refuses, is in the guide's [formats](../guide/formats.md) pag
 
 DOCUMENTS_INTRO = """# Documents: SPEC, MOVE, REPORT, SHAPES
 
-Generated from the pydantic models of `service/models/` when the site is built: every
-field with its type, default, bounds and description, as the service checks it before
-any work (unknown fields are refused; booleans and strings are not numbers). The
-library's parsers (`solver.constraints.spec`, `solver.constraints.move`) accept the same
-documents. The grammar on one screen, and what each entry does, is in the guide:
+Generated when the site is built from the pydantic models that define the documents:
+SPEC, MOVE, REPORT and SHAPES in `solver/documents/`, the WebSocket frame, batches, bounds
+queries and session presets in `service/models/`. Every field has its type, default,
+bounds and description, as it is checked before any work (unknown fields are refused;
+booleans and strings are not numbers). The library (`parse_spec`, `parse_move`,
+`parse_shapes`, the command line) and the service validate with the same models. The
+grammar on one screen, and what each entry does, is in the guide:
 [Documents](../guide/documents.md).
 """
 

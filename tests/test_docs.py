@@ -74,6 +74,56 @@ def test_the_readme_library_example_runs(checkout):
     assert scope["result"].report["inverted_elements"] == 0
 
 
+def _readme_block(needle: str) -> str:
+    (block,) = [b for b in _blocks(README, "sh") if needle in b]
+    return block
+
+
+def _bash(block: str, cwd: Path) -> str:
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    r = subprocess.run(["bash", "-euo", "pipefail", "-c", block], cwd=cwd, capture_output=True, text=True,
+                       timeout=300, env=env)
+    assert r.returncode == 0, f"README.md:\n{block}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
+    return r.stdout
+
+
+def test_the_readme_command_line_example_runs(checkout):
+    import csv
+    import json
+
+    import meshio
+
+    out = _bash(_readme_block("tetmorph morph"), checkout)
+    beam = meshio.read(ROOT / "examples" / "beam" / "beam.node")
+    moves = json.loads((ROOT / "examples" / "beam" / "moves.json").read_text())
+    for i in range(len(moves)):  # one deformed beam per MOVE
+        assert len(meshio.read(checkout / "out" / f"beam_{i}.vtu").points) == len(beam.points)
+    assert out.count('"inverted_elements"') >= len(moves)  # `info`'s JSON, then a REPORT per MOVE
+    plan = list(csv.reader((ROOT / "tests" / "solver" / "workflows" / "data" / "plate_plan.csv").open()))
+    summary = list(csv.DictReader((checkout / "out" / "summary.csv").open()))
+    assert len(summary) == len(plan) - 1  # one row per plan row, below the header
+    assert all((checkout / "out" / f"plate_{row['row']}.inp").is_file() for row in summary)
+
+
+@pytest.mark.slow  # a real server process
+def test_the_readme_rest_example_answers_what_the_library_computes(tmp_path):
+    import json
+
+    from service.process import serve_process
+    from solver import precompute, read_mesh
+
+    block = _readme_block("curl")
+    move = json.loads(re.search(r"-d '(.*)'", block).group(1))
+    with serve_process(tmp_path / "data", env={"TETMORPH_DEMO": "1"}) as (url, _):
+        report = json.loads(_bash(block.replace("http://127.0.0.1:8000", url), tmp_path))["report"]
+    beam = ROOT / "examples" / "beam"
+    spec = json.loads((beam / "spec.json").read_text())
+    expected = precompute(read_mesh(beam / "beam.node"), spec).solve(move).report
+    assert report["inverted_elements"] == expected["inverted_elements"] == 0
+    for key in ("max_displacement", "min_scaled_jacobian"):
+        assert report[key] == pytest.approx(expected[key], rel=1e-9), key
+
+
 @pytest.fixture(scope="module")
 def site(tmp_path_factory) -> Path:
     """The site, built once for the tests of this module, with warnings as errors."""

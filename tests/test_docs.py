@@ -153,6 +153,21 @@ def test_the_site_builds_with_warnings_as_errors(site):
         assert (site / "tutorials" / page.stem / "index.html").is_file()
 
 
+def test_every_public_name_of_the_library_and_the_client_has_its_reference(site):
+    import solver
+    import solver.workflows
+    from service import client
+
+    pages = {"reference/solver": [solver, solver.workflows], "reference/client": [client]}
+    for uri, modules in pages.items():
+        ids = set(re.findall(r'id="([\w.]+)"', _page(site, uri)))
+        for module in modules:
+            for name in module.__all__:
+                obj = getattr(module, name)
+                anchor = f"{obj.__module__}.{obj.__qualname__}"  # mkdocstrings' id: the object's own path
+                assert anchor in ids, f"{module.__name__}.{name} is not on {uri} (as {anchor})"
+
+
 def test_the_benchmark_plot_is_drawn_from_the_scaling_table(site):
     sys.path.insert(0, str(ROOT / "docs" / "scripts"))
     import benchmark_plots

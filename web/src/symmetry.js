@@ -1,15 +1,100 @@
 // Mirror symmetry set-up: planes across which the morph keeps the mesh symmetric (SPEC.symmetry),
-// typed as a point and a normal, or taken from the section plane of the view, each drawn in the
-// view as a translucent square through the model. They go into the SPEC Create session sends and
-// come back from a session's SPEC when it is reopened.
+// typed as a point and a normal, taken from the section plane of the view, or picked from the
+// planes the service finds in the open mesh (GET /v1/meshes/{id}/symmetry, as `tetmorph info`
+// lists them), each drawn in the view as a translucent square through the model. The cyclic panel
+// offers the deck's own sector definitions the same way. They go into the SPEC Create session
+// sends and come back from a session's SPEC when it is reopened.
 import * as THREE from "three";
 import { api, getJson } from "./api.js";
 import { decodeBundle } from "./binary.js";
 import { $ } from "./dom.js";
 import { fmt } from "./panels.js";
-import { state } from "./state.js";
+import { on, state } from "./state.js";
 
 const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
+const vec = (a, digits) => a.map((x) => fmt(Number(digits ? x.toPrecision(digits) : x.toFixed(4)))).join(", ");
+const close = (a, b) => a.length === b.length && a.every((x, i) => Math.abs(x - b[i]) <= 1e-9 * Math.max(1, Math.abs(x)));
+
+const NONE = Object.freeze({ planes: [], cyclic: [] });
+let found = { id: null, doc: Promise.resolve(NONE) };
+
+/** What the service finds in the open mesh: {planes, cyclic} (read once per mesh; none for a surface). */
+function symmetryOf() {
+  const id = state.meshId;
+  if (!id || state.surface) return Promise.resolve(NONE);
+  if (found.id !== id) found = { id, doc: getJson(`/v1/meshes/${id}/symmetry`).catch(() => NONE) };
+  return found.doc;
+}
+
+/**
+ * A list of offers under a panel: each item drawn in the view while the pointer (or the keyboard
+ * focus) is on it (`draw` makes its three.js object), added by its button (`pick`), and shown as
+ * added once `taken` says so. Its hint (`LISTID-hint`) shows only when there is something to offer.
+ */
+class Offers {
+  constructor(viewer, listId, key, { label, draw, pick, taken }) {
+    Object.assign(this, { viewer, listId, key, label, draw, pick, taken });
+    this.items = [];
+    this.preview = new THREE.Group();
+    viewer.scene.add(this.preview);
+    const el = $(listId);
+    el.addEventListener("pointerover", (ev) => this.show(ev.target.closest("li[data-k]")));
+    el.addEventListener("pointerleave", () => this.show(null));
+    el.addEventListener("focusin", (ev) => this.show(ev.target.closest("li[data-k]")));  // Tab onto its button
+    el.addEventListener("focusout", () => this.show(null));
+    el.addEventListener("click", (ev) => {
+      const b = ev.target.closest("button[data-k]");
+      if (b && !b.disabled) this.pick(this.items[Number(b.dataset.k)]);
+    });
+    on("mesh", () => this.load());
+  }
+
+  async load() {
+    const id = state.meshId;
+    this.items = [];
+    this.render();
+    const doc = await symmetryOf();
+    if (id !== state.meshId) return;  // another mesh was opened meanwhile
+    this.items = doc[this.key] || [];
+    this.render();
+  }
+
+  show(li) {
+    const k = li ? Number(li.dataset.k) : null;
+    if (k === this.shown) return;
+    this.shown = k;
+    for (const m of [...this.preview.children]) { this.preview.remove(m); m.geometry.dispose(); }
+    if (k !== null && this.items[k] && state.V) this.preview.add(this.draw(this.items[k]));
+  }
+
+  render() {
+    this.show(null);
+    $(`${this.listId}-hint`).hidden = !this.items.length;
+    $(this.listId).innerHTML = this.items.map((o, k) => {
+      const done = this.taken(o);
+      return `<li data-k="${k}"><span class="name" title="drawn in the view while the pointer is here">${esc(this.label(o))}</span>` +
+        `<button data-k="${k}"${done ? " disabled" : ""}>${done ? "added" : "Add"}</button></li>`;
+    }).join("");
+  }
+}
+
+/** A mirror plane as a translucent square through the model. */
+function planeMesh(plane, material) {
+  const size = 1.2 * state.diag, m = new THREE.Mesh(new THREE.PlaneGeometry(size, size), material);
+  m.position.set(...plane.point);
+  m.quaternion.setFromUnitVectors(new THREE.Vector3(0, 0, 1), new THREE.Vector3(...plane.normal).normalize());
+  m.renderOrder = 4;
+  return m;
+}
+
+/** An axis as a line through the model. */
+function axisLine(axis, material) {
+  const p = new THREE.Vector3(...axis.point), d = new THREE.Vector3(...axis.direction).normalize();
+  const h = 0.75 * state.diag, g = new THREE.BufferGeometry().setFromPoints([p.clone().addScaledVector(d, -h), p.clone().addScaledVector(d, h)]);
+  const line = new THREE.Line(g, material);
+  line.renderOrder = 25;
+  return line;
+}
 
 /**
  * Cyclic symmetry set-up (SPEC.cyclic): face B of the sector is face A turned by the angle about
@@ -25,6 +110,14 @@ export class CyclicPanel {
     this.material = new THREE.LineBasicMaterial({ color: 0x7b2cbf, depthTest: false });
     this.added = new Set();  // face selections this panel put into the SPEC
     $("cyc-add").addEventListener("click", () => this.add());
+    const hover = new THREE.LineBasicMaterial({ color: 0xe07a10, depthTest: false });
+    this.offers = new Offers(viewer, "cyc-offers", "cyclic", {
+      label: (c) => `${c.name}: ${c.faces[0]} → ${c.faces[1]} by ${fmt(c.angle_deg)}° about (${vec(c.axis.direction)})`,
+      draw: (c) => axisLine(c.axis, hover),
+      pick: (c) => this.fill(c),
+      taken: (c) => this.list().some((x) => x.faces[0] === c.faces[0] && x.faces[1] === c.faces[1] &&
+        Math.abs(x.angle_deg - c.angle_deg) < 1e-9 && close(x.axis.point, c.axis.point) && close(x.axis.direction, c.axis.direction)),
+    });
     $("cyc-list").addEventListener("click", (ev) => {
       const b = ev.target.closest("button[data-k]");
       if (b) this.remove(Number(b.dataset.k));
@@ -39,7 +132,19 @@ export class CyclicPanel {
     for (const id of ["cyc-a", "cyc-b"]) { const el = $(id), cur = el.value; el.innerHTML = opts; el.value = cur; }
   }
 
-  add() {
+  /** An offered definition in the panel's fields, then added (under the deck's name when it is free). */
+  fill(c) {
+    this.offerSets();
+    $("cyc-point").value = c.axis.point.join(" ");
+    $("cyc-dir").value = c.axis.direction.join(" ");
+    $("cyc-angle").value = String(c.angle_deg);
+    $("cyc-a").value = c.faces[0];
+    $("cyc-b").value = c.faces[1];
+    $("cyc-tol").value = c.tolerance === undefined || c.tolerance === null ? "" : String(c.tolerance);
+    this.add(c.name);
+  }
+
+  add(wanted = null) {
     const nums = (id) => $(id).value.trim().split(/[\s,;]+/).map(Number);
     const point = nums("cyc-point"), dir = nums("cyc-dir"), angle = Number($("cyc-angle").value);
     const a = $("cyc-a").value, b = $("cyc-b").value, note = $("cyc-note");
@@ -54,7 +159,8 @@ export class CyclicPanel {
     const names = new Set(this.list().map((c) => c.name));
     let k = this.list().length + 1;
     while (names.has(`cyclic${k}`)) k++;
-    const entry = { name: `cyclic${k}`, axis: { point, direction: dir.map((x) => x / len) }, angle_deg: angle, faces: [a, b] };
+    const name = wanted && !names.has(wanted) ? wanted : `cyclic${k}`;
+    const entry = { name, axis: { point, direction: dir.map((x) => x / len) }, angle_deg: angle, faces: [a, b] };
     const tol = $("cyc-tol").value.trim();
     if (tol !== "" && Number(tol) >= 0) entry.tolerance = Number(tol);
     for (const f of [a, b]) {
@@ -77,17 +183,12 @@ export class CyclicPanel {
   render() {
     this.offerSets();
     $("cyc-list").innerHTML = this.list().map((c, k) => `<li data-name="${esc(c.name)}"><span class="name">${esc(c.name)}: ` +
-      `${esc(c.faces[0])} → ${esc(c.faces[1])} by ${fmt(c.angle_deg)}° about (${c.axis.direction.map((x) => fmt(Number(x.toFixed(4)))).join(", ")})` +
+      `${esc(c.faces[0])} → ${esc(c.faces[1])} by ${fmt(c.angle_deg)}° about (${vec(c.axis.direction)})` +
       `</span><button data-k="${k}" title="remove">×</button></li>`).join("");
+    this.offers.render();
     for (const m of [...this.group.children]) { this.group.remove(m); m.geometry.dispose(); }
     if (!state.V) return;
-    for (const c of this.list()) {
-      const p = new THREE.Vector3(...c.axis.point), d = new THREE.Vector3(...c.axis.direction).normalize();
-      const h = 0.75 * state.diag, g = new THREE.BufferGeometry().setFromPoints([p.clone().addScaledVector(d, -h), p.clone().addScaledVector(d, h)]);
-      const line = new THREE.Line(g, this.material);
-      line.renderOrder = 25;
-      this.group.add(line);
-    }
+    for (const c of this.list()) this.group.add(axisLine(c.axis, this.material));
   }
 }
 
@@ -101,6 +202,14 @@ export class SymmetryPanel {
     this.material = new THREE.MeshBasicMaterial({ color: 0x7b2cbf, transparent: true, opacity: 0.18,
       side: THREE.DoubleSide, depthWrite: false });
     $("sym-add").addEventListener("click", () => this.addTyped());
+    const hover = new THREE.MeshBasicMaterial({ color: 0xe07a10, transparent: true, opacity: 0.3,
+      side: THREE.DoubleSide, depthWrite: false });
+    this.offers = new Offers(viewer, "sym-offers", "planes", {
+      label: (o) => `n (${vec(o.plane.normal)}) through (${vec(o.plane.point, 6)}) · ${fmt(Number((100 * o.matched).toFixed(1)))}% of the boundary`,
+      draw: (o) => planeMesh(o.plane, hover),
+      pick: (o) => this.fail(this.add(o.plane.point, o.plane.normal, String(o.tolerance))),
+      taken: (o) => this.list().some((s) => close(s.plane.point, o.plane.point) && close(s.plane.normal, o.plane.normal)),
+    });
     $("sym-from-section").addEventListener("click", () => this.addFromSection());
     $("sym-list").addEventListener("click", (ev) => {
       const b = ev.target.closest("button[data-k]");
@@ -116,7 +225,7 @@ export class SymmetryPanel {
     this.render();
   }
 
-  add(point, normal) {
+  add(point, normal, tol = $("sym-tol").value.trim()) {
     const len = Math.hypot(...normal);
     if (!state.V) return "open a mesh first";
     if (!(len > 0) || point.length !== 3 || ![...point, ...normal].every(Number.isFinite))
@@ -125,7 +234,6 @@ export class SymmetryPanel {
     let k = this.list().length + 1;
     while (names.has(`mirror${k}`)) k++;
     const entry = { name: `mirror${k}`, plane: { point, normal: normal.map((x) => x / len) } };
-    const tol = $("sym-tol").value.trim();
     if (tol !== "" && Number(tol) >= 0) entry.tolerance = Number(tol);
     this.set([...this.list(), entry]);
     return null;
@@ -153,19 +261,12 @@ export class SymmetryPanel {
   render() {
     const list = this.list();
     $("sym-list").innerHTML = list.map((s, k) => `<li data-name="${esc(s.name)}"><span class="name">${esc(s.name)}: ` +
-      `n (${s.plane.normal.map((x) => fmt(Number(x.toFixed(4)))).join(", ")}) through ` +
-      `(${s.plane.point.map((x) => fmt(Number(x.toPrecision(6)))).join(", ")})</span>` +
+      `n (${vec(s.plane.normal)}) through (${vec(s.plane.point, 6)})</span>` +
       `<button data-k="${k}" title="remove the plane">×</button></li>`).join("");
+    this.offers.render();
     for (const m of [...this.group.children]) { this.group.remove(m); m.geometry.dispose(); }
     if (!state.V) return;
-    const size = 1.2 * state.diag;
-    for (const s of list) {
-      const m = new THREE.Mesh(new THREE.PlaneGeometry(size, size), this.material);
-      m.position.set(...s.plane.point);
-      m.quaternion.setFromUnitVectors(new THREE.Vector3(0, 0, 1), new THREE.Vector3(...s.plane.normal).normalize());
-      m.renderOrder = 4;
-      this.group.add(m);
-    }
+    for (const s of list) this.group.add(planeMesh(s.plane, this.material));
   }
 }
 

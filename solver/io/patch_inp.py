@@ -13,7 +13,7 @@ import re
 
 import numpy as np
 
-__all__ = ["patch_inp", "node_line_count", "node_block_sets", "coordinate_text", "FIELD_WIDTH"]
+__all__ = ["patch_inp", "node_line_count", "node_labels", "node_block_sets", "coordinate_text", "FIELD_WIDTH"]
 
 #: Widest coordinate field written: CalculiX reads at most 20 characters per field of a data line
 #: (a longer one is a fatal "*ERROR reading *NODE").
@@ -69,6 +69,18 @@ def node_block_sets(data: bytes) -> dict[str, np.ndarray]:
                 out.setdefault(name, []).append(row)
             row += 1
     return {k: np.asarray(v, np.int64) for k, v in out.items()}
+
+
+def node_labels(data: bytes) -> np.ndarray:
+    r"""The deck's own node numbers, one per point in the order meshio numbers the points.
+
+    Examples
+    --------
+    >>> node_labels(b"*NODE\n101, 0, 0, 0\n** a comment\n7, 1, 0, 0\n*ELEMENT, TYPE=C3D4\n1, 101, 7, 9, 8\n").tolist()
+    [101, 7]
+    """
+    lines = data.splitlines(keepends=True)
+    return np.asarray([int(lines[k].split(b",", 1)[0]) for k in _node_lines(lines)], np.int64)
 
 
 def node_line_count(data: bytes) -> int:

@@ -1,7 +1,8 @@
 // Picking and measuring nodes: with the "pick" tool, hovering the model shows the node under the
-// pointer (its vertex index and coordinates, in the current shape) and a click picks it. One picked
-// node reads out its coordinates, two their distance and its components, three also the angle at
-// the middle one; a fourth click starts again, Shift+click replaces the last one, Esc clears.
+// pointer (its vertex index, the deck's own node number when the file has them, and its coordinates
+// in the current shape) and a click picks it. One picked node reads out its coordinates, two their
+// distance and its components, three also the angle at the middle one; a fourth click starts
+// again, Shift+click replaces the last one, Esc clears.
 // Picked nodes are marked in the view and joined by a line, and follow the mesh as it moves.
 import * as THREE from "three";
 import { $, radio } from "./dom.js";
@@ -68,13 +69,16 @@ export class Measure {
     if (radio("tool") !== "pick" || !state.V) { tip.hidden = true; return; }
     const i = this.nodeAt(ev.clientX, ev.clientY);
     if (i === null) { tip.hidden = true; return; }
-    tip.textContent = `vertex ${i} · ${this.coords(i)}`;
+    tip.textContent = `${this.name(i)} · ${this.coords(i)}`;
     tip.dataset.vertex = String(i);
     const rect = this.viewer.canvas.getBoundingClientRect();
     tip.style.left = `${ev.clientX - rect.left + 14}px`;
     tip.style.top = `${ev.clientY - rect.top + 14}px`;
     tip.hidden = false;
   }
+
+  /** The vertex's 0-based id, and the deck's own node number when the file has them. */
+  name(i) { return state.labels ? `vertex ${i} (node ${state.labels[i]})` : `vertex ${i}`; }
 
   coords(i) {
     return `(${[0, 1, 2].map((k) => fmt(Number(state.V[3 * i + k].toPrecision(6)))).join(", ")})${unitText()}`;
@@ -112,7 +116,7 @@ export class Measure {
 
   show() {
     const el = $("measure"), v = this.values(), u = unitText(), rows = [];
-    this.picks.forEach((i, k) => rows.push(`<div data-key="node${k}">${"ABC"[k]} · vertex ${i} ${this.coords(i)}</div>`));
+    this.picks.forEach((i, k) => rows.push(`<div data-key="node${k}">${"ABC"[k]} · ${this.name(i)} ${this.coords(i)}</div>`));
     if (v.distance !== undefined) {
       rows.push(`<div data-key="distance"><b>|AB| ${fmt(Number(v.distance.toPrecision(6)))}${u}</b></div>`,
         `<div class="muted" data-key="delta">Δ ${v.delta.map((x) => fmt(Number(x.toPrecision(6)))).join(", ")}${u}</div>`);

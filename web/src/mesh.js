@@ -10,7 +10,7 @@ const own = claim("mesh");
  * @param {string} id the mesh's id on the service
  * @param {object} header the bundle's header (name, sets, bbox, elements)
  * @param {object} meta the mesh's record (format, info)
- * @param {object} arrays the bundle's arrays (V, F, T, boundary, set:<name>)
+ * @param {object} arrays the bundle's arrays (V, F, T, boundary, set:<name>; labels for a deck)
  */
 export function loadMesh(id, header, meta, arrays) {
   own.meshId = id;
@@ -31,6 +31,7 @@ export function loadMesh(id, header, meta, arrays) {
   const sets = {};
   for (const name of header.sets) sets[name] = arrays[`set:${name}`];
   own.sets = sets;
+  own.labels = arrays.labels || null;
   const lo = header.bbox[0], hi = header.bbox[1];
   own.bbox = header.bbox;
   own.diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;

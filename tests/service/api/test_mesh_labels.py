@@ -1,0 +1,43 @@
+"""The geometry bundle carries an Abaqus deck's own node numbers (``labels``), vertex by vertex."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+
+from service.binary import decode_bundle
+from tests.conftest import DATA
+from tests.decks import renumbered
+
+from ..conftest import BRACKET
+
+
+def _labels_of(path) -> list[int]:
+    """Node numbers of the deck's *NODE lines, read from its text."""
+    out, inside = [], False
+    for line in path.read_text().splitlines():
+        s = line.strip()
+        if s.startswith("**"):
+            continue
+        if s.startswith("*"):
+            inside = s.split(",")[0].strip("* ").upper() == "NODE"
+        elif inside and s:
+            out.append(int(s.split(",")[0]))
+    return out
+
+
+def test_a_renumbered_deck_s_node_numbers_come_with_its_geometry(client, tc, tmp_path):
+    deck = renumbered(BRACKET, tmp_path / "gaps.inp", lambda n: 10 * n + 7)
+    mesh = client.upload_mesh(deck)
+    arrays, _ = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    assert arrays["labels"].dtype == np.uint32
+    assert arrays["labels"].tolist() == _labels_of(deck)  # 17, 27, ..., one per vertex in file order
+    # vertex i of the bundle is the point meshio reads i-th, which the deck numbers labels[i]
+    np.testing.assert_allclose(arrays["V"], meshio.read(deck).points, atol=1e-4)
+    np.testing.assert_allclose(arrays["V"], meshio.read(BRACKET).points, atol=1e-4)  # renumbering moved nothing
+
+
+def test_files_without_node_numbers_have_no_labels(client, tc):
+    mesh = client.upload_mesh(DATA / "beam.node")
+    arrays, _ = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    assert "labels" not in arrays

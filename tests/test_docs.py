@@ -344,9 +344,33 @@ def _params(page: Path):
     return pytest.param(page, marks=_marks(page))
 
 
+def _optimize_table_is_this_run(text: str, work: Path) -> None:
+    """The history the optimize page shows is the one its commands wrote (to its rounding)."""
+    import csv
+
+    table = text.split("A run of this page", 1)[1]
+    shown = [[c.strip() for c in line.strip().strip("|").split("|")]
+             for line in table.splitlines() if re.match(r"\| \d+ \|", line)]
+    run = list(csv.DictReader((work / "out" / "opt" / "history.csv").open()))
+    assert len(shown) == len(run) >= 4
+    for row, got in zip(shown, run, strict=True):
+        evaluation, iteration, role, move1, move2, objective = row
+        assert (evaluation, iteration, role) == (got["evaluation"], got["iteration"], got["role"])
+        for value, key in ((move1, "move1"), (move2, "move2")):
+            assert float(value) == pytest.approx(float(got[key]), abs=0.006), (evaluation, key)
+        assert float(objective) == pytest.approx(float(got["objective"]), abs=0.06), evaluation
+
+
+#: Checks after a page ran: what the page states about its own run is what the run gave.
+AFTER_RUN = {"optimize.md": _optimize_table_is_this_run}
+
+
 @pytest.mark.parametrize("page", [_params(p) for p in TUTORIALS], ids=[p.stem for p in TUTORIALS])
 def test_every_block_of_a_tutorial_runs_as_written(page, checkout, monkeypatch):
     """The page's Python and shell blocks run in the order they appear, sharing the environment."""
     monkeypatch.setenv("PATH", f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")  # venv on
     monkeypatch.setenv("TETMORPH_URL", "")  # a page may set it for its shell blocks; restored afterwards
-    run_steps(steps(page.read_text()), checkout, page.name)
+    text = page.read_text()
+    run_steps(steps(text), checkout, page.name)
+    if page.name in AFTER_RUN:
+        AFTER_RUN[page.name](text, checkout)

@@ -321,6 +321,20 @@ def test_every_field_of_the_documents_and_their_parts_is_on_the_documents_page(s
     assert checked > 150
 
 
+def test_the_guides_grammar_names_every_field_of_spec_move_and_report():
+    from solver.documents.move import Move
+    from solver.documents.report import Report
+    from solver.documents.spec import Spec
+
+    (grammar,) = _blocks(ROOT / "docs" / "guide" / "documents.md", "text")
+    for model, start, end in ((Spec, "SPEC      =", "POINT     ="), (Move, "MOVE      =", "REPORT    ="),
+                              (Report, "REPORT    =", None)):
+        part = grammar.split(start, 1)[1]
+        part = part.split(end, 1)[0] if end else part
+        missing = [f for f in model.model_fields if f'"{f}"' not in part]
+        assert not missing, f"docs/guide/documents.md: the {model.__name__} grammar leaves out {missing}"
+
+
 def _needs_ccx(page: Path) -> bool:
     return any(re.search(r"\bccx\b", s) for s in _blocks(page, "sh"))
 

@@ -192,3 +192,27 @@ def test_the_bracket_picture_colours_the_morph_by_its_displacement():
     yellow = (253, 231, 37)  # viridis at 1: the bore, moved the most
     assert _near(_panel(pixels, p, 0, 1), yellow, 40).sum() > 100
     assert _near(_panel(pixels, p, 0, 0), yellow, 40).sum() == 0
+
+
+def test_the_target_picture_puts_the_pages_top_face_on_its_scan():
+    from scipy.interpolate import LinearNDInterpolator
+
+    V0, V, F, scope = pictures.target_morph()
+    deck = meshio.read(ROOT / "tests" / "data" / "plate.inp")
+    np.testing.assert_allclose(V0, deck.points, atol=0)
+    top = scope["top"]
+    height = LinearNDInterpolator(scope["xy"], scope["z"])  # the scan the page wrote, as a height field
+    assert np.abs(V[top, 2] - height(V[top, :2])).max() < 1e-9
+    clamp = deck.point_sets["FIXED"]
+    assert np.array_equal(V[clamp], V0[clamp])
+    largest = np.linalg.norm(V - V0, axis=1).max()
+    assert round(largest, 1) == 1.8  # "up to 1.8 mm above the design", as the page and the picture's alt say
+    assert "up to 1.8 mm" in (ROOT / "docs" / "tutorials" / "target-surface.md").read_text()
+    p = pictures.displacement_scene(V0, V, F, "on the scan")
+    np.testing.assert_allclose(_mesh(p, 0, 1, "moved").points, V, atol=0)
+    assert _actor(p, 0, 1, "moved").mapper.scalar_range == pytest.approx((0.0, largest), abs=1e-9)
+    pixels = pictures.render(p)
+    p.close()
+    yellow = (253, 231, 37)  # viridis at 1: the top of the dome
+    assert _near(_panel(pixels, p, 0, 1), yellow, 40).sum() > 100
+    assert _near(_panel(pixels, p, 0, 0), yellow, 40).sum() == 0

@@ -13,6 +13,8 @@ Each picture solves the morph its page shows, with the page's own SPEC and MOVE:
   the cut faces marked (:func:`sector_morphs` holds the arrays);
 * :func:`doe_png` -- the design-study tutorial's plan, one panel per variant with its design
   variables, coloured by displacement on one shared scale (:func:`doe_variants`);
+* :func:`target_png` -- the target-surface tutorial's plate with its top face on the scan, the
+  scan and the morph made by the page's own first two blocks (:func:`target_morph`);
 * :func:`inversion_png` -- the first tutorial's SPEC with its move made ten times larger, the
   inverted elements the REPORT names drawn in red, beside the same move with the ``clamp``
   inversion policy (:func:`inversion_morphs`).
@@ -49,6 +51,7 @@ BRACKET_MOVE = {"handles": {"bore": {"translation": [-4.0, 0.0, 0.0]}}}
 #: The inversion picture's MOVE (docs/guide/validity.md): the first tutorial's bore turned 110° about its axis.
 INVERSION_MOVE = {"handles": {"bore": {"rotation": {"axis": [0, 0, 1], "angle_deg": 110}}}}
 SECTOR_PAGE = ROOT / "docs" / "tutorials" / "sector-symmetry.md"
+TARGET_PAGE = ROOT / "docs" / "tutorials" / "target-surface.md"
 STUDY_DATA = ROOT / "tests" / "solver" / "workflows" / "data"  # the design-study tutorial's files
 
 GREY = (0.75, 0.75, 0.78)
@@ -249,6 +252,28 @@ def sector_page_inputs(text: str) -> tuple[str, dict[str, Any], list[dict[str, A
         if isinstance(node, ast.For) and isinstance(node.iter, ast.Tuple):
             moves = [names[e.id] if isinstance(e, ast.Name) else ast.literal_eval(e) for e in node.iter.elts]
     return deck, names["cyclic_spec"], moves
+
+
+def target_morph() -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    """The target-surface tutorial's morph, made by the page's first two blocks (the scan, the SPEC and
+    its solve) in a scratch folder: rest positions, morphed positions, boundary faces and the blocks'
+    scope (``plate``, ``xy``, ``z``, ``top``, ``result``, ...)."""
+    blocks = re.findall(r"```python\n(.*?)```", TARGET_PAGE.read_text(), re.S)[:2]
+    scope: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as d, contextlib.chdir(d):
+        Path("out").mkdir()
+        Path("tests").symlink_to(ROOT / "tests", target_is_directory=True)
+        with contextlib.redirect_stdout(io.StringIO()):
+            for block in blocks:
+                exec(compile(block, str(TARGET_PAGE), "exec"), scope)  # noqa: S102 - the page's own blocks
+    plate = scope["plate"]
+    return plate.V, scope["result"].V, plate.F, scope
+
+
+def target_png() -> bytes:
+    """The plate's top face morphed onto the scan (:func:`target_morph`), beside the plate at rest."""
+    V0, V, F, _ = target_morph()
+    return displacement_png(V0, V, F, "top face on the scan (amount 1)")
 
 
 def sector_morphs() -> SectorMorphs:
@@ -525,6 +550,7 @@ def inversion_png() -> bytes:
 PICTURES = {"img/tutorial-bracket-displacement.png": bracket_displacement_png,  # tutorials/morph-a-deck.md
             "img/tutorial-sector-cyclic.png": sector_png,  # tutorials/sector-symmetry.md
             "img/tutorial-doe-variants.png": doe_png,  # tutorials/design-study.md
+            "img/tutorial-target-surface.png": target_png,  # tutorials/target-surface.md
             "img/guide-inversion-clamp.png": inversion_png}  # guide/validity.md
 
 

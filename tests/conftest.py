@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import functools
 import pathlib
 
@@ -20,6 +21,44 @@ SHARED = next((p for p in (pathlib.Path(__file__).resolve().parents[2] / "shared
 def pytest_addoption(parser):
     parser.addoption("--docs-pictures", action="store_true", default=False,
                      help="write the editor tutorial's pictures to docs/img/editor/ (make docs-pictures)")
+
+
+def _module_marks(path: pathlib.Path) -> set[str]:
+    """The marks a test module gives all its tests: ``pytestmark = pytest.mark.NAME`` (or a list of them)."""
+    try:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, ValueError):
+        return set()  # collected as usual, and any error reported there
+    marks: set[str] = set()
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "pytestmark"
+                                                for t in node.targets):
+            values = node.value.elts if isinstance(node.value, (ast.List, ast.Tuple)) else [node.value]
+            for v in values:
+                v = v.func if isinstance(v, ast.Call) else v
+                if isinstance(v, ast.Attribute) and isinstance(v.value, ast.Attribute) and v.value.attr == "mark":
+                    marks.add(v.attr)
+    return marks
+
+
+def pytest_ignore_collect(collection_path: pathlib.Path, config: pytest.Config) -> bool | None:
+    """Skip importing a module whose every test the ``-m`` expression deselects.
+
+    Deselection by mark happens after collection, and collecting a schemathesis module
+    builds its cases from the whole OpenAPI schema, which took about 35 s per xdist worker
+    in ``make check`` for tests it then deselected.
+    """
+    expr = config.getoption("markexpr", "")
+    if not expr or collection_path.suffix != ".py" or not collection_path.name.startswith("test_"):
+        return None
+    marks = _module_marks(collection_path)
+    if not marks:
+        return None
+    try:
+        from _pytest.mark.expression import Expression  # pytest's own -m parser
+    except ImportError:  # a pytest without it: collect, and let -m deselect
+        return None
+    return True if not Expression.compile(expr).evaluate(lambda name, **kw: name in marks) else None
 
 
 def shared_file(rel: str) -> pathlib.Path:

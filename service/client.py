@@ -186,6 +186,19 @@ class Client:
         """Describe a stored mesh."""
         return self._request("GET", f"/v1/meshes/{mesh_id}").json()
 
+    def symmetry(self, mesh_id: str) -> dict[str, Any]:
+        """Mirror planes and the deck's cyclic sectors of a stored volume mesh.
+
+        Returns
+        -------
+        dict
+            ``{"planes": [...], "cyclic": [...]}``: SPEC ``symmetry`` and ``cyclic``
+            entries, as ``tetmorph info`` lists them (a plane also says how many
+            boundary nodes it matched: drop ``matched`` and ``exact_pairs`` before
+            putting it in a SPEC).
+        """
+        return self._request("GET", f"/v1/meshes/{mesh_id}/symmetry").json()
+
     def download_mesh(self, mesh_id: str, path: str | os.PathLike[str] | None = None,
                       file_format: str | None = None) -> bytes:
         """The uploaded file (or a conversion); written to ``path`` when given."""

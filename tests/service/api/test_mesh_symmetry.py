@@ -53,6 +53,7 @@ def test_a_mirrored_mesh_is_offered_the_planes_that_map_its_boundary_onto_itself
     assert r.status_code == 200, r.text
     body = r.json()
     assert set(body) == {"planes", "cyclic"} and body["cyclic"] == []  # a TetGen mesh defines no sector
+    assert client.symmetry(mesh["id"]) == body  # the Python client's call is the same route
     P = _boundary_points(BEAM)
     diag = float(np.linalg.norm(P.max(0) - P.min(0)))
     tree = cKDTree(P)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import threading
 
 from service.state.jobs import JobRunner
 
@@ -39,6 +40,11 @@ def test_a_cancel_while_storing_undoes_the_store_and_reads_cancelled():
         await asyncio.sleep(0.2)  # a write the cancel did not wait for has landed by now
         return job
 
-    job = asyncio.run(main())
+    # A thread of its own: another test in this worker (a browser's sync API) may hold a running loop here.
+    out: dict = {}
+    worker = threading.Thread(target=lambda: out.setdefault("job", asyncio.run(main())))
+    worker.start()
+    worker.join(120)
+    job = out["job"]
     assert job.status == "cancelled" and job.result is None, (job.status, job.result)
     assert undone == ["m_1"] and stored == [], (stored, undone)

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 __all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS", "EXTENT", "SCALE_MIN", "SCALE_MAX", "PENALTY_MAX",
            "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX",
-           "TARGET_AMOUNT_MAX"]
+           "TARGET_AMOUNT_MAX", "SHAPES_MAX", "SHAPE_NAME_MAX", "PLAN_ROWS_MAX", "PLAN_TEXT_MAX", "BLOCK_MAX",
+           "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX"]
 
 #: Largest magnitude of a mesh coordinate, and of any coordinate, direction or target in a
 #: document. Far beyond any part in any unit, and small enough that squared distances and
@@ -43,3 +44,19 @@ ID_MAX = 2**31 - 1
 ANGLE_MAX = 3600.0
 #: Largest magnitude of a target surface's MOVE ``amount`` (1: on the surface, 0: at rest).
 TARGET_AMOUNT_MAX = 10.0
+#: Most shapes in one SHAPES document, and so most columns of a PLAN (each column is a shape).
+SHAPES_MAX = 1000
+#: Longest shape name, which is a PLAN column's header.
+SHAPE_NAME_MAX = 200
+#: Most rows (variants) of one PLAN.
+PLAN_ROWS_MAX = 1_000_000
+#: Longest PLAN CSV text, in characters: a million rows of a few shapes.
+PLAN_TEXT_MAX = 50_000_000
+#: Most PLAN rows in one stacked back-substitution: the right-hand sides of a block are held at once,
+#: three columns a row.
+BLOCK_MAX = 1024
+#: Largest magnitude of a shape's parameter value in a bounds search's range: a shape is a MOVE at
+#: value 1, and a million times it is a mistake in the range, not a design.
+SHAPE_VALUE_MAX = 1e6
+#: Widest final bracket of a bounds search, in parameter units.
+BOUNDS_TOL_MAX = 1e3

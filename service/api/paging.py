@@ -11,8 +11,9 @@ from typing import Annotated, TypeVar
 
 from fastapi import Query, Request, Response
 
+from solver.documents.text import ONE_LINE
+
 from ..errors import ServiceError
-from ..models.text import ONE_LINE
 
 __all__ = ["LimitQuery", "CursorQuery", "NameQuery", "page", "PAGE_HEADERS"]
 

@@ -22,6 +22,7 @@ from pydantic.json_schema import SkipJsonSchema
 
 from solver.errors import InvalidMeshError
 from solver.io.tetrahedralize import open_edges
+from solver.limits import COORD_MAX
 from solver.mesh import mesh_from_arrays
 
 from ..errors import ServiceError, error_from_dict
@@ -84,7 +85,7 @@ async def tetrahedralize(
     format: Annotated[str | SkipJsonSchema[None], Form(
         max_length=10, description="stl, obj, ply or off; default from the file name",
         json_schema_extra={"enum": SURFACE_FORMAT_VALUES})] = None,
-    edge_length: Annotated[Annotated[float, Field(gt=0, le=1e15, allow_inf_nan=False)] | SkipJsonSchema[None],
+    edge_length: Annotated[Annotated[float, Field(gt=0, le=COORD_MAX, allow_inf_nan=False)] | SkipJsonSchema[None],
                            Form(description="absolute target edge length")] = None,
     edge_length_fac: Annotated[float, Form(gt=0, le=1, allow_inf_nan=False, description="target edge "
                                            "length / bounding-box diagonal")] = 0.05,

@@ -11,35 +11,34 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictStr
-from pydantic.config import JsonDict
 
+from solver.documents.move import Move
 from solver.documents.numbers import INTEGRAL
+from solver.documents.shapes import SHAPE_NAME_SCHEMA, ShapeMoves
+from solver.limits import BLOCK_MAX, BOUNDS_TOL_MAX, PLAN_TEXT_MAX, SHAPE_VALUE_MAX, SHAPES_MAX
 
 from .formats import MESH_FORMAT_VALUES
-from .move import Move
-from .text import trimmed_name
 
 __all__ = ["PlanTable", "BatchCreate", "StudyCreate", "BoundsQuery", "shapes_document"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
-ShapeName = Annotated[str, Field(min_length=1, max_length=200)]
-#: What the SHAPES parser asks of a shape name (a PLAN column), stated in the schema: no control
-#: characters, no blanks at either end (its 422 ``invalid_shapes`` names the shape otherwise).
-_SHAPE_NAMES: JsonDict = {"propertyNames": trimmed_name(200)}
 #: Rows per stacked back-substitution.
-Block = Annotated[int, Field(strict=True, ge=1, le=1024), INTEGRAL]
+Block = Annotated[int, Field(strict=True, ge=1, le=BLOCK_MAX), INTEGRAL]
+#: A PLAN as the text of its CSV file.
+PlanText = Annotated[str, Field(max_length=PLAN_TEXT_MAX)]
 
 
 class PlanTable(BaseModel):
     """A PLAN as JSON: column names (shape names) and one row of numbers per variant."""
 
     model_config = _STRICT
-    columns: list[StrictStr] = Field(min_length=1, max_length=10_000, description="shape names, each once",
-                                     json_schema_extra={"uniqueItems": True, "items": trimmed_name(200)})
+    columns: list[StrictStr] = Field(min_length=1, max_length=SHAPES_MAX, description="shape names, each once",
+                                     json_schema_extra={"uniqueItems": True, "items": SHAPE_NAME_SCHEMA})
     rows: list[list[Any]] = Field(min_length=1, description="one list of numbers per variant, one number per "
                                   "column; the row count is bounded by TETMORPH_BATCH_MAX_ROWS",
-                                  json_schema_extra={"items": {"type": "array", "minItems": 1, "maxItems": 10_000,
+                                  json_schema_extra={"items": {"type": "array", "minItems": 1,
+                                                               "maxItems": SHAPES_MAX,
                                                                "items": {"type": "number"}}})
 
 
@@ -50,9 +49,8 @@ class BatchCreate(BaseModel):
         "shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}},
         "plan": {"columns": ["bend"], "rows": [[0.5], [1.0]]}, "format": "inp"}]})
 
-    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000, json_schema_extra=_SHAPE_NAMES,
-                                          description="SHAPES: name -> MOVE at parameter value 1")
-    plan: PlanTable | Annotated[str, Field(max_length=50_000_000)] = Field(
+    shapes: ShapeMoves
+    plan: PlanTable | PlanText = Field(
         description="{columns, rows}, or the text of a PLAN CSV file (header of shape names)")
     format: StrictStr | None = Field(None, max_length=40, description="deck format name or extension; "
                                      "default the mesh's own (byte-faithful but the node coordinates)",
@@ -76,9 +74,8 @@ class StudyCreate(BaseModel):
         "shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}},
         "plan": {"columns": ["bend"], "rows": [[0.0], [0.5]]}, "solver": "ccx"}]})
 
-    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000, json_schema_extra=_SHAPE_NAMES,
-                                          description="SHAPES: name -> MOVE at parameter value 1")
-    plan: PlanTable | Annotated[str, Field(max_length=50_000_000)] = Field(
+    shapes: ShapeMoves
+    plan: PlanTable | PlanText = Field(
         description="{columns, rows}, or the text of a PLAN CSV file (header of shape names)")
     solver: StrictStr = Field(min_length=1, max_length=64, description="a solver name of the service's "
                               "TETMORPH_STUDY_SOLVERS (the service runs its configured command)")
@@ -101,11 +98,12 @@ class BoundsQuery(BaseModel):
     """Per shape, the largest positive and negative value inverting nothing."""
 
     model_config = _STRICT
-    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=1000, json_schema_extra=_SHAPE_NAMES)
-    range: list[Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e6, le=1e6)]] | None = Field(
+    shapes: ShapeMoves
+    range: list[Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-SHAPE_VALUE_MAX,
+                                       le=SHAPE_VALUE_MAX)]] | None = Field(
         None, min_length=2, max_length=2, description="[lo, hi] with lo <= 0 <= hi; default 1, 2, 4, ... 1024",
         json_schema_extra={"prefixItems": [{"maximum": 0}, {"minimum": 0}]})
-    tol: Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=1e3)] = 1e-3
+    tol: Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0, le=BOUNDS_TOL_MAX)] = 1e-3
 
     def shapes_doc(self) -> dict[str, Any]:
         """The SHAPES document."""

@@ -10,9 +10,9 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, StrictStr, field_validator
 
 from solver.documents.report import Report
+from solver.documents.text import HAS_TEXT
 
 from .move import Move
-from .text import HAS_TEXT
 
 __all__ = ["SessionStatus", "SessionDoc", "SessionPatch", "Preset", "PresetDoc", "PRESETS_MAX", "PRESET_NAME_MAX",
            "PRESETS_MAX_BYTES"]

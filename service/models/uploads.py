@@ -7,6 +7,7 @@ from typing import Annotated, Any
 from pydantic import BaseModel, ConfigDict, Field, StrictStr
 
 from solver.documents.numbers import Coord, VertexId
+from solver.limits import MAX_POINTS
 
 from .spec import Selection, Spec
 
@@ -20,7 +21,7 @@ class MeshArrays(BaseModel):
         {"required": [k], "properties": {k: {"type": "array", "minItems": 1}}} for k in ("tetrahedra", "triangles")]})
 
     vertices: list[Annotated[list[Coord], Field(min_length=3, max_length=3)]] = Field(
-        ..., min_length=4, max_length=50_000_000, description="(n, 3) vertex positions, n >= 4")
+        ..., min_length=4, max_length=MAX_POINTS, description="(n, 3) vertex positions, n >= 4")
     tetrahedra: list[Annotated[list[VertexId], Field(min_length=4, max_length=4)]] | None = Field(
         None, description="(m, 4) vertex indices")
     triangles: list[Annotated[list[VertexId], Field(min_length=3, max_length=3)]] | None = Field(

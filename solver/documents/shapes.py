@@ -11,16 +11,17 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic.config import JsonDict
 
+from ..limits import SHAPE_NAME_MAX, SHAPES_MAX
 from .move import Move
+from .text import trimmed_name
 
-__all__ = ["Shapes", "ShapeName", "RESERVED", "SHAPES_MAX"]
+__all__ = ["Shapes", "ShapeName", "ShapeMoves", "SHAPE_NAME_SCHEMA", "RESERVED", "SHAPES_MAX"]
 
 #: Names a shape cannot take: the other columns of a DOE summary.
 RESERVED = ("row", "inverted", "min_scaled_jacobian", "max_displacement", "constraint_residual_max", "file",
             "status")
-#: Most shapes in one document.
-SHAPES_MAX = 1000
 
 
 def _plan_column(name: str) -> str:
@@ -33,7 +34,15 @@ def _plan_column(name: str) -> str:
 
 
 #: A shape's name, which is its plan column.
-ShapeName = Annotated[str, Field(min_length=1, max_length=200), AfterValidator(_plan_column)]
+ShapeName = Annotated[str, Field(min_length=1, max_length=SHAPE_NAME_MAX), AfterValidator(_plan_column)]
+#: The JSON Schema of a shape name: what :data:`ShapeName` checks, stated for the OpenAPI document.
+SHAPE_NAME_SCHEMA: JsonDict = {**trimmed_name(SHAPE_NAME_MAX), "not": {"anyOf": [
+    trimmed_name(SHAPE_NAME_MAX)["not"], {"enum": list(RESERVED)}]}}
+#: The ``shapes`` map of every document that carries SHAPES (this one, and the service's batch, study
+#: and bounds requests): name -> MOVE at parameter value 1.
+ShapeMoves = Annotated[dict[ShapeName, Move], Field(min_length=1, max_length=SHAPES_MAX,
+                                                    json_schema_extra={"propertyNames": SHAPE_NAME_SCHEMA},
+                                                    description="name -> MOVE at parameter value 1")]
 
 
 class Shapes(BaseModel):
@@ -42,8 +51,7 @@ class Shapes(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [
         {"shapes": {"bend": {"handles": {"tip": {"translation": [0, 0, 4]}}}}}]})
 
-    shapes: dict[ShapeName, Move] = Field(min_length=1, max_length=SHAPES_MAX,
-                                          description="name -> MOVE at parameter value 1")
+    shapes: ShapeMoves
 
     def dump(self) -> dict[str, Any]:
         """The document as JSON-compatible data."""

@@ -34,6 +34,8 @@ import numpy as np
 from ..deform.deformer import Deformer
 from ..deform.solve import check_positions, solve_positions_many
 from ..errors import SpecError
+from ..limits import BOUNDS_TOL_MAX, SHAPE_VALUE_MAX
+from .plan import check_block
 from .shapes import Shapes, variant_move
 
 __all__ = ["Side", "ShapeBounds", "BoundsResult", "shape_bounds", "MAX_VALUE", "TOL"]
@@ -205,13 +207,14 @@ def shape_bounds(deformer: Deformer, shapes: Shapes, *, lo: float | None = None,
         A range that does not contain 0, a bad tolerance or block, a ``base``
         that is no valid variant or inverts elements itself.
     """
-    if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
-        raise SpecError(f"tol must be a positive number, got {tol!r}", code="invalid_range", field="tol")
-    if isinstance(block, bool) or not isinstance(block, int) or block < 1:
-        raise SpecError(f"block must be a positive integer, got {block!r}", code="invalid_range", field="block")
+    if not (isinstance(tol, (int, float)) and math.isfinite(tol) and 0 < tol <= BOUNDS_TOL_MAX):
+        raise SpecError(f"tol must be a number in (0, {BOUNDS_TOL_MAX:g}], got {tol!r}", code="invalid_range",
+                        field="tol")
+    check_block(block, "invalid_range")
     for name, v in (("lo", lo), ("hi", hi)):
-        if v is not None and not math.isfinite(v):
-            raise SpecError(f"range {name} must be finite, got {v!r}", code="invalid_range", field=name)
+        if v is not None and not (math.isfinite(v) and abs(v) <= SHAPE_VALUE_MAX):
+            raise SpecError(f"range {name} must be finite and within +-{SHAPE_VALUE_MAX:g}, got {v!r}",
+                            code="invalid_range", field=name)
     if (lo is not None and lo > 0) or (hi is not None and hi < 0):
         raise SpecError(f"the range [{lo}, {hi}] must contain 0 (bounds are searched from the base "
                         "parameters)", code="invalid_range", field="range")

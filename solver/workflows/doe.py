@@ -33,7 +33,7 @@ from ..deform.positions import InteriorBasis
 from ..errors import ConstraintError, SpecError
 from ..io import write_mesh
 from ..mesh import Mesh
-from .plan import Plan, plan_values
+from .plan import Plan, check_block, plan_values
 from .shapes import Shapes, variant_move
 
 __all__ = ["Variant", "DoeResult", "run_doe", "doe_basis", "deck_writer", "write_summary", "summary_rows", "BLOCK",
@@ -215,8 +215,7 @@ def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOC
         An unknown plan column, a bad policy or block size, or a row whose
         variant is not a valid MOVE (naming the row) -- before anything is solved.
     """
-    if isinstance(block, bool) or not isinstance(block, int) or block < 1:
-        raise SpecError(f"block must be a positive integer, got {block!r}", code="invalid_plan", field="block")
+    check_block(block, "invalid_plan")
     policy = inversion or deformer.spec.inversion
     if policy not in ("warn", "reject", "clamp"):
         raise SpecError(f"inversion policy must be one of ['warn', 'reject', 'clamp'], got {policy!r}",

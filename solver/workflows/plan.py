@@ -28,12 +28,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import SolverError, SpecError
+from ..limits import BLOCK_MAX, PLAN_ROWS_MAX, PLAN_TEXT_MAX, SHAPES_MAX
 from .shapes import Shapes
 
-__all__ = ["plan_table", "Plan", "parse_plan", "read_plan", "plan_values", "MAX_ROWS"]
+__all__ = ["plan_table", "Plan", "parse_plan", "read_plan", "plan_values", "check_block", "MAX_ROWS"]
 
-#: Rows a plan may hold.
-MAX_ROWS = 1_000_000
+#: Rows a plan may hold (:data:`solver.limits.PLAN_ROWS_MAX`).
+MAX_ROWS = PLAN_ROWS_MAX
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,7 +89,22 @@ def _number(cell: Any, where: str, column: str, text: bool) -> float:
     return v
 
 
+def check_block(block: Any, code: str) -> None:
+    """Refuse a block size (plan rows per stacked back-substitution) outside ``[1, BLOCK_MAX]``.
+
+    Raises
+    ------
+    SpecError
+        ``code``, field ``block``.
+    """
+    if isinstance(block, bool) or not isinstance(block, int) or not 1 <= block <= BLOCK_MAX:
+        raise SpecError(f"block must be an integer in [1, {BLOCK_MAX}], got {block!r}", code=code, field="block")
+
+
 def _columns(names: Sequence[Any]) -> tuple[str, ...]:
+    if len(names) > SHAPES_MAX:
+        raise SpecError(f"the plan has {len(names)} columns, more than {SHAPES_MAX} (one per shape)",
+                        code="invalid_plan", columns=len(names))
     cols = []
     for k, c in enumerate(names):
         if not isinstance(c, str) or not c.strip():
@@ -214,6 +230,9 @@ def read_plan(path: str | os.PathLike[str]) -> Plan:
         raise SolverError(f"PLAN file not found: {os.fspath(path)}", code="file_not_found") from None
     except UnicodeDecodeError as e:
         raise SpecError(f"PLAN file {os.fspath(path)} is not UTF-8 text: {e}", code="invalid_plan") from None
+    if len(text) > PLAN_TEXT_MAX:
+        raise SpecError(f"PLAN file {os.fspath(path)} holds {len(text)} characters, more than {PLAN_TEXT_MAX}",
+                        code="invalid_plan")
     table = plan_table(text)
     if not table:
         raise SpecError(f"PLAN file {os.fspath(path)} is empty: it needs a header of shape names and one row "

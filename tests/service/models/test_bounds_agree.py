@@ -1,7 +1,9 @@
 """The service's OpenAPI schema and the library's parsers bound the documents by the same numbers.
 
-Every numeric bound of the SPEC and MOVE schemas is one of :mod:`solver.limits`'s, and for each
-bound the library accepts the value at it and refuses the next float beyond it, as the schema does.
+Every numeric bound of every request schema (SPEC, MOVE, SHAPES, batches, bounds searches, uploads)
+is one of :mod:`solver.limits`'s, but for the few option domains listed in :data:`DOMAINS`; and for
+each bound the library accepts the value at it and refuses the next float beyond it, as the schema
+does.
 """
 
 from __future__ import annotations
@@ -24,6 +26,12 @@ DOCUMENT_SCHEMAS = ("Spec", "Selection", "Box", "Sphere", "Plane", "Constraints"
                     "TargetMove", "MotionMove")
 #: Bounds that are not magnitudes of a quantity: fractions and counts.
 STRUCTURAL = {0.0, 1.0}
+#: Bounds that are the domain of an option rather than the size of a quantity, each with why.
+DOMAINS = {
+    ("Body_tetrahedralize_v1_tetrahedralize_post", "epsilon"): 0.1,  # fTetWild's envelope, a fraction of the box
+    ("/v1/meshes/{mesh_id}/features", "angle"): 180.0,  # a dihedral angle in degrees
+    ("/v1/meshes/{mesh_id}/features", "tol"): 0.1,  # a fraction of the bounding box
+}
 
 
 @pytest.fixture(scope="module")
@@ -46,12 +54,43 @@ def _bounds(node, out, path=""):
 
 
 def test_every_bound_of_the_document_schemas_is_a_library_limit(schemas):
-    limits = {abs(float(v)) for k, v in vars(lim).items() if k.isupper() and isinstance(v, (int, float))}
+    limits = _limits()
     missing = [s for s in DOCUMENT_SCHEMAS if s not in schemas]
     assert missing == []
     stray = [(name, p, k, v) for name in DOCUMENT_SCHEMAS for p, k, v in _bounds(schemas[name], [])
              if abs(v) not in limits | STRUCTURAL]
     assert stray == []
+
+
+def _limits():
+    return {abs(float(v)) for k, v in vars(lim).items() if k.isupper() and isinstance(v, (int, float))}
+
+
+def test_every_bound_of_every_request_schema_and_query_is_a_library_limit(schemas):
+    app = create_app(data_dir=tempfile.mkdtemp(), load_kernels=False)
+    api = app.openapi()
+    allowed = _limits() | STRUCTURAL
+    stray = []
+    for name, schema in api["components"]["schemas"].items():
+        for p, k, v in _bounds(schema, []):
+            field = p.split(".properties.")[-1].split(".")[0] if ".properties." in p else p
+            if abs(v) not in allowed and DOMAINS.get((name, field)) != abs(v):
+                stray.append((name, p, k, v))
+    for path, ops in api["paths"].items():
+        for op in ops.values():
+            for prm in op.get("parameters", []):
+                for _, k, v in _bounds(prm.get("schema", {}), []):
+                    if abs(v) not in allowed and DOMAINS.get((path, prm["name"])) != abs(v):
+                        stray.append((path, prm["name"], k, v))
+    assert stray == []
+    # the workflow requests bound what the library bounds
+    assert _schema_max(schemas, "BatchCreate", "block") == lim.BLOCK_MAX
+    assert _schema_max(schemas, "StudyCreate", "block") == lim.BLOCK_MAX
+    assert _schema_max(schemas, "BoundsQuery", "tol") == lim.BOUNDS_TOL_MAX
+    assert _schema_max(schemas, "BoundsQuery", "range") == lim.SHAPE_VALUE_MAX
+    assert schemas["BatchCreate"]["properties"]["shapes"]["maxProperties"] == lim.SHAPES_MAX
+    assert schemas["PlanTable"]["properties"]["columns"]["maxItems"] == lim.SHAPES_MAX
+    assert schemas["MeshArrays"]["properties"]["vertices"]["maxItems"] == lim.MAX_POINTS
 
 
 def _schema_max(schemas, name, field):
@@ -124,6 +163,42 @@ def test_the_library_refuses_just_beyond_each_bound_the_schema_states(schemas):
     mb = MoveBounds(np.zeros(3), 1.0)
     assert _move_accepts(translation=[lim.EXTENT * 0.999, 0, 0], bounds=mb)
     assert not _move_accepts(translation=[lim.EXTENT * 1.001, 0, 0], bounds=mb)
+
+
+def test_the_workflows_refuse_just_beyond_each_bound_the_schema_states():
+    from solver import precompute
+    from solver.mesh import mesh_from_arrays
+    from solver.testing import cube_mesh
+    from solver.workflows import parse_plan, parse_shapes, run_doe, shape_bounds
+
+    d = precompute(mesh_from_arrays(*cube_mesh(2)), {
+        "selections": {"a": {"box": {"min": [0, 0, 0], "max": [1, 1, 0]}},
+                       "b": {"box": {"min": [0, 0, 1], "max": [1, 1, 1]}}},
+        "fixed": ["a"], "handles": {"top": "b"}})
+    shapes = parse_shapes({"shapes": {"lift": {"handles": {"top": {"translation": [0, 0, 0.1]}}}}}, d)
+    plan = parse_plan([{"lift": 0.5}])
+
+    def refused(call, **kw):
+        try:
+            call(**kw)
+        except SpecError as e:
+            return e.details.get("field") or e.code
+        return None
+
+    assert refused(run_doe, deformer=d, shapes=shapes, plan=plan, block=lim.BLOCK_MAX) is None
+    assert refused(run_doe, deformer=d, shapes=shapes, plan=plan, block=lim.BLOCK_MAX + 1) == "block"
+    assert refused(shape_bounds, deformer=d, shapes=shapes, block=lim.BLOCK_MAX + 1) == "block"
+    assert refused(shape_bounds, deformer=d, shapes=shapes, tol=beyond(lim.BOUNDS_TOL_MAX)) == "tol"
+    assert refused(shape_bounds, deformer=d, shapes=shapes, lo=-0.5, hi=beyond(lim.SHAPE_VALUE_MAX)) == "hi"
+    assert refused(shape_bounds, deformer=d, shapes=shapes, lo=-beyond(lim.SHAPE_VALUE_MAX), hi=0.5) == "lo"
+    assert refused(shape_bounds, deformer=d, shapes=shapes, lo=-0.5, hi=0.5, tol=lim.BOUNDS_TOL_MAX) is None
+    columns = [f"s{k}" for k in range(lim.SHAPES_MAX + 1)]
+    assert refused(parse_plan, rows=[[0.0] * len(columns)], columns=columns) == "invalid_plan"
+    assert refused(parse_plan, rows=[[0.0] * lim.SHAPES_MAX], columns=columns[:-1]) is None
+    too_many = {f"s{k}": {"handles": {"top": {"translation": [0, 0, 0.1]}}} for k in range(lim.SHAPES_MAX + 1)}
+    assert refused(parse_shapes, doc={"shapes": too_many}, deformer=d) == "SHAPES.shapes"
+    reserved = {"status": {"handles": {"top": {"translation": [0, 0, 0.1]}}}}
+    assert refused(parse_shapes, doc={"shapes": reserved}, deformer=d) is not None
 
 
 def test_the_service_refuses_a_rotation_of_a_million_degrees_naming_the_field(tmp_path):

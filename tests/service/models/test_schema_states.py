@@ -15,12 +15,13 @@ from pydantic import ValidationError
 
 from service.app import create_app
 from service.formats import SURFACE_FORMATS, offered, resolve_format
-from service.models.batch import BatchCreate, BoundsQuery, PlanTable
+from service.models.batch import BatchCreate, BoundsQuery, PlanTable, StudyCreate
 from service.models.formats import MESH_FORMAT_VALUES, SURFACE_FORMAT_VALUES, UPLOAD_FORMAT_VALUES
 from service.models.session import Preset
 from service.models.spec import Selection
-from service.models.text import BLANKS, HAS_TEXT, NAME_START, NOT_A_NAME, ONE_LINE, trimmed_name
 from service.models.uploads import MeshArrays
+from solver.documents.shapes import RESERVED, SHAPE_NAME_SCHEMA
+from solver.documents.text import BLANKS, HAS_TEXT, NAME_START, NOT_A_NAME, ONE_LINE
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +74,7 @@ def test_every_format_the_schema_offers_is_one_the_service_resolves(doc):
 
 def _shapes_parser_takes(name: str) -> bool:
     """The rule of solver.workflows.shapes.parse_shapes for a shape name."""
-    return bool(name) and name == name.strip() and all(ord(c) >= 32 for c in name)
+    return bool(name) and name == name.strip() and all(ord(c) >= 32 for c in name) and name not in RESERVED
 
 
 def _admitted(name: str) -> bool:
@@ -90,10 +91,17 @@ def test_shape_names_and_plan_columns_state_what_the_shapes_parser_asks():
         for name in (c, f"a{c}", f"{c}a", f"a{c}b"):
             if _admitted(name):
                 assert _shapes_parser_takes(name), repr(name)
-    shapes = BoundsQuery.model_json_schema()["properties"]["shapes"]
-    assert shapes["propertyNames"] == trimmed_name(200)
+    for model in (BoundsQuery, BatchCreate, StudyCreate):
+        shapes = model.model_json_schema()["properties"]["shapes"]
+        assert shapes["propertyNames"] == SHAPE_NAME_SCHEMA
     columns = PlanTable.model_json_schema()["properties"]["columns"]
-    assert columns["uniqueItems"] is True and columns["items"] == trimmed_name(200)
+    assert columns["uniqueItems"] is True and columns["items"] == SHAPE_NAME_SCHEMA
+    # the schema refuses what the parser refuses beyond the pattern: the DOE summary's own columns
+    names = jsonschema.Draft202012Validator(SHAPE_NAME_SCHEMA)
+    for name in RESERVED:
+        assert not names.is_valid(name) and not _shapes_parser_takes(name), name
+    for name in ("bend", "hole 1", "statuses"):
+        assert names.is_valid(name) and _shapes_parser_takes(name), name
     rows = PlanTable.model_json_schema()["properties"]["rows"]
     assert rows["items"]["items"] == {"type": "number"}
     rng = BoundsQuery.model_json_schema()["properties"]["range"]

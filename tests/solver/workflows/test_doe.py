@@ -149,7 +149,7 @@ def test_invalid_rows_stop_the_run_before_any_solve(plate_deformer):
     assert calls == []
     with pytest.raises(SpecError, match="name no shape"):
         run_doe(plate_deformer, shapes, parse_plan([{"bent": 1}]))
-    with pytest.raises(SpecError, match="block must be a positive integer"):
+    with pytest.raises(SpecError, match="block must be an integer in"):
         run_doe(plate_deformer, shapes, plan, block=0)
 
 

@@ -2,7 +2,7 @@ r"""Patterns of the names the documents hold, written so that Python, Rust (pyda
 
 ``\s`` means different characters to each engine (Python counts ``\x1c``-``\x1f`` as white space,
 Rust and ECMAScript do not), so the patterns list the characters: :data:`BLANKS` are the ones
-Python's ``str.strip`` removes, which the service's checks use.
+Python's ``str.strip`` removes, which the documents' checks use.
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ Examples
 0
 """
 
-from . import runtime  # noqa: F401, I001 - first: spin settings before numba, MKL and OpenBLAS load
+from . import environment  # noqa: F401, I001 - first: spin settings before numba, MKL and OpenBLAS load
 from .constraints import Move, Spec, parse_move, parse_spec
 from .deform import Deformer, DeformResult, precompute
 from .errors import (

@@ -3,8 +3,8 @@
 A :class:`SolveOptions` is handed to :func:`~solver.precompute` (or set
 around any factorization with :func:`using`); the factorization module and
 the stacked solves read the one in effect through :func:`current`. The
-environment is read here only, once, when :mod:`solver` is imported
-(:data:`ENVIRONMENT`), and is the default for a caller that passes none:
+environment, read once when :mod:`solver` is imported (:mod:`solver.environment`),
+gives :data:`ENVIRONMENT`, the default for a caller that passes none:
 
 ===========================  ==========================================
 ``TETMORPH_SOLVER``          ``backend``: ``cholmod``, ``pardiso`` or ``scipy``
@@ -25,12 +25,12 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 from collections.abc import Iterator, Mapping
 from contextvars import ContextVar
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from .environment import START, read
 from .errors import SpecError
 
 __all__ = ["SolveOptions", "ENVIRONMENT", "current", "using", "BACKENDS", "add_solve_arguments", "from_arguments"]
@@ -67,14 +67,9 @@ class SolveOptions:
 
     @classmethod
     def from_environment(cls, env: Mapping[str, str] | None = None) -> SolveOptions:
-        """The options the ``TETMORPH_*`` variables of ``env`` (default ``os.environ``) describe."""
-        env = os.environ if env is None else env
-
-        def on(name: str) -> bool:
-            return env.get(name, "1").strip() != "0"
-
-        return cls(backend=env.get("TETMORPH_SOLVER", "").strip().lower() or "auto",
-                   sweeps=on("TETMORPH_SUPERNODAL"), basis=on("TETMORPH_COLUMN_BASIS"))
+        """The options the ``TETMORPH_*`` variables of ``env`` describe (default: the process's, read at start-up)."""
+        e = START if env is None else read(env)
+        return cls(backend=e.backend, sweeps=e.sweeps, basis=e.basis)
 
     @classmethod
     def parse(cls, doc: Mapping[str, Any] | None, where: str = "solve_options") -> SolveOptions:
@@ -109,7 +104,7 @@ class SolveOptions:
         return asdict(self)
 
 
-#: The environment's options, read once when :mod:`solver` is imported.
+#: The environment's options (:data:`solver.environment.START`).
 ENVIRONMENT = SolveOptions.from_environment()
 
 _CURRENT: ContextVar[SolveOptions | None] = ContextVar("tetmorph_solve_options", default=None)

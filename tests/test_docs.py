@@ -213,7 +213,7 @@ def test_every_setting_is_on_the_settings_page_with_its_variable_and_default(sit
 
 #: An environment variable a module reads: ``TETMORPH_*`` anywhere, or any name looked up in ``os.environ``.
 ENV_READ = re.compile(r"\b(TETMORPH_[A-Z0-9_]*[A-Z0-9])\b"
-                      r"|(?:environ\.get|getenv|environ\[)\(?\s*[\"']([A-Z][A-Z0-9_]+)[\"']"
+                      r"|(?:\benv(?:iron)?\.get|getenv|environ\[)\(?\s*[\"']([A-Z][A-Z0-9_]+)[\"']"
                       r"|[\"']([A-Z][A-Z0-9_]+)[\"'] (?:not )?in os\.environ")
 
 

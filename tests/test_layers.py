@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: Lowest first. A module belongs to the first entry that is it or one of its packages.
 LAYERS: list[tuple[str, ...]] = [
-    ("solver.errors", "solver.limits", "solver.runtime", "solver.documents", "solver.options"),
+    ("solver.errors", "solver.limits", "solver.environment", "solver.documents", "solver.options"),
     ("solver.ops",),
     ("solver.linalg", "solver.validity"),
     ("solver.mesh",),

@@ -60,7 +60,7 @@ SOLVER_ENVIRONMENT = {
     "TETMORPH_MKL_RT, PYPARDISO_MKL_RT": "Path of MKL's `libmkl_rt` when it is not where pip's `mkl` wheel puts it.",
     "GOMP_SPINCOUNT, OMP_WAIT_POLICY, OPENBLAS_THREAD_TIMEOUT": "Set at import to bounded spin waits "
                                                                "(`GOMP_SPINCOUNT=10000`, `OPENBLAS_THREAD_TIMEOUT=16`) "
-                                                               "unless already set (`solver/runtime.py`).",
+                                                               "unless already set (`solver/environment.py`).",
     "NUMBA_THREADING_LAYER": "numba's threading layer. Unset, `solver.ops` asks for a thread-safe one (TBB or "
                              "OpenMP, installed with MKL): solves run in concurrent threads, and numba's "
                              "`workqueue` layer aborts on concurrent parallel launches. Set it only to another "

@@ -5,7 +5,8 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import gc
-import os
+
+from solver.linalg.pardiso import mkl_runtime
 
 __all__ = ["release_memory"]
 
@@ -17,7 +18,7 @@ def release_memory() -> None:
     deleted: glibc keeps freed arenas and MKL keeps its buffers for reuse.
     """
     gc.collect()
-    mkl = os.environ.get("PYPARDISO_MKL_RT")  # set by the solver when it located MKL
+    mkl = mkl_runtime()
     if mkl:
         try:
             ctypes.CDLL(mkl).mkl_free_buffers()

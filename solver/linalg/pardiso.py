@@ -34,6 +34,7 @@ import threading
 import numpy as np
 import scipy.sparse as sp
 
+from ..environment import START
 from ..errors import FactorizationError
 from .layout import c_copy, fortran_copy
 from .threads import WIDE_COLUMNS, mkl_local_threads, solve_threads
@@ -46,7 +47,7 @@ _LOCK = threading.Lock()
 
 def mkl_runtime() -> str | None:
     """Path of MKL's single dynamic library (``libmkl_rt``), or None when MKL is not installed."""
-    env = os.environ.get("PYPARDISO_MKL_RT") or os.environ.get("TETMORPH_MKL_RT")
+    env = START.mkl_rt
     if env and os.path.exists(env):
         return env
     # pip's mkl wheel puts it in <prefix>/lib; a recursive search of the prefix is the fallback

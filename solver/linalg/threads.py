@@ -19,7 +19,7 @@ Numba's kernels of the calling thread get that count
 back-substitutions (``MKL_Set_Num_Threads_Local``). A narrow PARDISO
 back-substitution (a single update) stays on one thread, as before.
 
-Spinning waits are bounded at import of :mod:`solver` (:mod:`solver.runtime`):
+Spinning waits are bounded at import of :mod:`solver` (:mod:`solver.environment`):
 OpenMP's (libgomp, shared by numba and MKL) and OpenBLAS's helper threads
 would otherwise spin on cores that other work needs.
 ``benchmarks/bench_contention.py`` measures all of it against the harmonic peer.

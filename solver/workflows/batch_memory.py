@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import os
+
+from ..environment import START
 
 __all__ = ["keep_freed_memory"]
 
@@ -45,7 +46,7 @@ def keep_freed_memory() -> bool:
     bool
         Whether both settings were applied (False on a C library without ``mallopt``).
     """
-    if os.environ.get("TETMORPH_BATCH_MALLOC", "1") == "0":
+    if not START.batch_malloc:
         return False
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import threading
@@ -25,8 +26,13 @@ def test_the_environment_is_read_into_options_once():
     assert SolveOptions.from_environment(env) == SolveOptions("pardiso", sweeps=False, basis=False)
     code = ("import os, solver.options as o; os.environ['TETMORPH_SUPERNODAL'] = '0'; "
             "print(o.current().sweeps, o.SolveOptions.from_environment().sweeps)")
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
-    assert out.stdout.split() == ["True", "False"]  # set after import: no effect on the options in effect
+    clean = {k: v for k, v in os.environ.items() if not k.startswith("TETMORPH_")}
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True,
+                         env=clean)
+    assert out.stdout.split() == ["True", "True"]  # set after start-up: read by nothing
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True,
+                         env={**clean, "TETMORPH_SUPERNODAL": "0"})
+    assert out.stdout.split() == ["False", "False"]  # set before: the options in effect
 
 
 @pytest.mark.parametrize("doc, field", [({"backend": "mumps"}, "solve_options.backend"),

@@ -21,6 +21,8 @@ import io
 import os
 import re
 import tempfile
+import threading
+import weakref
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -34,7 +36,7 @@ from solver.mesh import Mesh
 
 from .errors import ServiceError
 
-__all__ = ["resolve_format", "export_mesh", "MESH_FORMATS", "SURFACE_FORMATS", "NEEDS", "available",
+__all__ = ["resolve_format", "export_mesh", "check_export", "MESH_FORMATS", "SURFACE_FORMATS", "NEEDS", "available",
            "capabilities", "scrubbed", "offered"]
 
 #: Preferred extension of each meshio format the service knows.
@@ -185,6 +187,43 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = 
             for p in files:
                 z.write(p, arcname=os.path.basename(p))
         return buf.getvalue(), f"{stem}.{name}.zip", "application/zip", dropped
+
+
+#: Per mesh, the ``(format, quality, lossy)`` answers :func:`check_export` found writable.
+_WRITABLE: weakref.WeakKeyDictionary[Mesh, set[tuple[str, bool, bool]]] = weakref.WeakKeyDictionary()
+_WRITABLE_LOCK = threading.Lock()
+
+
+def check_export(mesh: Mesh, fmt: str, quality: bool = False, lossy: bool = False) -> tuple[str, str]:
+    """Refuse a file answer the format cannot write for this mesh, before anything is solved or committed.
+
+    What a format can hold (sets, element types, boundary faces next to the
+    tets) depends on the mesh, not on its positions, so the rest shape is
+    written once to a temporary directory and thrown away; a pair found
+    writable is remembered for as long as the mesh is held.
+
+    Returns
+    -------
+    (format, extension)
+        As :func:`resolve_format`.
+
+    Raises
+    ------
+    ServiceError
+        ``unknown_format``.
+    LossyWriteError, InvalidMeshError
+        ``lossy_write`` (unless ``lossy``), ``unwritable_format``: the errors
+        :func:`export_mesh` would raise after the solve.
+    """
+    name, ext = resolve_format(fmt)
+    key = (name, quality, lossy)
+    with _WRITABLE_LOCK:
+        known = key in _WRITABLE.get(mesh, ())
+    if not known:
+        export_mesh(mesh, mesh.V, name, "check", quality, lossy)
+        with _WRITABLE_LOCK:
+            _WRITABLE.setdefault(mesh, set()).add(key)
+    return name, ext
 
 
 def _probe_meshes() -> dict[str, meshio.Mesh]:

@@ -29,7 +29,7 @@ from solver.workflows.doe import DoeResult, Variant
 from solver.workflows.shapes import parse_shapes
 
 from ..errors import NotFound, ServiceError
-from ..formats import export_mesh, resolve_format
+from ..formats import check_export, resolve_format
 from ..models.batch import BatchCreate, BoundsQuery
 from ..models.error import error_responses
 from ..models.service import JobDoc
@@ -71,12 +71,12 @@ async def create_batch(s: SessionDep, body: BatchCreate, owner: OwnerDep, reg: R
         raise ServiceError("engine_unavailable", "engine 'ray' needs a Ray cluster: start the service with "
                            "TETMORPH_RAY_ADDRESS (docs/guide/batches.md, 'Batches on Ray')", field="engine")
     fmt, ext, stem = _deck_format(reg, s, body.format)
+    await reg.run(check_export, await reg.sessions.mesh(s), fmt)  # 422 lossy_write before anything is solved
     shapes_doc = body.shapes_doc()
     async with s.lock:
         d = await reg.sessions.deformer(s)
         shapes = await reg.run(check_plan, d, shapes_doc, plan)
     mesh = d.mesh
-    await reg.run(export_mesh, mesh, mesh.V, fmt, stem)  # 422 lossy_write / unknown_format before the job
     jobs: JobRunner = request.app.state.jobs
     folder = job_folder(settings.data_dir, settings.replica_id, "")
     limit = settings.batch_max_result_bytes

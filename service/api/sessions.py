@@ -14,7 +14,7 @@ from solver.validity.quality import METRICS, element_quality, summarize_quality
 
 from ..binary import MEDIA_TYPE, encode_frame
 from ..errors import ServiceError
-from ..formats import export_mesh, resolve_format
+from ..formats import check_export, export_mesh
 from ..models.error import error_responses
 from ..models.formats import MESH_FORMAT_VALUES
 from ..models.move import Move
@@ -165,8 +165,8 @@ async def deform(
 ) -> Response:
     """Back-substitute for the MOVE and answer the REPORT and the result."""
     mode = result or ("binary" if accept and MEDIA_TYPE in accept else "json")
-    if mode == "mesh":
-        resolve_format(format)  # the whole request is valid before anything is solved or committed
+    if mode == "mesh":  # the whole request is valid before anything is solved or committed
+        await reg.run(check_export, await reg.sessions.mesh(s), format, quality == "full")
     r = await reg.moves.deform(s, move, inversion, quality, repair)
     version = str(s.version)  # read before the next await: the version this MOVE committed
     if mode == "mesh":

@@ -27,7 +27,7 @@ from fastapi import APIRouter, Request, Response
 from solver.workflows.study import ccx_responses, morph_rows, solve_row, write_table
 
 from ..errors import NotFound, ServiceError
-from ..formats import export_mesh
+from ..formats import check_export
 from ..models.batch import StudyCreate
 from ..models.error import error_responses
 from ..models.service import JobDoc
@@ -87,12 +87,12 @@ async def create_study(s: SessionDep, body: StudyCreate, owner: OwnerDep, reg: R
     timeout = min(body.timeout_s or settings.study_timeout_s, settings.study_timeout_s)
     plan = plan_of(body.plan, settings.batch_max_rows)
     fmt, ext, stem = _deck_format(reg, s, body.format)
+    await reg.run(check_export, await reg.sessions.mesh(s), fmt)  # 422 lossy_write before anything is solved
     shapes_doc = body.shapes_doc()
     async with s.lock:
         d = await reg.sessions.deformer(s)
         await reg.run(check_plan, d, shapes_doc, plan)
     mesh = d.mesh
-    await reg.run(export_mesh, mesh, mesh.V, fmt, stem)  # 422 lossy_write / unknown_format before the job
     jobs: JobRunner = request.app.state.jobs
     folder = job_folder(settings.data_dir, settings.replica_id, "")
     limit = int(settings.batch_max_result_mb * 2**20)

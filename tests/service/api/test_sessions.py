@@ -149,6 +149,21 @@ def test_a_move_refused_for_its_query_is_not_committed(client, tc):
     assert after["version"] == before["version"]
 
 
+def test_a_move_whose_file_the_format_cannot_write_is_not_committed(client, tc, bracket_library):
+    mesh = upload_bracket(client)
+    s = client.create_session(mesh["id"], BRACKET_SPEC)
+    client.deform(s["id"], MOVES[0])
+    before = client.session(s["id"])
+    assert before["version"] > 0
+    for fmt in ("tetgen", "medit", "nastran"):  # offered formats that cannot hold the deck's sets
+        r = tc.post(f"/v1/sessions/{s['id']}/deform", json=MOVES[1], params={"result": "mesh", "format": fmt})
+        assert r.status_code == 422 and err(r)["code"] == "lossy_write", (fmt, r.text)
+        after = client.session(s["id"])
+        assert (after["version"], after["last_move"]) == (before["version"], MOVES[0]), fmt
+    # the positions are still the library's for the last MOVE committed, not the refused one
+    np.testing.assert_allclose(client.positions(s["id"]), bracket_library[1][0], rtol=0, atol=1e-9)
+
+
 def test_arrays_upload_deform_reset_delete(client, tc):
     V, T = cube_mesh(4)
     top = np.flatnonzero(V[:, 2] == 1).tolist()

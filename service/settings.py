@@ -19,7 +19,8 @@ from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from solver import options as solver_options
-from solver.limits import MAX_CELLS, MAX_POINTS
+from solver.io.bounds import ReadBounds
+from solver.limits import MAX_CELLS, MAX_EXPANDED_BYTES, MAX_POINTS
 from solver.options import SolveOptions
 
 __all__ = ["Settings"]
@@ -55,6 +56,11 @@ class Settings(BaseSettings):
                                  "decompressed (422 too_many_points).")
     max_file_cells: int = Field(MAX_CELLS, gt=0, le=MAX_CELLS, description="Most elements an uploaded file "
                                 "may declare; checked as max_file_points (422 too_many_cells).")
+    max_file_expanded_mb: float = Field(
+        1024.0, gt=0, le=MAX_EXPANDED_BYTES / 2**20,
+        description="Most MiB an uploaded file's compressed data arrays (VTU zlib/LZMA blocks) or HDF5 datasets "
+                    "(XDMF, CGNS) may expand to, in all; checked from their headers before anything is "
+                    "decompressed, and again while decompressing (422 too_many_bytes).")
     head_timeout_s: float = Field(10.0, gt=0, description="Longest a client may take to send a request's "
                                   "line and headers, or may pause in its body (which must also average "
                                   "1 KiB/s after that long); a slower connection is closed (tetmorph serve).")
@@ -141,6 +147,11 @@ class Settings(BaseSettings):
     def max_upload_bytes(self) -> int:
         """Upload limit in bytes."""
         return int(self.max_upload_mb * 1024 * 1024)
+
+    def read_bounds(self) -> ReadBounds:
+        """What an uploaded mesh or surface file may declare or expand to, with the settings' names."""
+        return ReadBounds(self.max_file_points, self.max_file_cells, int(self.max_file_expanded_mb * 2**20),
+                          "TETMORPH_MAX_FILE_POINTS", "TETMORPH_MAX_FILE_CELLS", "TETMORPH_MAX_FILE_EXPANDED_MB")
 
     @property
     def max_frame_bytes(self) -> int:

@@ -9,7 +9,7 @@ from __future__ import annotations
 __all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS", "EXTENT", "SCALE_MIN", "SCALE_MAX", "PENALTY_MAX",
            "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX",
            "TARGET_AMOUNT_MAX", "SHAPES_MAX", "SHAPE_NAME_MAX", "PLAN_ROWS_MAX", "PLAN_TEXT_MAX", "BLOCK_MAX",
-           "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX"]
+           "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX", "MAX_EXPANDED_BYTES"]
 
 #: Largest magnitude of a mesh coordinate, and of any coordinate, direction or target in a
 #: document. Far beyond any part in any unit, and small enough that squared distances and
@@ -60,3 +60,8 @@ BLOCK_MAX = 1024
 SHAPE_VALUE_MAX = 1e6
 #: Widest final bracket of a bounds search, in parameter units.
 BOUNDS_TOL_MAX = 1e3
+#: Most bytes the compressed data arrays of a file (VTU's zlib or LZMA blocks) or its HDF5 datasets
+#: (XDMF, CGNS, MED) may expand to, in all: checked from the block headers and dataset shapes before
+#: anything is decompressed, and again while decompressing. A file at :data:`MAX_POINTS` and
+#: :data:`MAX_CELLS` (coordinates, connectivity, offsets and types) holds about 14 GB.
+MAX_EXPANDED_BYTES = 16 * 2**30

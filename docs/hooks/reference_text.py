@@ -222,6 +222,16 @@ ERRORS: dict[str, tuple[str, str]] = {
                         "Split or coarsen the mesh."),
     "too_many_cells": ("The file declares more elements than tetmorph reads (300M); nothing was read.",
                        "Split or coarsen the mesh."),
+    "too_many_bytes": ("The file's compressed data arrays (VTU zlib/LZMA blocks), HDF5 datasets or declared "
+                       "tables expand to more bytes than tetmorph reads (`details.bound`, set by "
+                       "`details.setting`); nothing was expanded.",
+                       "Split or coarsen the mesh, or raise TETMORPH_MAX_FILE_EXPANDED_MB."),
+    "too_large_to_read": ("Reading the file needed more memory than the process could allocate, though its "
+                          "declared sizes passed the bounds.",
+                          "Lower the bounds (TETMORPH_MAX_FILE_*), give the service more memory, or split the mesh."),
+    "external_reference": ("An XDMF file names a data file outside the mesh's own files (a path out of its "
+                           "folder, or a raw Binary DataItem, which its reader opens from the server's folder).",
+                           "Upload the HDF5 file as a companion and name it without a folder."),
     "mesh_missing": ("A session's mesh file is gone from the data directory.",
                      "Upload the mesh again and create a new session."),
     "unwritable_format": ("The result cannot be written in the requested format.",

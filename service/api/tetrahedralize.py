@@ -14,13 +14,14 @@ import os
 import tempfile
 from typing import Annotated, Any
 
-import meshio
 import numpy as np
 from fastapi import APIRouter, File, Form, Path, Request, UploadFile
 from pydantic import Field
 from pydantic.json_schema import SkipJsonSchema
 
-from solver.errors import InvalidMeshError
+from solver.errors import InvalidMeshError, SolverError
+from solver.io.bounds import ReadBounds
+from solver.io.read import read_surface
 from solver.io.tetrahedralize import open_edges
 from solver.limits import COORD_MAX
 from solver.mesh import mesh_from_arrays
@@ -40,22 +41,17 @@ from .responses import JSONResponse
 router = APIRouter(tags=["meshes"])
 
 
-def _read_surface(data: bytes, fmt: str, ext: str, max_triangles: int) -> tuple[np.ndarray, np.ndarray]:
+def _read_surface(data: bytes, fmt: str, ext: str, max_triangles: int, bounds: ReadBounds
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The surface's points and triangles, read with the same checks and bounds as an uploaded mesh."""
     with tempfile.TemporaryDirectory(prefix="tetmorph-surface-") as tmp:
         path = os.path.join(tmp, "surface" + ext)
         with open(path, "wb") as f:
             f.write(data)
         try:
-            m = meshio.read(path, file_format=fmt)
-        except (Exception, SystemExit) as e:
-            raise scrubbed(InvalidMeshError(f"cannot read the surface as {fmt}: {e}", code="unreadable_file"),
-                           tmp) from None
-    tris = [np.asarray(c.data) for c in m.cells if c.type == "triangle"]
-    if not tris:
-        raise InvalidMeshError(f"the {fmt} file has no triangles (cells: "
-                               f"{sorted({c.type for c in m.cells})})", code="no_triangles")
-    V = np.asarray(m.points, dtype=np.float64)
-    F = np.concatenate(tris).astype(np.int64)
+            V, F = read_surface(path, fmt, bounds=bounds)
+        except SolverError as e:
+            raise scrubbed(e, tmp) from None
     if V.ndim != 2 or V.shape[1] != 3:
         raise InvalidMeshError(f"surface points have shape {V.shape}; need (n, 3)", code="bad_shape")
     if len(F) > max_triangles:
@@ -101,7 +97,7 @@ async def tetrahedralize(
     fname = safe_name(file.filename, "surface")
     fmt, ext = resolve_format(format, fname, allowed=SURFACE_FORMATS)
     data = await file.read()  # bounded by the BodyLimit middleware
-    V, F = await reg.run(_read_surface, data, fmt, ext, settings.tetra_max_triangles)
+    V, F = await reg.run(_read_surface, data, fmt, ext, settings.tetra_max_triangles, settings.read_bounds())
     opened = await reg.run(open_edges, F)
     if opened.size and not allow_open:
         raise InvalidMeshError(

@@ -31,7 +31,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
-from solver.limits import MAX_CELLS, MAX_POINTS
+from solver.io.bounds import ReadBounds
 from solver.mesh import Mesh
 
 from ..errors import ServiceError
@@ -100,14 +100,13 @@ class PgStore:
 
     shared = True
 
-    def __init__(self, url: str, root: str | os.PathLike[str], max_points: int = MAX_POINTS,
-                 max_cells: int = MAX_CELLS) -> None:
+    def __init__(self, url: str, root: str | os.PathLike[str], bounds: ReadBounds | None = None) -> None:
         import psycopg
 
         self._psycopg = psycopg
         self.url = url
         self.root = Path(root)
-        self.files = FileStore(root, max_points, max_cells)  # mesh folders (and the data directory's layout)
+        self.files = FileStore(root, bounds)  # mesh folders (and the data directory's layout)
         self.sessions_dir = self.files.sessions_dir
         self._conn: Any = None
         with self._connection() as c:
@@ -199,7 +198,7 @@ class PgStore:
 
     def load_mesh(self, meta: dict[str, Any]) -> Mesh:
         """Read a stored mesh back from its folder."""
-        return read_mesh_files(self.root, meta, self.files.max_points, self.files.max_cells)
+        return read_mesh_files(self.root, meta, self.files.bounds)
 
     # --------------------------------------------------------------- sessions
     def _row(self, record: dict[str, Any]) -> tuple[Any, ...]:

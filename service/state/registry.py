@@ -46,7 +46,7 @@ class Registry:
     def __init__(self, settings: Settings, store: Store | None = None) -> None:
         self.settings = settings
         self.store: Store = store if store is not None else open_store(
-            settings.data_dir, settings.database_url, settings.max_file_points, settings.max_file_cells)
+            settings.data_dir, settings.database_url, settings.read_bounds())
         self.factors = FactorCache(settings.cache_budget_bytes)
         self.builder = Builder(settings.build_workers, settings.solve_pool_size, settings.solve_options())
         self.catalogue = Catalogue(self.store, self.builder, settings.max_elements)

@@ -39,7 +39,7 @@ import numpy as np
 
 from solver.errors import InvalidMeshError
 from solver.io import read_mesh
-from solver.limits import MAX_CELLS, MAX_POINTS
+from solver.io.bounds import ReadBounds
 from solver.mesh import Mesh, mesh_from_arrays
 
 from ..security import Limiter, RateLimiter
@@ -199,8 +199,7 @@ def _surfaces(spec: dict[str, Any]) -> list[tuple[int, str]]:
     return stored_surfaces(spec)
 
 
-def read_mesh_files(root: Path, meta: dict[str, Any], max_points: int = MAX_POINTS,
-                    max_cells: int = MAX_CELLS) -> Mesh:
+def read_mesh_files(root: Path, meta: dict[str, Any], bounds: ReadBounds | None = None) -> Mesh:
     """Read a stored mesh of ``root/meshes`` back (validated), refusing files that declare more than the bounds.
 
     Raises
@@ -219,7 +218,7 @@ def read_mesh_files(root: Path, meta: dict[str, Any], max_points: int = MAX_POIN
         except OSError as e:
             raise InvalidMeshError(f"stored mesh {meta['id']} is unreadable: {e}",
                                    code="unreadable_file") from e
-    return read_mesh(d / meta["file"], meta.get("format"), max_points=max_points, max_cells=max_cells)
+    return read_mesh(d / meta["file"], meta.get("format"), bounds=bounds)
 
 
 class FileStore:
@@ -233,11 +232,10 @@ class FileStore:
 
     shared = False
 
-    def __init__(self, root: str | os.PathLike[str], max_points: int = MAX_POINTS,
-                 max_cells: int = MAX_CELLS) -> None:
+    def __init__(self, root: str | os.PathLike[str], bounds: ReadBounds | None = None) -> None:
         self.root = Path(root)
-        #: Most nodes and elements an uploaded file may declare (checked before it is read).
-        self.max_points, self.max_cells = max_points, max_cells
+        #: What an uploaded file may declare or expand to (checked before it is read).
+        self.bounds = bounds or ReadBounds()
         self.meshes_dir = self.root / "meshes"
         self.sessions_dir = self.root / "sessions"
         self.presets_dir = self.sessions_dir / "presets"
@@ -289,7 +287,7 @@ class FileStore:
 
     def load_mesh(self, meta: dict[str, Any]) -> Mesh:
         """Read a stored mesh back (validated); see :func:`read_mesh_files`."""
-        return read_mesh_files(self.root, meta, self.max_points, self.max_cells)
+        return read_mesh_files(self.root, meta, self.bounds)
 
     # --------------------------------------------------------------- sessions
     def save_session(self, record: dict[str, Any]) -> None:

@@ -16,7 +16,6 @@ import os
 import re
 
 from ..errors import UnreadableFileError
-from ..limits import MAX_CELLS, MAX_POINTS
 from .formats import a_format, detect_format
 
 __all__ = ["check_file", "diagnose", "check_complete", "undefined_inp_node", "undefined_bdf_node"]
@@ -79,6 +78,12 @@ def check_file(path: str, fmt: str | None) -> bytes:
         raise UnreadableFileError(
             f"{name!r} is named as {a_format(fmt)} but its content is {a_format(detected)}"
             f"{_hint(detected)}", code="wrong_format", file=name, expected=fmt, detected=detected)
+    if fmt == "stl" and detected is None and size >= 84 and head[:5].lower() != b"solid":
+        n = int.from_bytes(head[80:84], "little")
+        raise UnreadableFileError(
+            f"{name!r} is a binary STL declaring {n:,} triangles, which take {84 + 50 * n:,} bytes; the file has "
+            f"{size:,}: it is truncated or its count is wrong", code="truncated_file", file=name, declared=n,
+            size=size)
     if fmt in _SIGNED and detected is None:
         raise UnreadableFileError(
             f"{name!r} is named as {a_format(fmt)} but does not start like one (first bytes "
@@ -298,82 +303,3 @@ def check_complete(path: str, fmt: str, data: bytes | None = None) -> None:
             f"{os.path.basename(path)!r} ends in the middle of a line ({nlast} fields where the line before "
             f"has {nprev}, and no line end): the file is truncated", code="truncated_file",
             file=os.path.basename(path))
-
-
-#: Bytes of a file's head read for the counts it declares (XML headers, Gmsh sections before $Nodes).
-_HEAD = 4 << 20
-
-
-def _declared(head: bytes, fmt: str) -> tuple[int, int, int]:
-    """Nodes, elements and the largest node tag a file declares in its ``head`` (0 where it does not say)."""
-    total = lambda pat: sum(int(x) for x in re.findall(pat, head))  # noqa: E731
-    if fmt == "vtu":
-        return total(rb'NumberOfPoints\s*=\s*"(\d+)"'), total(rb'NumberOfCells\s*=\s*"(\d+)"'), 0
-    if fmt == "vtk":
-        return total(rb"(?m)^\s*POINTS\s+(\d+)"), total(rb"(?m)^\s*CELLS\s+(\d+)"), 0
-    # gmsh
-    nodes = elems = tag = 0
-    m = re.search(rb"\$Nodes\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
-    if m:  # 2.2: the count; 4.1: blocks, count, smallest and largest tag
-        nodes = int(m[2]) if m[2] else int(m[1])
-        tag = int(m[4]) if m[4] else 0
-    m = re.search(rb"\$Elements\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
-    if m:
-        elems = int(m[2]) if m[2] else int(m[1])
-    return nodes, elems, tag
-
-
-def _gmsh_blocks(head: bytes, section: bytes, lines_per_item: int) -> int:
-    """The largest count a Gmsh 4.1 ``$Nodes`` or ``$Elements`` block declares, over the blocks in ``head``.
-
-    Each block is a header ``dim tag (parametric | type) count`` followed by
-    ``lines_per_item * count`` lines; the walk stops at the end of the head or
-    at a line that is no block header (a 2.2 file, a binary one).
-    """
-    k = head.find(b"$" + section)
-    if k < 0:
-        return 0
-    lines = head[k:].split(b"\n")[2:]  # the section's name and its totals line
-    i, largest = 0, 0
-    while i < len(lines) - 1:  # the last line may be cut by the head
-        f = lines[i].split()
-        if len(f) != 4 or not all(x.isdigit() for x in f):
-            break
-        n = int(f[3])
-        largest = max(largest, n)
-        i += 1 + lines_per_item * n
-    return largest
-
-
-def check_declared_sizes(path: str, fmt: str, max_points: int = MAX_POINTS, max_cells: int = MAX_CELLS) -> None:
-    """Refuse a file that declares more nodes or elements than tetmorph reads, before it is read.
-
-    Raises
-    ------
-    UnreadableFileError
-        ``too_many_points`` or ``too_many_cells``, naming the count declared and the bound.
-    """
-    if fmt not in ("vtu", "vtk", "gmsh"):
-        return  # formats that declare no counts: nothing to read
-    with open(path, "rb") as fh:
-        head = fh.read(_HEAD)
-    points, cells, tag = _declared(head, fmt)
-    name = os.path.basename(path)
-    if fmt == "gmsh":  # 4.1: a block may declare more than the section's total (a count a reader allocates)
-        for section, per, total, code, bound in ((b"Nodes", 2, points, "too_many_points", max_points),
-                                                  (b"Elements", 1, cells, "too_many_cells", max_cells)):
-            block = _gmsh_blocks(head, section, per) if b"$MeshFormat\n4" in head[:64] else 0
-            if block > max(total, 0) and block > 0:
-                raise UnreadableFileError(
-                    f"{name!r}: a ${section.decode()} block declares {block:,} entries, more than the "
-                    f"{total:,} of the whole section: the file is inconsistent", code=code, file=name,
-                    declared=block, bound=min(total, bound))
-    if points > max_points or tag > 4 * max_points:  # a tag that large: arrays indexed by tag would be too
-        what = f"{points:,} nodes" if points > max_points else f"node tags up to {tag:,}"
-        raise UnreadableFileError(
-            f"{name!r} declares {what}; tetmorph reads at most {max_points:,} nodes (solver/limits.py "
-            "MAX_POINTS)", code="too_many_points", file=name, declared=max(points, tag), bound=max_points)
-    if cells > max_cells:
-        raise UnreadableFileError(
-            f"{name!r} declares {cells:,} elements; tetmorph reads at most {max_cells:,} "
-            "(solver/limits.py MAX_CELLS)", code="too_many_cells", file=name, declared=cells, bound=max_cells)

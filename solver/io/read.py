@@ -12,11 +12,11 @@ import meshio
 import numpy as np
 
 from ..errors import MAX_IDS, InvalidMeshError, UnreadableFileError, UnsupportedElementError
-from ..limits import MAX_CELLS, MAX_POINTS
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
 from ..ops.unique import unique
-from .diagnose import check_complete, check_declared_sizes, check_file, diagnose
+from .bounds import ReadBounds, check_declared_sizes, expansion_budget, memory_error
+from .diagnose import check_complete, check_file, diagnose
 from .formats import SURFACE_FORMATS, format_of
 from .patch_inp import node_block_sets
 from .patchers import patcher_for
@@ -115,7 +115,7 @@ VOLUME_CELLS = {"tetra", "tetra10", "hexahedron", "wedge", "pyramid"}
 
 
 def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volume: bool = False, *,
-              max_points: int = MAX_POINTS, max_cells: int = MAX_CELLS) -> Mesh:
+              bounds: ReadBounds | None = None) -> Mesh:
     """Read and validate a tet mesh (linear, quadratic or mixed) or a triangle surface.
 
     Parameters
@@ -129,9 +129,11 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     volume : bool
         Refuse a triangle surface (``surface_not_volume``, pointing to
         ``tetmorph tetrahedralize``) where a volume mesh is expected.
-    max_points, max_cells : int
-        Most nodes and elements the file may declare, checked before anything
-        is read or decompressed (``too_many_points``, ``too_many_cells``).
+    bounds : ReadBounds, optional
+        Most nodes, elements and expanded bytes the file may declare, checked
+        before anything is read or decompressed (``too_many_points``,
+        ``too_many_cells``, ``too_many_bytes``; :mod:`solver.io.bounds`).
+        Default: the library's (:mod:`solver.limits`).
 
     Returns
     -------
@@ -143,8 +145,9 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     ------
     UnreadableFileError
         The file is missing, empty, truncated, of another format than its
-        name says, names undefined nodes, defines no nodes, or (with
-        ``volume``) holds a surface; every message names the defect.
+        name says, names undefined nodes, defines no nodes, declares more
+        than ``bounds``, does not fit in memory (``too_large_to_read``), or
+        (with ``volume``) holds a surface; every message names the defect.
     InvalidMeshError
         The mesh fails :func:`validate`.
     UnsupportedElementError
@@ -160,8 +163,9 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     check_file(path, fmt)
     assert fmt is not None  # check_file refuses unknown extensions
     check_complete(path, fmt)
-    check_declared_sizes(path, fmt, max_points, max_cells)
-    m = _read(path, fmt)
+    bounds = bounds or ReadBounds()
+    check_declared_sizes(path, fmt, bounds)
+    m = _read(path, fmt, bounds)
     if np.asarray(m.points).size == 0:
         raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",
                                   code="no_nodes", file=name)
@@ -169,7 +173,10 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
         _check_basic_coordinates(m, name)
     if volume and fmt in SURFACE_FORMATS | {"obj"}:
         raise _surface_error(name, m)
-    mesh = mesh_from_meshio(m)
+    try:
+        mesh = mesh_from_meshio(m)
+    except MemoryError as e:
+        raise memory_error(path, fmt, e, bounds) from None
     if volume and mesh.is_surface:
         raise _surface_error(name, m)
     mesh.path = path
@@ -185,7 +192,8 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     return mesh
 
 
-def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+def read_surface(path: str | os.PathLike[str], file_format: str | None = None, *,
+                 bounds: ReadBounds | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The triangles of a surface file, for :func:`solver.io.tetrahedralize.tetrahedralize`.
 
     Parameters
@@ -193,6 +201,8 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -
     path : str or path
         STL, OBJ, OFF, PLY, or any mesh file with triangle (or quad) cells.
     file_format : str, optional
+    bounds : ReadBounds, optional
+        As :func:`read_mesh`.
 
     Returns
     -------
@@ -214,8 +224,9 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None) -
     check_file(path, fmt)
     assert fmt is not None
     check_complete(path, fmt)
-    check_declared_sizes(path, fmt)
-    m = _read(path, fmt)
+    bounds = bounds or ReadBounds()
+    check_declared_sizes(path, fmt, bounds)
+    m = _read(path, fmt, bounds)
     counts = {c.type: len(c.data) for c in m.cells if len(c.data)}
     if any(t in VOLUME_CELLS or t in MIXED_TYPES for t in counts):
         raise UnreadableFileError(f"{name!r} is a volume mesh already ({counts}): morph it directly",
@@ -240,18 +251,20 @@ def reading_name(fmt: str | None) -> str | None:
     return "gmsh" if fmt == "gmsh22" else fmt
 
 
-def _read(path: str, fmt: str) -> meshio.Mesh:
+def _read(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
     """The file through its reader; the reader's failures become typed errors (:func:`diagnose`)."""
-    if fmt == "tetgen":
-        return read_tetgen(path)
-    reader = meshio._helpers.reader_map.get(fmt)
+    reader = read_tetgen if fmt == "tetgen" else meshio._helpers.reader_map.get(fmt)
     if reader is None:
         raise UnreadableFileError(f"tetmorph cannot read {fmt!r} files ({os.path.basename(path)!r})",
                                   code="unknown_format", file=os.path.basename(path), format=fmt)
     try:
-        with warnings.catch_warnings(), _gmsh22_cell_data():
+        with warnings.catch_warnings(), _gmsh22_cell_data(), expansion_budget(path, bounds):
             warnings.simplefilter("ignore")
             m = reader(path)
+    except UnreadableFileError:
+        raise
+    except MemoryError as e:  # what no declared size told: never the reader's "Unable to allocate 291 TiB"
+        raise memory_error(path, fmt, e, bounds) from None
     except (Exception, SystemExit) as e:  # meshio raises many types, and sys.exit()s: never end the process
         if fmt == "obj" and "point_data" in str(e):  # vt / vn per face corner: read without them
             from .obj import read_obj

@@ -214,3 +214,34 @@ def test_a_companion_stored_under_the_main_files_name_or_anothers_is_refused(tc,
     assert r.status_code == 422 and err(r)["code"] == "duplicate_file_name", r.text
     assert len(err(r)["details"]["files"]) == 2
     assert tc.get("/v1/meshes").json() == before
+
+
+SETTINGS = {"points": ("max_file_points", "TETMORPH_MAX_FILE_POINTS"),
+            "cells": ("max_file_cells", "TETMORPH_MAX_FILE_CELLS"),
+            "bytes": ("max_file_expanded_mb", "TETMORPH_MAX_FILE_EXPANDED_MB")}
+
+
+def test_every_reader_refuses_an_upload_declaring_more_than_its_settings_allow(tmp_path):
+    """Medit, TetGen, PLY, OFF, STL, VTU blocks, VTK fields, Gmsh, XDMF and HDF5: 422 naming the bound and its
+    setting (set below the library's here, so the service's own bound must be the one applied); nothing stored."""
+    from tests.solver.io.test_bounds import crafted, lying_vtu
+
+    from ..conftest import running
+
+    cases = crafted(tmp_path)
+    cases["vtu_lying_blocks"] = ({"a.vtu": lying_vtu(8)}, "too_many_bytes", "bytes")
+    bounds = {"max_file_points": 40_000_000, "max_file_cells": 200_000_000, "max_file_expanded_mb": 1.0}
+    with running(tmp_path / "data", load_kernels=False, **bounds) as tc:
+        for case, (files, code, bound) in cases.items():
+            main, *rest = files.items()
+            r = tc.post("/v1/meshes", files=[("file", main)] + [("companions", c) for c in rest])
+            e = err(r)
+            assert r.status_code == 422 and e["code"] == code, (case, e)
+            assert "MemoryError" not in e["message"] and "allocate" not in e["message"], case
+            if bound is not None:
+                key, env = SETTINGS[bound]
+                want = bounds[key] if bound != "bytes" else 1 << 20
+                assert e["details"]["bound"] == want and e["details"]["setting"] == env, (case, e)
+                assert env in e["message"] and f"{want:,}" in e["message"], (case, e)
+            assert tc.get("/v1/meshes").json() == [], case  # nothing stored
+        assert not any((tmp_path / "data" / "meshes").iterdir())

@@ -183,3 +183,23 @@ def test_a_finished_tetrahedralization_is_not_cancelled_and_keeps_its_mesh(tmp_p
         assert len(T) > 0 and vol.min() > 0  # the job's mesh, stored and oriented
         assert tc.delete(f"/v1/meshes/{mid}").status_code == 204
         assert tc.get(f"/v1/meshes/{mid}").status_code == 404
+
+
+def test_a_surface_declaring_more_than_the_settings_allow_is_refused_before_it_is_read(tmp_path):
+    """The tetrahedralize route reads with the upload's bounds and settings; nothing is stored, no job starts."""
+    from tests.solver.io.test_bounds import crafted
+
+    from ..conftest import err, running
+
+    cases = {k: v for k, v in crafted().items() if k in ("ply_vertices", "off_faces", "stl_binary")}
+    with running(tmp_path / "data", load_kernels=False, max_file_points=1000, max_file_cells=1000) as tc:
+        for case, (files, code, bound) in cases.items():
+            r = tc.post("/v1/tetrahedralize", files=[("file", next(iter(files.items())))])
+            e = err(r)
+            assert r.status_code == 422 and e["code"] == code, (case, e)
+            if bound is not None:
+                assert e["details"]["bound"] == 1000, (case, e)
+                assert e["details"]["setting"] == f"TETMORPH_MAX_FILE_{bound.upper()}", (case, e)
+            else:
+                assert e["details"]["declared"] == 4_000_000_000, (case, e)
+            assert tc.get("/v1/meshes").json() == [], case

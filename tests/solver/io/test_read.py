@@ -230,23 +230,13 @@ def test_a_file_read_with_an_explicit_format_is_written_back_in_place(tmp_path):
 
 def _vtu_bomb(path, points: int) -> None:
     """A VTU whose compressed points (a few hundred bytes of zlib) declare ``points`` nodes."""
-    import base64
-    import struct
     import zlib
+
+    from .test_bounds import vtu_blocks
 
     raw = bytes(1 << 20)  # 1 MB of zeros stands for the rest: the header is what declares the size
     block = zlib.compress(raw, 9)
-    head = struct.pack("<QQQQ", 1, len(raw), len(raw), len(block))
-    data = base64.b64encode(head).decode() + base64.b64encode(block).decode()
-    path.write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" header_type="UInt64" '
-        'compressor="vtkZLibDataCompressor">\n<UnstructuredGrid>\n'
-        f'<Piece NumberOfPoints="{points}" NumberOfCells="1">\n<Points>\n'
-        f'<DataArray type="Float64" NumberOfComponents="3" format="binary">{data}</DataArray>\n'
-        '</Points>\n<Cells>\n<DataArray type="Int64" Name="connectivity" format="ascii">0 1 2 3</DataArray>\n'
-        '<DataArray type="Int64" Name="offsets" format="ascii">4</DataArray>\n'
-        '<DataArray type="UInt8" Name="types" format="ascii">10</DataArray>\n</Cells>\n</Piece>\n'
-        '</UnstructuredGrid>\n</VTKFile>\n')
+    path.write_bytes(vtu_blocks(points, [1, len(raw), len(raw), len(block)], [block]))
 
 
 def test_files_declaring_more_than_the_bounds_are_refused_before_they_are_read(tmp_path):

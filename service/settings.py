@@ -64,6 +64,9 @@ class Settings(BaseSettings):
     head_timeout_s: float = Field(10.0, gt=0, description="Longest a client may take to send a request's "
                                   "line and headers, or may pause in its body (which must also average "
                                   "1 KiB/s after that long); a slower connection is closed (tetmorph serve).")
+    http_impl: Literal["auto", "httptools", "h11"] = Field(
+        "auto", description="HTTP/1.1 parser of tetmorph serve: httptools (auto, a dependency of the service "
+                            "extra) or h11; both apply head_timeout_s to request heads and bodies.")
     max_elements: int = Field(5_000_000, gt=0, description="Most volume elements per mesh (422 above).")
     max_sessions: int = Field(64, gt=0, description="Most live sessions per API key (429 above).")
     rate_limit_per_s: float = Field(200.0, ge=0,

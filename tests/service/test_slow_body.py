@@ -1,12 +1,15 @@
-"""A real server closes a connection whose request body stops or drips, and still takes a slow, steady body.
+"""A real server closes a connection whose request head or body stops or drips, and still takes a slow, steady body.
 
-The limits follow ``TETMORPH_HEAD_TIMEOUT_S`` (service/http_protocol.py): no byte of the body
-for that long, or, that long after the head, an average below ``MIN_BODY_RATE``.
+The limits follow ``TETMORPH_HEAD_TIMEOUT_S`` (service/http_protocol.py): a head not complete
+within that long; no byte of the body for that long, or, that long after the head, an average
+below ``MIN_BODY_RATE``. Each case runs on both of uvicorn's HTTP/1.1 parsers
+(``TETMORPH_HTTP_IMPL``): httptools, the default, and h11.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import socket
 import time
 
@@ -21,10 +24,18 @@ BODY = json.dumps({"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], "te
                    "name": "x" * 150}).encode()
 
 
-@pytest.fixture(scope="module")
-def server(tmp_path_factory):
+@pytest.fixture(scope="module", params=["httptools", "h11", "without-httptools"])
+def server(tmp_path_factory, request):
+    """A server on httptools, on h11 by the setting, or on h11 because httptools cannot be imported."""
     port = free_port()
-    with serve_process(tmp_path_factory.mktemp("slow"), port, {"TETMORPH_HEAD_TIMEOUT_S": str(LIMIT_S)}) as (url, _):
+    env = {"TETMORPH_HEAD_TIMEOUT_S": str(LIMIT_S)}
+    if request.param == "without-httptools":  # uvicorn falls back to h11, as on an install without it
+        shim = tmp_path_factory.mktemp("shim")
+        (shim / "httptools.py").write_text("raise ImportError('httptools is hidden by the test')\n")
+        env["PYTHONPATH"] = os.pathsep.join([str(shim), *filter(None, [os.environ.get("PYTHONPATH")])])
+    else:
+        env["TETMORPH_HTTP_IMPL"] = request.param
+    with serve_process(tmp_path_factory.mktemp("slow"), port, env) as (url, _):
         yield port, url
 
 
@@ -86,3 +97,25 @@ def test_a_slow_steady_body_is_answered(server):
     chunks = [body[k:k + per] for k in range(0, len(body), per)]
     closed_at, answer = _send_paced(port, chunks, 0.4, len(body))
     assert closed_at is None and answer.startswith(b"HTTP/1.1 201"), (closed_at, answer[:200])
+
+
+def test_a_dripping_head_is_cut_off(server):
+    """A byte of the request line and headers every 0.2 s (at most 8 s): closed once the head takes the limit."""
+    port, url = server
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+        t0 = time.monotonic()
+        closed_at = None
+        for ch in "GET /health HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: " + "a" * 40:
+            try:
+                sock.sendall(ch.encode())
+                sock.settimeout(0.2)
+                if sock.recv(1) == b"":
+                    closed_at = time.monotonic() - t0
+                    break
+            except TimeoutError:
+                pass
+            except OSError:
+                closed_at = time.monotonic() - t0
+                break
+        assert closed_at is not None and LIMIT_S - 0.2 <= closed_at <= LIMIT_S + 2.5, closed_at
+    assert httpx.get(url + "/health", timeout=10).status_code == 200

@@ -362,7 +362,8 @@ back as a binary frame (`TMF1`, header with `seq`, `dropped` and a short REPORT)
 failed one as a text frame `{"seq", "error"}`. MOVEs that arrive while one is solving
 replace each other (latest wins). Close codes: 4401 no or unknown key, 4404 unknown
 session, 4410 expired session, 4429 more open streams than `MAX_CONNECTIONS_PER_KEY`,
-1009 a frame over `MAX_FRAME_KB`, 1011 a fault of the server.
+1013 the session store (PostgreSQL) cannot be reached (try again later), 1009 a frame over
+`MAX_FRAME_KB`, 1011 a fault of the server.
 """
 
 # ------------------------------------------------------------------------------------------------ formats

@@ -21,8 +21,12 @@ which may refuse the MOVE, comes only with the full solve).
 
 Close codes: 4401 no or unknown API key, 4403 a browser page of another
 origin (``TETMORPH_ALLOWED_ORIGINS`` lists the ones allowed), 4404 unknown
-session, 4410 expired session, 4429 too many connections of the key, 1009
-frame over the size limit, 1011 server fault, each with a reason.
+session, 4410 expired session, 4429 too many connections of the key, 1013
+(RFC 6455's "try again later") the session store (PostgreSQL) cannot be
+reached when the stream opens, 1009 frame over the size limit, 1011 server
+fault, each with a reason. A MOVE that meets a store outage once the stream is
+open is answered like any failed MOVE (a text frame, ``store_unavailable``,
+503); the stream stays open.
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ from pydantic import ValidationError
 from starlette.websockets import WebSocketState
 
 from ..binary import encode_frame
-from ..errors import ServiceError, error_body, status_of
+from ..errors import STORE_RETRY_AFTER_S, ServiceError, error_body, status_of, store_outage
 from ..middleware import lone_surrogate, may_hold_bad_text
 from ..models.move import StreamFrame
 from ..state.registry import Registry
@@ -127,11 +131,17 @@ async def stream(ws: WebSocket, session_id: str, kind: Literal["positions", "dis
         owner = state.auth.owner(ws.headers, ws.query_params)
         s = reg.sessions.lookup(owner, session_id)
         slot = state.connections.acquire(owner)
-    except ServiceError as e:
+    except Exception as e:  # noqa: BLE001 - every refusal reaches the client as a close code and a reason
         # closed before the handshake, a real server answers HTTP 403 and the code and reason are lost:
-        # accept, then close, so the client reads 4401 / 4404 / 4410 / 4429 and why
+        # accept, then close, so the client reads 4401 / 4404 / 4410 / 4429 / 1013 and why
         await ws.accept()
-        await _close(ws, 4000 + e.status, e.message)
+        if isinstance(e, ServiceError):
+            await _close(ws, 4000 + e.status, e.message)
+        elif store_outage(e):
+            await _close(ws, 1013, f"the session store cannot be reached: try again in {STORE_RETRY_AFTER_S} s")
+        else:
+            log.error("stream of session %s could not open", session_id, exc_info=e)
+            await _close(ws, 1011, f"server error ({type(e).__name__})")
         return
     try:
         await ws.accept()
@@ -210,7 +220,7 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
                 else:
                     r = await reg.moves.deform(s, frame.move, frame.inversion, "basic", frame.repair)
             except Exception as e:  # noqa: BLE001 - every failed MOVE is answered, the session unchanged
-                if status_of(e) >= 500:
+                if status_of(e) >= 500 and not store_outage(e):
                     raise
                 if getattr(e, "code", None) == "session_not_found":  # deleted while streamed: the stream ends
                     await _close(ws, 4404, str(getattr(e, "message", e)))

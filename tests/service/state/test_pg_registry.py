@@ -203,6 +203,50 @@ def test_a_database_outage_answers_503_with_retry_after_and_loses_nothing(tmp_pa
         pg.remove()
 
 
+def test_a_stream_during_a_database_outage_is_closed_with_try_again_later_or_answered_503(tmp_path):
+    """The real PostgreSQL stopped: a stream opened then is accepted and closed with 1013 and a reason (not an
+    HTTP 500 handshake refusal); a MOVE on a stream already open is answered 503 store_unavailable and the
+    stream stays open; after the restart nothing was committed and streams serve again."""
+    import json
+    import tempfile
+
+    from starlette.websockets import WebSocketDisconnect
+
+    from service.binary import decode_frame
+    from service.client import Client
+    from service.cluster.postgres import LocalPostgres
+    from service.process import free_port
+
+    pg = LocalPostgres(tempfile.mkdtemp(prefix="tetmorph-pg-stream-"), free_port(), fast=True)
+    url = pg.start()
+    try:
+        with running(tmp_path / "data", database_url=url, rate_limit_per_s=0) as tc:
+            c = Client(http=tc)
+            sid = c.create_session(c.upload_mesh(BRACKET)["id"], BRACKET_SPEC)["id"]
+            c.deform(sid, MOVES[0])
+            path = f"/v1/sessions/{sid}/stream"
+            with tc.websocket_connect(path) as ws:
+                pg.stop()
+                ws.send_text(json.dumps({"seq": 1, "move": MOVES[1]}))
+                e = ws.receive_json()
+                assert e["seq"] == 1 and e["error"]["code"] == "store_unavailable" and e["error"]["status"] == 503
+                with pytest.raises(WebSocketDisconnect) as closed:
+                    with tc.websocket_connect(path) as other:
+                        other.receive_text()
+                assert closed.value.code == 1013 and "try again" in closed.value.reason, closed.value
+                ws.send_text(json.dumps({"seq": 2, "move": MOVES[2]}))  # still open, still answering
+                assert ws.receive_json()["error"]["code"] == "store_unavailable"
+            pg.start()
+            doc = c.session(sid)
+            assert doc["last_move"] == MOVES[0] and doc["version"] == 1  # nothing committed meanwhile
+            with tc.websocket_connect(path) as ws:
+                ws.send_text(json.dumps({"seq": 3, "move": MOVES[1]}))
+                _, head = decode_frame(ws.receive_bytes())
+                assert head["seq"] == 3 and head["version"] == 2
+    finally:
+        pg.remove()
+
+
 def test_the_undo_history_is_shared_by_the_replicas_and_never_makes_a_move_conflict(tmp_path, db):
     with replicas(tmp_path, db) as (a, b):
         mid = a.post("/v1/meshes", files=[("file", ("bracket.inp", BRACKET.read_bytes()))]).json()["id"]

@@ -231,12 +231,12 @@ class PgStore:
 
         self._run(insert)
 
-    def save_session(self, record: dict[str, Any]) -> None:
-        """Write a record as it is (its version included, its presets not); insert it when missing."""
-        self._exec("INSERT INTO tm_sessions (id, owner, mesh_id, created, last_used, version, record) "
-                   "VALUES (%s, %s, %s, %s, %s, %s, %s) ON CONFLICT (id) DO UPDATE SET owner = EXCLUDED.owner, "
-                   "last_used = GREATEST(tm_sessions.last_used, EXCLUDED.last_used), record = EXCLUDED.record",
-                   self._row(record))
+    def update_session(self, record: dict[str, Any], version: int) -> bool:
+        """Write ``record`` over the stored one, in one statement, if it exists at ``version``; never insert."""
+        return self._exec("UPDATE tm_sessions SET record = %s, last_used = GREATEST(last_used, %s) "
+                          "WHERE id = %s AND version = %s",
+                          (self._json(record_only(record)), float(record.get("last_used", time.time())),
+                           record["id"], int(version))) > 0
 
     def commit_session(self, record: dict[str, Any], version: int) -> int | None:
         """Write ``record`` only if the stored version is still ``version``; the new version, else None."""

@@ -242,11 +242,12 @@ class Sessions(Mapping[str, Session]):
                 log.info("evicted session %s from the factorization cache", sid)
 
     def _failed(self, s: Session) -> None:
-        # only a session the store already holds records its failure: a build that fails while its
-        # POST is still being answered (a SPEC that does not fit the mesh) is refused, and stores nothing
-        if s.id in self._live and self.store.mesh_meta(s.mesh_id) is not None and \
-                self.store.load_session(s.id) is not None:
-            self.store.save_session(s.record())
+        # only a session the store already holds records its failure, in one conditional write: a build
+        # that fails while its POST is still being answered (a SPEC that does not fit the mesh) stores
+        # nothing, and a session deleted meanwhile (here, or by another replica between any check and
+        # the write) stays deleted
+        if s.id in self._live:
+            self.store.update_session(s.record(), s.version)
 
     async def mesh(self, s: Session) -> Mesh:
         """The parsed rest mesh of a session (from its deformer or the cache when there).

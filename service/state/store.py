@@ -120,8 +120,12 @@ class Store(Protocol):
     def create_session(self, record: dict[str, Any], limit: int) -> None:
         """Insert a new session record; 429 ``session_limit`` when its owner has ``limit`` already."""
 
-    def save_session(self, record: dict[str, Any]) -> None:
-        """Write (or replace) a session record as it is (not its presets)."""
+    def update_session(self, record: dict[str, Any], version: int) -> bool:
+        """Write ``record`` over the stored one if it exists at ``version`` (never an insert, the version kept).
+
+        A deleted session stays deleted, whichever replica wrote last: there is
+        no write of a session record that could bring it back.
+        """
 
     def commit_session(self, record: dict[str, Any], version: int) -> int | None:
         """Write ``record`` if the stored version is ``version``; the new version, or None when it is not."""
@@ -297,6 +301,14 @@ class FileStore:
     def create_session(self, record: dict[str, Any], limit: int) -> None:
         """Write a new session record (the registry has checked the limit: one process)."""
         self.save_session(record)
+
+    def update_session(self, record: dict[str, Any], version: int) -> bool:
+        """Write ``record`` if its session has a record at ``version`` (this process is the only writer)."""
+        rec = self.load_session(str(record.get("id", "")))
+        if rec is None or int(rec.get("version", 0)) != version:
+            return False
+        self.save_session({**record, "version": version})
+        return True
 
     def commit_session(self, record: dict[str, Any], version: int) -> int | None:
         """Write ``record`` with ``version + 1`` (this process is the only writer); None when it was deleted.

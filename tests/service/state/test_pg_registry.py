@@ -142,9 +142,10 @@ def test_a_database_made_before_presets_gains_them_and_its_sessions_have_none(tm
         assert loaded == {**rec, "presets": []} and store.load_presets(rec["id"]) == []
         assert store.save_presets(rec["id"], PRESETS) and store.load_presets(rec["id"]) == PRESETS
         assert store.load_session(rec["id"])["version"] == 4  # no version for presets
-        # a commit (from a copy with stale presets) and a save write the record, never the presets
+        # a commit (from a copy with stale presets) and an update write the record, never the presets
         assert store.commit_session({**loaded, "last_move": MOVES[1]}, 4) == 5
-        store.save_session({**loaded, "last_move": MOVES[2], "version": 5})
+        assert not store.update_session({**loaded, "last_move": MOVES[2]}, 4)  # not at that version any more
+        assert store.update_session({**loaded, "last_move": MOVES[2]}, 5)
         assert store.load_presets(rec["id"]) == PRESETS and store.load_session(rec["id"])["last_move"] == MOVES[2]
         assert [r["presets"] for r in store.list_sessions()] == [PRESETS]
         assert not store.save_presets("s_none", []) and store.load_presets("s_none") is None
@@ -347,3 +348,64 @@ def test_a_database_outage_under_concurrent_moves_answers_only_503s_and_loses_no
                     assert doc["last_move"] == ok[-1]
     finally:
         pg.remove()
+
+
+def test_a_session_deleted_on_one_replica_is_never_brought_back_by_the_other(tmp_path, db):
+    """Delete on A; on B a MOVE, a stream frame, a batch, a read, a build failure recorded while the delete
+    lands, and a restart: each answers 404 (or writes nothing), and no row of the session comes back."""
+    import json
+    import threading
+    import time
+
+    from starlette.websockets import WebSocketDisconnect
+
+    from service.client import Client
+    from service.state.session import SessionStatus
+
+    def rows(sid: str) -> int:
+        with psycopg.connect(db, autocommit=True) as c:
+            return int(c.execute("SELECT count(*) FROM tm_sessions WHERE id = %s", (sid,)).fetchone()[0])
+
+    with replicas(tmp_path, db, rate_limit_per_s=0) as (a, b):
+        ca, cb = Client(http=a), Client(http=b)
+        mid = ca.upload_mesh(BRACKET)["id"]
+        sid = ca.create_session(mid, BRACKET_SPEC)["id"]
+        cb.deform(sid, MOVES[0])  # B holds a built copy
+        with b.websocket_connect(f"/v1/sessions/{sid}/stream") as ws:
+            assert a.delete(f"/v1/sessions/{sid}").status_code == 204
+            ws.send_text(json.dumps({"seq": 1, "move": MOVES[1]}))
+            with pytest.raises(WebSocketDisconnect) as closed:
+                ws.receive_text()
+            assert closed.value.code == 4404
+        for r in (b.post(f"/v1/sessions/{sid}/deform", json=MOVES[1]), b.get(f"/v1/sessions/{sid}"),
+                  b.post(f"/v1/sessions/{sid}/batch", json={"shapes": {"shapes": []}, "plan": "x\n1\n"})):
+            assert r.status_code == 404 and err(r)["code"] == "session_not_found", r.text
+        with pytest.raises(WebSocketDisconnect) as closed:
+            with b.websocket_connect(f"/v1/sessions/{sid}/stream") as ws:
+                ws.receive_text()
+        assert closed.value.code == 4404
+        assert rows(sid) == 0
+
+        # B records a build failure of its copy of another session while A's DELETE of it is in flight
+        # (its transaction holds the row): the record must not come back once the DELETE commits
+        sid2 = ca.create_session(mid, BRACKET_SPEC)["id"]
+        assert b.get(f"/v1/sessions/{sid2}").status_code == 200
+        reg_b = b.app.state.registry
+        s = reg_b.sessions[sid2]
+        s.status, s.error = SessionStatus.failed, {"type": "SolverError", "code": "build_failed",
+                                                   "message": "x", "details": {}}
+        with psycopg.connect(db) as deleting:
+            deleting.execute("DELETE FROM tm_sessions WHERE id = %s", (sid2,))  # not committed yet
+            t = threading.Thread(target=reg_b.sessions._failed, args=(s,))
+            t.start()
+            deadline = time.monotonic() + 20
+            with psycopg.connect(db, autocommit=True) as watch:  # until B's write waits for the row's lock
+                while time.monotonic() < deadline and t.is_alive() and not watch.execute(
+                        "SELECT count(*) FROM pg_stat_activity WHERE wait_event_type = 'Lock'").fetchone()[0]:
+                    time.sleep(0.05)
+            deleting.commit()
+            t.join(20)
+        assert not t.is_alive() and rows(sid2) == 0
+    with running(tmp_path / "data", database_url=db, replica_id="C") as c:  # a restart lists neither
+        assert [x["id"] for x in c.get("/v1/sessions").json()] == []
+        assert c.get(f"/v1/sessions/{sid}").status_code == 404

@@ -149,6 +149,10 @@ class Metrics:
         self.sessions = Gauge("tetmorph_sessions", "sessions by status", ["status"], registry=r)
 
 
+#: The request methods counted under their own name in the metrics; any other is ``other``.
+METRIC_METHODS = frozenset({"GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"})
+
+
 class RequestContext:
     """ASGI middleware: request id, access log line, request metrics."""
 
@@ -205,9 +209,10 @@ class RequestContext:
             dt = time.perf_counter() - t0
             path = self._template(scope)
             method = scope.get("method", "WS")
-            if scope["type"] == "http":
-                self.metrics.requests.labels(method, path, str(status)).inc()
-                self.metrics.request_seconds.labels(method, path).observe(dt)
+            if scope["type"] == "http":  # a method is any token a client sends: the label set stays bounded
+                label = method if method in METRIC_METHODS else "other"
+                self.metrics.requests.labels(label, path, str(status)).inc()
+                self.metrics.request_seconds.labels(label, path).observe(dt)
             q = scope.get("query_string", b"").decode("latin-1")
             client = scope.get("client") or ("-", 0)
             access_log.info("%s %s %s%s %s %.1f ms", client[0], method, scope.get("path", ""),

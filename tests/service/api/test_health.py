@@ -42,6 +42,19 @@ def test_metrics_labels_are_route_templates_whatever_the_client_asks(tc):
     assert len(routes) <= 6, routes
 
 
+def test_metrics_method_labels_are_a_bounded_set_whatever_methods_the_client_sends(tc):
+    for k in range(30):
+        assert tc.request(f"TETMORPH{k}", "/health").status_code == 405
+        assert tc.request(f"TETMORPH{k}", f"/v1/sessions/s_{k}").status_code == 405
+    tc.get("/health")
+    methods = set()
+    for ln in tc.get("/metrics").text.splitlines():
+        if ln.startswith(("tetmorph_requests_total{", "tetmorph_request_seconds_count{")):
+            methods.add(ln.split('method="')[1].split('"')[0])
+    assert "GET" in methods and "other" in methods and not any("TETMORPH" in m for m in methods), methods
+    assert methods <= {"GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS", "other"}, methods
+
+
 def test_an_unbuilt_editor_is_a_404_that_says_how_to_build_it(tc, monkeypatch, tmp_path):
     import service.app as app_module
 

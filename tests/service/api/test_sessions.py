@@ -164,6 +164,31 @@ def test_a_move_whose_file_the_format_cannot_write_is_not_committed(client, tc, 
     np.testing.assert_allclose(client.positions(s["id"]), bracket_library[1][0], rtol=0, atol=1e-9)
 
 
+def test_a_mesh_with_nodes_at_plus_or_minus_1e308_is_refused_at_upload_and_no_session_is_made_on_it(tc, tmp_path):
+    """Once stored at upload, such a mesh answered 500 at POST /v1/sessions (its tie search overflowed)."""
+    from solver.limits import COORD_MAX
+
+    from .test_meshes import TET, _inp_bytes
+
+    huge = TET * np.array([1e308, -1e308, 1e308])  # finite, far beyond COORD_MAX
+    src = tmp_path / "huge.vtu"
+    meshio.write(src, meshio.Mesh(huge, [("tetra", np.array([[0, 1, 2, 3]]))]))
+    for name, data in (("huge.inp", _inp_bytes(huge, [[0, 1, 2, 3]])), ("huge.vtu", src.read_bytes())):
+        r = tc.post("/v1/meshes", files=[("file", (name, data))])
+        e = err(r)
+        assert r.status_code == 422 and e["code"] == "coordinates_out_of_range", (name, e)
+        assert e["details"]["bound"] == COORD_MAX and e["details"]["vertices"] == [1, 2, 3], (name, e)
+    r = tc.post("/v1/meshes/arrays", json={"vertices": huge.tolist(), "tetrahedra": [[0, 1, 2, 3]]})
+    assert r.status_code == 422 and "vertices" in err(r)["message"]
+    assert tc.get("/v1/meshes").json() == [] and tc.get("/v1/sessions").json() == []  # nothing stored
+    # a node no element uses may lie anywhere: it is stored, and a session with ties is made on it
+    extra = np.vstack([TET, [[1e308, -1e308, 1e308]]])
+    mid = tc.post("/v1/meshes", files=[("file", ("extra.inp", _inp_bytes(extra, [[0, 1, 2, 3]])))]).json()["id"]
+    spec = {"selections": {"a": {"ids": [0]}, "b": {"ids": [3]}}, "fixed": ["a"], "handles": {"h": "b"},
+            "ties": "auto"}
+    assert tc.post("/v1/sessions", json={"mesh_id": mid, "spec": spec}).status_code == 201
+
+
 def test_arrays_upload_deform_reset_delete(client, tc):
     V, T = cube_mesh(4)
     top = np.flatnonzero(V[:, 2] == 1).tolist()

@@ -19,7 +19,7 @@ from fastapi import APIRouter, File, Form, Path, Request, UploadFile
 from pydantic import Field
 from pydantic.json_schema import SkipJsonSchema
 
-from solver.errors import InvalidMeshError, SolverError
+from solver.errors import MAX_IDS, InvalidMeshError, SolverError, format_ids
 from solver.io.bounds import ReadBounds
 from solver.io.read import read_surface
 from solver.io.tetrahedralize import open_edges
@@ -62,6 +62,12 @@ def _read_surface(data: bytes, fmt: str, ext: str, max_triangles: int, bounds: R
     if F.size and (F.min() < 0 or F.max() >= len(V)):
         raise InvalidMeshError(f"triangle indices span [{F.min()}, {F.max()}] but there are {len(V)} vertices",
                                code="index_out_of_range")
+    used = np.unique(F)
+    huge = used[(np.abs(V[used]) > COORD_MAX).any(1)]
+    if huge.size:  # the bound of meshes and documents; fTetWild's envelope would overflow long before
+        raise InvalidMeshError(f"{huge.size} surface vertices have a coordinate beyond +-{COORD_MAX:g}; first "
+                               f"vertices {format_ids(huge)}, e.g. vertex {huge[0]} = {V[huge[0]].tolist()}",
+                               code="coordinates_out_of_range", vertices=huge[:MAX_IDS].tolist(), bound=COORD_MAX)
     return V, F
 
 

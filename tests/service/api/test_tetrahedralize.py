@@ -185,6 +185,20 @@ def test_a_finished_tetrahedralization_is_not_cancelled_and_keeps_its_mesh(tmp_p
         assert tc.get(f"/v1/meshes/{mid}").status_code == 404
 
 
+def test_a_surface_beyond_the_coordinate_bound_is_refused_before_any_worker_starts(tc):
+    """A closed surface at 1e300 (finite): 422 coordinates_out_of_range naming its vertices; no job, nothing stored."""
+    from solver.limits import COORD_MAX
+
+    from ..conftest import err
+
+    off = b"OFF\n4 4 0\n0 0 0\n1e300 0 0\n0 -1e300 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n"
+    r = tc.post("/v1/tetrahedralize", files=[("file", ("far.off", off))])
+    e = err(r)
+    assert r.status_code == 422 and e["code"] == "coordinates_out_of_range", e
+    assert e["details"]["vertices"] == [1, 2] and e["details"]["bound"] == COORD_MAX
+    assert tc.get("/v1/meshes").json() == [] and tc.app.state.jobs.jobs == {}
+
+
 def test_a_surface_declaring_more_than_the_settings_allow_is_refused_before_it_is_read(tmp_path):
     """The tetrahedralize route reads with the upload's bounds and settings; nothing is stored, no job starts."""
     from tests.solver.io.test_bounds import crafted

@@ -206,3 +206,40 @@ def test_a_restarted_replica_with_an_empty_cache_serves_everything(cluster, sess
     assert direct.get("/health").json()["sessions"] == SESSIONS
     direct.close()
     balanced.close()
+
+
+def test_a_database_outage_takes_the_replicas_out_of_the_pool_with_503_and_retry_after(cluster, sessions):
+    """PostgreSQL stopped under the real balancer: every answer is a 503 with Retry-After, first from the
+    replicas, then from HAProxy once each replica's /ready failed; after the restart they rejoin and serve."""
+    sid = sessions[0]
+    with httpx.Client(base_url=cluster.url, timeout=10) as c:
+        assert c.get(f"/v1/sessions/{sid}").status_code == 200
+        cluster.pg.stop()
+        try:
+            for path in (f"/v1/sessions/{sid}", "/v1/sessions"):  # each backend: by session, round-robin
+                balancer = None
+                deadline = time.monotonic() + 30  # two failed checks 250-500 ms apart take a replica out
+                while balancer is None and time.monotonic() < deadline:
+                    r = c.get(path)
+                    assert r.status_code == 503 and r.headers.get("retry-after") == "1", (path, r.text[:300])
+                    if "x-tetmorph-replica" not in r.headers:  # HAProxy's own answer: no replica in the pool
+                        balancer = r
+                    else:
+                        assert r.json()["error"]["code"] == "store_unavailable", r.text
+                        time.sleep(0.1)
+                assert balancer is not None, f"the replicas never left the pool of {path}"
+                e = balancer.json()["error"]
+                assert e["status"] == 503 and e["code"] == "unavailable" and "/ready" in e["message"], e
+            for name in cluster.names():  # the replicas live, not ready
+                assert httpx.get(cluster.replica_url(name) + "/health", timeout=10).status_code == 200
+                assert httpx.get(cluster.replica_url(name) + "/ready", timeout=10).status_code == 503
+        finally:
+            cluster.pg.start()
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            r = c.get(f"/v1/sessions/{sid}")
+            if r.status_code == 200:
+                break
+            assert r.status_code == 503, r.text[:300]
+            time.sleep(0.2)
+        assert r.status_code == 200 and r.json()["id"] == sid and "x-tetmorph-replica" in r.headers

@@ -9,7 +9,8 @@ from __future__ import annotations
 __all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS", "EXTENT", "SCALE_MIN", "SCALE_MAX", "PENALTY_MAX",
            "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX",
            "TARGET_AMOUNT_MAX", "SHAPES_MAX", "SHAPE_NAME_MAX", "PLAN_ROWS_MAX", "PLAN_TEXT_MAX", "BLOCK_MAX",
-           "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX", "MAX_EXPANDED_BYTES"]
+           "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX", "MAX_EXPANDED_BYTES",
+           "THREADS_MAX"]
 
 #: Largest magnitude of a mesh coordinate, and of any coordinate, direction or target in a
 #: document. Far beyond any part in any unit, and small enough that squared distances and
@@ -65,3 +66,6 @@ BOUNDS_TOL_MAX = 1e3
 #: anything is decompressed, and again while decompressing. A file at :data:`MAX_POINTS` and
 #: :data:`MAX_CELLS` (coordinates, connectivity, offsets and types) holds about 14 GB.
 MAX_EXPANDED_BYTES = 16 * 2**30
+#: Most threads a SPEC or a caller may ask one solve to use (a cap: a solve never takes more than the
+#: cores that are free).
+THREADS_MAX = 1024

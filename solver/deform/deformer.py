@@ -12,15 +12,16 @@ rotations are propagated quaternion logarithms (eq. 3.5-3.9; ECLS eq. 22-27).
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..constraints.move import Move, parse_move, scaled_move
 from ..constraints.spec import Spec, parse_spec
 from ..linalg.threads import solving
 from ..mesh import Mesh
-from ..options import SolveOptions
+from ..options import SolveOptions, using
 from ..validity.quality import element_quality, summarize_quality
 from ..validity.safe_fraction import SAFE_TOL
 from .policy import move_safe_fraction
@@ -42,6 +43,22 @@ from .update import DeformResult, check_options, update
 
 __all__ = ["Deformer", "DeformResult", "precompute"]
 
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _solves(method: F) -> F:
+    """Run a :class:`Deformer` method as one solve, under the options it was made with.
+
+    Its threads are chosen when it starts, from the cores free then, within the options' ``threads``
+    (:func:`solver.linalg.threads.solving`).
+    """
+    @functools.wraps(method)
+    def run(self: Deformer, *args: Any, **kwargs: Any) -> Any:
+        with using(self.data.options), solving():
+            return method(self, *args, **kwargs)
+
+    return run  # type: ignore[return-value]
+
 
 class Deformer:
     """Precomputed deformation of one mesh under one SPEC; never mutated, safe for concurrent solves.
@@ -53,8 +70,9 @@ class Deformer:
     progress : callable, optional
         ``progress(stage, fraction)`` as set-up advances (:func:`~solver.deform.precompute.deform_precompute`).
     options : SolveOptions, optional
-        Backend, sweeps and column basis (default: those in effect, :func:`solver.options.current`;
-        :meth:`SolveOptions.reference() <solver.options.SolveOptions.reference>` is the plain path).
+        Backend, precision, threads, sweeps and column basis (default: those in effect,
+        :func:`solver.options.current`; :meth:`SolveOptions.reference() <solver.options.SolveOptions.reference>`
+        is the plain path). The SPEC's ``solve_options`` replace what they name.
 
     Raises
     ------
@@ -93,12 +111,12 @@ class Deformer:
             return move
         return parse_move(move, self.handle_names, self.spec.names, self.data.constraints.bounds)
 
-    @solving()
+    @_solves
     def solve_positions(self, move: Move | dict[str, Any]) -> Solved:
         """Positions of a MOVE, without check or policy (:func:`~solver.deform.solve.solve_positions`)."""
         return solve_positions(self.data, self.parse_move(move))
 
-    @solving()
+    @_solves
     def solve_boundary(self, move: Move | dict[str, Any]) -> BoundaryStage:
         """The boundary positions of a MOVE first (:func:`~solver.deform.solve.solve_boundary`).
 
@@ -110,7 +128,7 @@ class Deformer:
         """The MOVE scaled by ``f`` in [0, 1] (:func:`~solver.constraints.move.scaled_move`)."""
         return scaled_move(self.parse_move(move), f, self.data.constraints.rest)
 
-    @solving()
+    @_solves
     def safe_fraction(self, move: Move | dict[str, Any], tol: float = SAFE_TOL,
                       inverts: bool | None = None) -> tuple[float, int]:
         """Largest fraction of a MOVE that inverts no element, and the solves used (bisection)."""
@@ -120,7 +138,7 @@ class Deformer:
         """Summary of every quality metric of the rest mesh."""
         return summarize_quality(element_quality(self.mesh.V, self.mesh.T, self.mesh.cells))
 
-    @solving()  # threads chosen per solve from the cores free now (solver.linalg.threads)
+    @_solves
     def solve(self, move: Move | dict[str, Any] | BoundaryStage, inversion: str | None = None,
               quality: str = "basic", repair: bool | None = None) -> DeformResult:
         """Deform for one MOVE (or complete a :meth:`solve_boundary` stage) by back-substitution only.
@@ -163,7 +181,7 @@ class Deformer:
         return update(self.data, mv, solved, policy, quality, self.spec.repair if repair is None else repair,
                       (t0, t1, t2))
 
-    @solving()
+    @_solves
     def solve_many(self, moves: list[Move | dict[str, Any]], inversion: str | None = None,
                    quality: str = "basic", repair: bool | None = None,
                    basis: InteriorBasis | None = None) -> list[DeformResult]:
@@ -186,7 +204,7 @@ class Deformer:
         rep = self.spec.repair if repair is None else repair
         return [update(self.data, mv, s, policy, quality, rep, share) for mv, s in zip(mvs, solved, strict=True)]
 
-    @solving()
+    @_solves
     def interior_basis(self, moves: Sequence[Move | dict[str, Any]]) -> InteriorBasis | None:
         """The interior column basis of ``moves``' boundary displacements, for :meth:`solve_many` of their family.
 

@@ -569,7 +569,7 @@ def interior_start(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators) ->
     pool = ThreadPoolExecutor(1, thread_name_prefix="tetmorph-interior-lu")
     # in the set-up's context: the factor follows the SolveOptions in effect here, not the thread's default
     lu = pool.submit(contextvars.copy_context().run, fz.lu, Mff.tocsc(), "interior mean-value system",
-                     single=spec.precision == "mixed")
+                     single=current_options().precision == "mixed")
     pool.shutdown(wait=False)  # the thread ends with its one task
     return InteriorStart(fi, Mfi, Mff, lu)
 

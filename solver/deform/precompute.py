@@ -20,7 +20,7 @@ from ..constraints.move import Move
 from ..constraints.spec import Spec
 from ..mesh import Mesh
 from ..ops.unique import unique
-from ..options import SolveOptions, using
+from ..options import SolveOptions, current, using
 from ..validity.check import ElementCheck, SurfaceCheck
 from ..validity.midside import MidsideNodes
 from .constraint_set import ConstraintSet, constraint_set
@@ -59,6 +59,9 @@ class DeformData:
         ``assembly_ms``, ``rotation_factorization_ms``, ``position_factorization_ms``, ``total_ms``.
     factorizations : int
         Factorizations made by this precompute (its own count).
+    options : SolveOptions
+        The options it was made with (the caller's, with the SPEC's ``solve_options`` laid over
+        them); its solves run under them too.
     """
 
     mesh: Mesh
@@ -73,6 +76,7 @@ class DeformData:
     check: ElementCheck | SurfaceCheck | None
     setup_timings: dict[str, float]
     factorizations: int
+    options: SolveOptions = SolveOptions()
 
     def rhs(self, move: Move) -> RightHandSides:
         """Right-hand sides of a parsed MOVE."""
@@ -131,8 +135,9 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None,
         has been raised by then), ``"assembly"``, ``"rotation"``,
         ``"positions"``, ``"done"``.
     options : SolveOptions, optional
-        Backend, sweeps and column basis (default: those in effect,
-        :func:`solver.options.current`).
+        Backend, precision, threads, sweeps and column basis (default: those in
+        effect, :func:`solver.options.current`); the SPEC's ``solve_options``
+        replace what they name (:meth:`~solver.options.SolveOptions.overlay`).
 
     Returns
     -------
@@ -142,11 +147,11 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None,
     ------
     SpecError, ConstraintError, FactorizationError
     """
-    with using(options):
-        return _precompute(mesh, spec, progress)
+    with using((options or current()).updated(spec.solve_options)) as effective:
+        return _precompute(mesh, spec, progress, effective)
 
 
-def _precompute(mesh: Mesh, spec: Spec, progress: Progress | None) -> DeformData:
+def _precompute(mesh: Mesh, spec: Spec, progress: Progress | None, options: SolveOptions) -> DeformData:
     t0 = time.perf_counter()
     report: Progress = progress or (lambda stage, fraction: None)
     _touch_topology(mesh)
@@ -181,7 +186,8 @@ def _precompute(mesh: Mesh, spec: Spec, progress: Progress | None) -> DeformData
                "position_factorization_ms": 1e3 * t_pos, "total_ms": 1e3 * (time.perf_counter() - t0)}
     data = DeformData(mesh=mesh, spec=spec, constraints=cs, delta=ops.delta, walls=walls, rotation=rotation,
                       positions=positions, midside=midside, pinned_mid=cs.pinned_mid, check=check,
-                      setup_timings=timings, factorizations=rotation.factorizations + positions.factorizations)
+                      setup_timings=timings, factorizations=rotation.factorizations + positions.factorizations,
+                      options=options)
     report("done", 1.0)
     return data
 

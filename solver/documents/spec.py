@@ -12,18 +12,59 @@ callers and the command line); the service never reads a path a client names.
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, ValidationInfo, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictBool,
+    StrictStr,
+    ValidationInfo,
+    model_validator,
+)
 from pydantic.json_schema import SkipJsonSchema
 
-from .numbers import Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, WallWeight, Weight
+from ..limits import THREADS_MAX
+from .choices import BACKENDS, PRECISIONS
+from .numbers import INTEGRAL, Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, WallWeight, Weight
 
-__all__ = ["Spec", "Selection", "Target", "SELECTION_KINDS", "Box", "Sphere", "Plane", "Constraints", "Point",
-           "Motion", "Relative", "RelativePoint", "Symmetry", "Cyclic", "Feature", "Sliding", "ThinWalls", "Ties",
-           "StoredSurface", "InlineSurface"]
+__all__ = ["Spec", "SolveSettings", "Selection", "Target", "SELECTION_KINDS", "Box", "Sphere", "Plane",
+           "Constraints", "Point", "Motion", "Relative", "RelativePoint", "Symmetry", "Cyclic", "Feature",
+           "Sliding", "ThinWalls", "Ties", "StoredSurface", "InlineSurface"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
+
+
+def _nonzero(v: list[float]) -> list[float]:
+    n = math.hypot(*v)
+    if not (math.isfinite(n) and n > 1e-150):
+        raise ValueError(f"must be non-zero, got {v}")
+    return v
+
+
+def _distinct(ids: list[int]) -> list[int]:
+    if len(set(ids)) != len(ids):
+        raise ValueError(f"repeats a vertex: {ids}")
+    return ids
+
+
+#: A direction or a normal: three numbers, not all zero (the parser uses it as a unit vector).
+Direction3 = Annotated[Vec3, AfterValidator(_nonzero)]
+#: Vertex ids of one POINT or pair, each once.
+DistinctIds = Annotated[list[VertexId], Field(json_schema_extra={"uniqueItems": True}), AfterValidator(_distinct)]
+#: The forms of a POINT, of which it has exactly one, and the fields each form may add.
+POINT_FORMS = {"vertices": ("weights",), "edge": ("t",), "face": ("barycentric",), "selection": ()}
+
+
+def _point_schema(schema: dict[str, Any]) -> None:
+    """State a POINT's forms in its JSON Schema: exactly one of them, each with its own further field."""
+    schema["oneOf"] = [{"required": [k]} for k in POINT_FORMS]
+    schema["dependentRequired"] = {"t": ["edge"], "barycentric": ["face"], "weights": ["vertices"]}
+    schema.setdefault("allOf", []).extend([{"if": {"required": ["edge"]}, "then": {"required": ["t"]}},
+                                           {"if": {"required": ["face"]}, "then": {"required": ["barycentric"]}}])
 
 
 class Box(BaseModel):
@@ -32,6 +73,12 @@ class Box(BaseModel):
     model_config = _STRICT
     min: Vec3
     max: Vec3
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Box:
+        if any(a > b for a, b in zip(self.min, self.max, strict=True)):
+            raise ValueError(f"min {self.min} exceeds max {self.max}")
+        return self
 
 
 class Sphere(BaseModel):
@@ -47,7 +94,7 @@ class Plane(BaseModel):
 
     model_config = _STRICT
     point: Vec3
-    normal: Vec3
+    normal: Direction3
     tolerance: NonNegLength = 0.0
 
 
@@ -96,14 +143,40 @@ class RelativePoint(BaseModel):
     One of the two POINTs of a relative constraint has no name; the other points have one.
     """
 
-    model_config = _STRICT
-    vertices: list[VertexId] | None = Field(None, min_length=1, max_length=100_000)
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra=_point_schema)
+    vertices: DistinctIds | None = Field(None, min_length=1, max_length=100_000)
     weights: list[Weight] | None = Field(None, max_length=100_000)
-    edge: list[VertexId] | None = Field(None, min_length=2, max_length=2)
+    edge: DistinctIds | None = Field(None, min_length=2, max_length=2)
     t: Fraction | None = None
-    face: list[VertexId] | None = Field(None, min_length=3, max_length=3)
+    face: DistinctIds | None = Field(None, min_length=3, max_length=3)
     barycentric: list[Fraction] | None = Field(None, min_length=3, max_length=3)
     selection: StrictStr | None = Field(None, max_length=200)
+
+    @model_validator(mode="after")
+    def _one_form(self) -> RelativePoint:
+        forms = [k for k in ("vertices", "edge", "face", "selection") if getattr(self, k) is not None]
+        if len(forms) != 1:
+            raise ValueError("must give exactly one of vertices+weights, edge+t, face+barycentric or selection")
+        form = forms[0]
+        stray = [k for k, owner in (("weights", "vertices"), ("t", "edge"), ("barycentric", "face"))
+                 if getattr(self, k) is not None and owner != form]
+        if stray:
+            raise ValueError(f"{stray[0]} goes with {dict(weights='vertices', t='edge', barycentric='face')[stray[0]]}"
+                             f", not with {form}" + ("; a selection point is its centroid" if form == "selection"
+                                                     else ""))
+        if form == "edge" and self.t is None:
+            raise ValueError("an edge point needs t, its position along the edge in [0, 1]")
+        if form == "face" and self.barycentric is None:
+            raise ValueError("a face point needs barycentric, 3 numbers summing to 1")
+        if self.barycentric is not None and abs(sum(self.barycentric) - 1.0) > 1e-9:
+            raise ValueError(f"barycentric must sum to 1, got {self.barycentric}")
+        if self.weights is not None:
+            n = len(self.vertices or ())
+            if len(self.weights) != n:
+                raise ValueError(f"weights must be {n} numbers (one per vertex), got {len(self.weights)}")
+            if abs(sum(self.weights)) <= 1e-12:
+                raise ValueError("weights must not sum to zero")
+        return self
 
 
 class PointBase(RelativePoint):
@@ -122,31 +195,51 @@ class Normal(BaseModel):
     """A plane through the MOVE's point."""
 
     model_config = _STRICT
-    normal: Vec3
+    normal: Direction3
 
 
 class Direction(BaseModel):
     """A line through the MOVE's point."""
 
     model_config = _STRICT
-    direction: Vec3
+    direction: Direction3
+
+
+def _motion_schema(schema: dict[str, Any]) -> None:
+    """A motion's point forms, and exactly one of plane or line."""
+    _point_schema(schema)
+    schema["allOf"].append({"oneOf": [{"required": ["plane"]}, {"required": ["line"]}]})
 
 
 class Motion(PointBase):
     """A point that moves on a plane or along a line."""
 
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra=_motion_schema)
     plane: Normal | None = None
     line: Direction | None = None
+
+    @model_validator(mode="after")
+    def _plane_or_line(self) -> Motion:
+        if (self.plane is None) == (self.line is None):
+            raise ValueError("needs exactly one of plane or line")
+        return self
 
 
 class Relative(BaseModel):
     """The offset of two vertices or two POINTs (a hole's centre to another's), turned or not."""
 
-    model_config = _STRICT
+    model_config = ConfigDict(extra="forbid", strict=True,
+                              json_schema_extra={"oneOf": [{"required": ["vertices"]}, {"required": ["points"]}]})
     name: StrictStr = Field(max_length=200)
-    vertices: list[VertexId] | None = Field(None, min_length=2, max_length=2)
+    vertices: DistinctIds | None = Field(None, min_length=2, max_length=2)
     points: list[RelativePoint] | None = Field(None, min_length=2, max_length=2)
     mode: Literal["rotate", "translate"] = "rotate"
+
+    @model_validator(mode="after")
+    def _vertices_or_points(self) -> Relative:
+        if (self.vertices is None) == (self.points is None):
+            raise ValueError("needs exactly one of vertices [i, j] or points [POINT, POINT]")
+        return self
 
 
 class MirrorPlane(BaseModel):
@@ -154,7 +247,7 @@ class MirrorPlane(BaseModel):
 
     model_config = _STRICT
     point: Vec3
-    normal: Vec3
+    normal: Direction3
 
 
 class Symmetry(BaseModel):
@@ -171,7 +264,7 @@ class Axis(BaseModel):
 
     model_config = _STRICT
     point: Vec3
-    direction: Vec3
+    direction: Direction3
 
 
 class Cyclic(BaseModel):
@@ -183,6 +276,12 @@ class Cyclic(BaseModel):
     angle_deg: Angle
     faces: list[StrictStr] = Field(min_length=2, max_length=2)
     tolerance: NonNegLength | None = None
+
+    @model_validator(mode="after")
+    def _a_turn(self) -> Cyclic:
+        if math.fmod(self.angle_deg, 360.0) == 0.0:
+            raise ValueError(f"angle_deg must not be a multiple of 360, got {self.angle_deg:g}")
+        return self
 
 
 class Feature(BaseModel):
@@ -199,7 +298,7 @@ class Sliding(BaseModel):
 
     model_config = _STRICT
     selection: StrictStr = Field(max_length=200)
-    normal: Vec3
+    normal: Direction3
 
 
 class ThinWalls(BaseModel):
@@ -216,10 +315,17 @@ class Ties(BaseModel):
     point on B's boundary faces (non-matching interfaces).
     """
 
-    model_config = _STRICT
+    model_config = ConfigDict(extra="forbid", strict=True,
+                              json_schema_extra={"anyOf": [{"required": ["tolerance"]}, {"required": ["surface"]}]})
     tolerance: NonNegLength | None = None
     surface: list[Annotated[list[StrictStr], Field(min_length=2, max_length=2)]] | None = Field(None, max_length=1000)
     surface_tolerance: NonNegLength | None = None
+
+    @model_validator(mode="after")
+    def _something_to_tie(self) -> Ties:
+        if self.tolerance is None and self.surface is None:
+            raise ValueError("needs a tolerance or surface pairs")
+        return self
 
 
 class StoredSurface(BaseModel):
@@ -258,12 +364,42 @@ class Target(BaseModel):
         return self
 
 
+class SolveSettings(BaseModel):
+    """How a SPEC's set-up is factored and solved (:class:`solver.options.SolveOptions` as a document).
+
+    A field given here replaces what the caller (the command line, the service's settings) or the
+    environment chose for this SPEC, so that a SPEC solves the same way wherever it runs; ``threads``
+    only lowers the caller's cap.
+    """
+
+    model_config = _STRICT
+    backend: Literal[BACKENDS] | None = Field(  # type: ignore[valid-type]
+        None, description="symmetric backend; auto: CHOLMOD, then PARDISO, then SciPy")
+    precision: Literal[PRECISIONS] | None = Field(  # type: ignore[valid-type]
+        None, description="the interior solve: mixed (single-precision factor, double-precision residual "
+                          "check and refinement) or exact (double-precision factor)")
+    threads: Annotated[int, Field(strict=True, ge=0, le=THREADS_MAX), INTEGRAL] | None = Field(
+        None, description="most threads one solve uses (0: every free core)")
+    sweeps: StrictBool | None = Field(None, description="tetmorph's supernodal back-substitutions where they "
+                                      "apply; false: the backends' own solves")
+    basis: StrictBool | None = Field(None, description="stacked solves through the interior column basis")
+
+    def given(self) -> dict[str, Any]:
+        """The fields set, as a dict."""
+        return {k: v for k, v in self.model_dump().items() if v is not None}
+
+
 class Spec(BaseModel):
     """What is fixed, what moves, and how to solve (docs/guide/documents.md)."""
 
     model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={"examples": [{
         "selections": {"root": {"set": "FIXED"}, "tip": {"set": "LOAD"}},
-        "fixed": ["root"], "handles": {"tip": "tip"}}]})
+        "fixed": ["root"], "handles": {"tip": "tip"}}], "allOf": [  # the two precisions, when both given, agree
+            {"not": {"required": ["precision", "solve_options"],
+                     "properties": {"precision": {"const": p},
+                                    "solve_options": {"type": "object", "required": ["precision"],
+                                                      "properties": {"precision": {"const": q}}}}}}
+            for p in PRECISIONS for q in PRECISIONS if p != q]})
 
     selections: dict[str, Selection] = Field(min_length=1, max_length=10_000)
     fixed: list[StrictStr] = Field(default_factory=list, max_length=10_000)
@@ -282,12 +418,22 @@ class Spec(BaseModel):
     conflicts: Literal["report", "reject"] = "report"
     repair: StrictBool = False
     thin_walls: StrictBool | ThinWalls = True
-    ties: Literal["auto", False] | Ties | list[list[VertexId]] = "auto"
+    ties: Literal["auto", False] | Ties | list[Annotated[DistinctIds, Field(min_length=2, max_length=2)]] = "auto"
     voids: Literal["volume", "refuse"] = "volume"
     targets: list[Target] = Field(default_factory=list, max_length=1000)
     symmetry: list[Symmetry] = Field(default_factory=list, max_length=100)
     cyclic: list[Cyclic] = Field(default_factory=list, max_length=100)
-    precision: Literal["mixed", "exact"] = "mixed"
+    precision: Literal[PRECISIONS] = Field(  # type: ignore[valid-type]
+        "mixed", description="shorthand for solve_options.precision")
+    solve_options: SolveSettings | None = None
+
+    @model_validator(mode="after")
+    def _one_precision(self) -> Spec:
+        inner = self.solve_options.precision if self.solve_options is not None else None
+        if "precision" in self.model_fields_set and inner is not None and inner != self.precision:
+            raise ValueError(f"precision {self.precision!r} and solve_options.precision {inner!r} disagree; "
+                             "give one")
+        return self
 
     def dump(self) -> dict[str, Any]:
         """The document as given (fields not set are left out)."""

@@ -9,7 +9,9 @@ more than the second thread saved. So every solve asks :func:`solving` for
 its threads when it starts:
 
 * the cores this process may run on (its CPU affinity), capped by
-  :func:`configure`'s ``max_threads``;
+  :func:`configure`'s ``max_threads`` (the process's cap) and by the
+  ``threads`` of the :class:`~solver.options.SolveOptions` in effect (the
+  precompute's);
 * less the tasks that run on the machine right now and are not this
   process's solves (the kernel's count of runnable tasks, ``/proc/loadavg``);
 * shared among this process's solves in flight.
@@ -34,6 +36,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numba
+
+from ..options import current as current_options
 
 __all__ = ["WIDE_COLUMNS", "solve_threads", "solving", "configure", "current_threads", "in_flight",
            "in_flight_peak", "in_flight_reset", "free_threads", "cores", "mkl_local_threads", "one_blas_thread"]
@@ -134,6 +138,9 @@ def solving() -> Iterator[int]:
         _PEAK = max(_PEAK, _IN_FLIGHT)
         share = _IN_FLIGHT
     k = min(free_threads(share), numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    cap = current_options().threads  # the precompute's own cap (SolveOptions.threads)
+    if cap:
+        k = min(k, cap)
     prev = numba.get_num_threads()
     numba.set_num_threads(k)
     _LOCAL.threads = k

@@ -78,8 +78,13 @@ BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {
                      "plan does not parse", lambda e, c: "cells" in e["message"] or _csv_plan(e, c)),
     "empty_plan": ("a CSV text plan with no header or no row (the text's content)", _csv_plan),
     "invalid_shapes": ("a reserved shape name (a DOE summary column)", lambda e, c: "reserved" in e["message"]),
-    "invalid_request": ("two presets of one name (uniqueItems compares whole items, not one field)",
-                        lambda e, c: "names are unique" in e["message"]),
+    "invalid_request": ("two presets of one name (uniqueItems compares whole items, not one field); or "
+                        "relations between the numbers of one array or object: a box's min above its max, a "
+                        "zero normal or direction, barycentric coordinates that do not sum to 1, weights that "
+                        "sum to zero, a cyclic angle of whole turns",
+                        lambda e, c: any(t in e["message"] for t in (
+                            "names are unique", "exceeds max", "non-zero", "sum to 1", "sum to zero",
+                            "multiple of 360"))),
     # the service's configuration
     "solver_unavailable": ("no FE solver of that name is configured (TETMORPH_STUDY_SOLVERS)", _always),
     "engine_unavailable": ("engine 'ray' without a Ray cluster (TETMORPH_RAY_ADDRESS)", _always),

@@ -6,12 +6,14 @@ import os
 import subprocess
 import sys
 import threading
+from dataclasses import replace
 from pathlib import Path
 
+import numba
 import numpy as np
 import pytest
 
-from solver import SolveOptions, SpecError, precompute, read_mesh
+from solver import SolveOptions, SpecError, parse_spec, precompute, read_mesh
 from solver.deform.positions import MIXED_TOL
 from solver.options import current, using
 from tests.conftest import DATA, load
@@ -109,3 +111,77 @@ def test_the_command_line_selects_the_reference_path(tmp_path):
                      "--output", str(out), *extra]) == 0
         outs.append(read_mesh(out).V)
     assert np.abs(outs[0] - outs[1]).max() <= 1e-9 * 100 and np.abs(outs[0] - outs[2]).max() <= 1e-6 * 100
+
+
+def test_a_specs_solve_options_replace_what_they_name():
+    mesh = load("tet/cube_big_tetra.mesh")
+    moves = [bend_move(mesh, angle=12, frac=0.01)]
+    fast = precompute(mesh, bend_spec(mesh))
+    plain = precompute(mesh, {**bend_spec(mesh), "solve_options": {"sweeps": False, "basis": False,
+                                                                   "precision": "exact"}})
+    assert plain.data.options == replace(SolveOptions(), sweeps=False, basis=False, precision="exact")
+    assert fast.data.positions.lu_backend == "supernodal" and plain.data.positions.lu_backend != "supernodal"
+    assert plain.solve(moves[0]).report["interior_precision"] == "double"
+    assert fast.solve(moves[0]).report["interior_precision"] == "single"
+    # the caller's options hold where the SPEC says nothing, and the SPEC's win where it does
+    ref = precompute(mesh, {**bend_spec(mesh), "precision": "exact"}, options=SolveOptions.reference())
+    assert ref.data.options == SolveOptions.reference(precision="exact")
+    a, b = plain.solve(moves[0]).V, ref.solve(moves[0]).V
+    assert np.abs(a - b).max() <= 1e-9 * np.abs(b - mesh.V).max()
+
+
+def test_precision_and_solve_options_precision_must_agree():
+    base = {"selections": {"a": {"ids": [0]}, "b": {"ids": [1]}}, "fixed": ["a"], "handles": {"h": "b"}}
+    assert parse_spec({**base, "precision": "exact", "solve_options": {"precision": "exact"}}).solve_options == \
+        {"precision": "exact"}
+    assert parse_spec({**base, "precision": "exact"}).solve_options == {"precision": "exact"}
+    assert parse_spec(base).solve_options == {}
+    with pytest.raises(SpecError) as e:
+        parse_spec({**base, "precision": "exact", "solve_options": {"precision": "mixed"}})
+    assert "disagree" in str(e.value) and e.value.details["field"] == "SPEC"
+    with pytest.raises(SpecError) as e:
+        parse_spec({**base, "solve_options": {"threads": -1}})
+    assert e.value.details["field"] == "SPEC.solve_options.threads"
+
+
+@pytest.mark.parametrize("caller, spec, want", [(0, None, 0), (0, 1, 1), (4, 1, 1), (1, 4, 1), (3, 0, 3)])
+def test_threads_are_the_smaller_cap(caller, spec, want):
+    doc = None if spec is None else {"threads": spec}
+    assert SolveOptions(threads=caller).overlay(doc).threads == want
+
+
+def test_a_solve_keeps_to_its_precomputes_thread_cap(monkeypatch):
+    import solver.deform.deformer as deformer_module
+    from solver.linalg import threads
+
+    mesh = read_mesh(DATA / "bracket.inp")
+    spec = {"selections": {"a": {"set": "FIXED"}, "b": {"set": "LOAD"}}, "fixed": ["a"], "handles": {"b": "b"}}
+    one = precompute(mesh, {**spec, "solve_options": {"threads": 1}})
+    free = precompute(mesh, spec)
+    monkeypatch.setattr(threads, "free_threads", lambda solves=1: 2)  # as if two cores were free
+    seen = []
+    real = deformer_module.solve_positions
+
+    def spy(data, move):
+        seen.append(threads.current_threads())
+        return real(data, move)
+
+    monkeypatch.setattr(deformer_module, "solve_positions", spy)
+    move = {"handles": {"b": {"translation": [0, 0, 1]}}}
+    one.solve(move)
+    free.solve(move)
+    assert seen == [1, min(2, numba.config.NUMBA_NUM_THREADS)]
+
+
+def test_the_command_line_caps_the_threads(tmp_path):
+    import argparse
+
+    from solver.options import add_solve_arguments, from_arguments
+
+    p = argparse.ArgumentParser()
+    add_solve_arguments(p)
+    assert from_arguments(p.parse_args([])) is None
+    assert from_arguments(p.parse_args(["--threads", "1"])) == replace(current(), threads=1)
+    assert from_arguments(p.parse_args(["--reference", "--threads", "2"])).threads == 2
+    with pytest.raises(SystemExit):
+        p.parse_args(["--threads", "-1"])

@@ -26,7 +26,7 @@ Sections (all by default, or pick with --only):
                solve-phase settings changed one at a time (iparm 24, 25, no scaling and
                matching, orderings), and SuperLU in single precision; and, on the 1M bracket,
                PARDISO's orderings for a 48-column (DOE block) solve: factor entries and time.
-``supernodal`` the supernodal sweeps (``solver/linalg/supernodal.py``) against PARDISO's and
+``supernodal`` the supernodal sweeps (``solver/linalg/supernodal.py``, ``sweeps.py``) against PARDISO's and
                CHOLMOD's own solves: the interior mean-value system of the bracket at gmsh sizes
                0.95 and 0.7 (107k tets, and a mid size; the table gives counts), single and double, two threads
                and one, with each factorization's set-up time; the boundary position system of

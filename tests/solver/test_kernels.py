@@ -14,7 +14,7 @@ PROBE = """
 import json, solver
 from solver.ops.mvc_matrix import _fill_rows
 from solver.validity.check import _gather_between, _sj_kernel
-from solver.linalg.supernodal import _sweep3
+from solver.linalg.sweeps import _sweep3
 ks = [_fill_rows, _sj_kernel, _gather_between, _sweep3]
 before = [len(k.signatures) for k in ks]
 solver.load_kernels()

@@ -19,7 +19,7 @@ neither undoes the other and they never make a MOVE conflict.
 
 Every statement runs on the event loop's thread (one connection, autocommit);
 on a local network each is well under a millisecond. A lost connection is
-opened again once per call.
+opened again once per call (:class:`~service.state.pg_connection.PgConnection`).
 """
 
 from __future__ import annotations
@@ -27,20 +27,19 @@ from __future__ import annotations
 import os
 import shutil
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 from solver.io.bounds import ReadBounds
 from solver.mesh import Mesh
 
 from ..errors import ServiceError
 from ..security import Limiter, SharedRateLimiter
+from .pg_connection import PgConnection, jsonb
 from .store import EMPTY_HISTORY, FileStore, read_mesh_files, record_only, valid_id
 
 __all__ = ["PgStore", "SCHEMA", "ORPHAN_AGE_S"]
-
-T = TypeVar("T")
 
 #: A mesh folder without a record is removed only when older than this (another replica may be writing it).
 ORPHAN_AGE_S = 3600.0
@@ -101,65 +100,28 @@ class PgStore:
     shared = True
 
     def __init__(self, url: str, root: str | os.PathLike[str], bounds: ReadBounds | None = None) -> None:
-        import psycopg
-
-        self._psycopg = psycopg
         self.url = url
         self.root = Path(root)
         self.files = FileStore(root, bounds)  # mesh folders (and the data directory's layout)
         self.sessions_dir = self.files.sessions_dir
-        self._conn: Any = None
-        with self._connection() as c:
+        self._db = PgConnection(url)
+
+        def create(c: Any) -> None:
             c.execute("SELECT pg_advisory_lock(%s)", (_SCHEMA_LOCK,))
             try:
                 c.execute(SCHEMA)
             finally:
                 c.execute("SELECT pg_advisory_unlock(%s)", (_SCHEMA_LOCK,))
 
-    # ------------------------------------------------------------ connection
-    def _connect(self) -> Any:
-        return self._psycopg.connect(self.url, autocommit=True, connect_timeout=5,
-                                     options="-c statement_timeout=10000")
-
-    def _connection(self) -> Any:
-        if self._conn is None or self._conn.closed:
-            self._conn = self._connect()
-        return self._conn
-
-    def _run(self, fn: Callable[[Any], T]) -> T:
-        """``fn(connection)``, once more on a fresh connection when the first one was lost."""
-        try:
-            return fn(self._connection())
-        except self._psycopg.OperationalError:
-            if self._conn is not None:
-                self._conn.close()
-            self._conn = None
-            return fn(self._connection())
-
-    def _rows(self, sql: str, args: Any = ()) -> list[tuple[Any, ...]]:
-        return self._run(lambda c: c.execute(sql, args).fetchall())
-
-    def _exec(self, sql: str, args: Any = ()) -> int:
-        return int(self._run(lambda c: c.execute(sql, args).rowcount))
-
-    def _json(self, doc: Any) -> Any:
-        from psycopg.types.json import Jsonb
-
-        return Jsonb(doc)
+        self._db.run(create)
 
     def close(self) -> None:
         """Close the connection."""
-        if self._conn is not None:
-            self._conn.close()
-            self._conn = None
+        self._db.close()
 
     def writable(self) -> bool:
         """True when the database answers and the data directory takes files."""
-        try:
-            self._rows("SELECT 1")
-        except self._psycopg.Error:
-            return False
-        return self.files.writable()
+        return self._db.answers() and self.files.writable()
 
     # ----------------------------------------------------------------- meshes
     def mesh_dir(self, mesh_id: str) -> Path:
@@ -172,24 +134,24 @@ class PgStore:
 
     def save_mesh_meta(self, meta: dict[str, Any]) -> None:
         """Insert or replace a mesh's meta (after its files are written)."""
-        self._exec("INSERT INTO tm_meshes (id, owner, created, meta) VALUES (%s, %s, %s, %s) "
-                   "ON CONFLICT (id) DO UPDATE SET owner = EXCLUDED.owner, meta = EXCLUDED.meta",
-                   (meta["id"], meta["owner"], float(meta.get("created", time.time())), self._json(meta)))
+        self._db.exec("INSERT INTO tm_meshes (id, owner, created, meta) VALUES (%s, %s, %s, %s) "
+                      "ON CONFLICT (id) DO UPDATE SET owner = EXCLUDED.owner, meta = EXCLUDED.meta",
+                      (meta["id"], meta["owner"], float(meta.get("created", time.time())), jsonb(meta)))
 
     def mesh_meta(self, mesh_id: str) -> dict[str, Any] | None:
         """The meta of a mesh, or None."""
         if not valid_id(mesh_id):
             return None
-        rows = self._rows("SELECT meta FROM tm_meshes WHERE id = %s", (mesh_id,))
+        rows = self._db.rows("SELECT meta FROM tm_meshes WHERE id = %s", (mesh_id,))
         return rows[0][0] if rows else None
 
     def list_meshes(self) -> list[dict[str, Any]]:
         """Every mesh's meta, oldest first."""
-        return [r[0] for r in self._rows("SELECT meta FROM tm_meshes ORDER BY created, id")]
+        return [r[0] for r in self._db.rows("SELECT meta FROM tm_meshes ORDER BY created, id")]
 
     def delete_mesh(self, mesh_id: str) -> None:
         """Remove a mesh's record, then its files."""
-        self._exec("DELETE FROM tm_meshes WHERE id = %s", (mesh_id,))
+        self._db.exec("DELETE FROM tm_meshes WHERE id = %s", (mesh_id,))
         self.files.delete_mesh(mesh_id)
 
     def save_arrays(self, mesh_id: str, mesh: Mesh) -> None:
@@ -204,7 +166,7 @@ class PgStore:
     def _row(self, record: dict[str, Any]) -> tuple[Any, ...]:
         return (record["id"], record["owner"], record["mesh_id"], float(record["created"]),
                 float(record.get("last_used", time.time())), int(record.get("version", 0)),
-                self._json(record_only(record)))
+                jsonb(record_only(record)))
 
     def create_session(self, record: dict[str, Any], limit: int) -> None:
         """Insert a new record, counting the owner's sessions under a lock of that owner.
@@ -229,29 +191,29 @@ class PgStore:
                 if not done:
                     raise ServiceError("session_exists", f"session {record['id']} exists", session_id=record["id"])
 
-        self._run(insert)
+        self._db.run(insert)
 
     def update_session(self, record: dict[str, Any], version: int) -> bool:
         """Write ``record`` over the stored one, in one statement, if it exists at ``version``; never insert."""
-        return self._exec("UPDATE tm_sessions SET record = %s, last_used = GREATEST(last_used, %s) "
-                          "WHERE id = %s AND version = %s",
-                          (self._json(record_only(record)), float(record.get("last_used", time.time())),
-                           record["id"], int(version))) > 0
+        return self._db.exec("UPDATE tm_sessions SET record = %s, last_used = GREATEST(last_used, %s) "
+                             "WHERE id = %s AND version = %s",
+                             (jsonb(record_only(record)), float(record.get("last_used", time.time())),
+                              record["id"], int(version))) > 0
 
     def commit_session(self, record: dict[str, Any], version: int) -> int | None:
         """Write ``record`` only if the stored version is still ``version``; the new version, else None."""
-        rows = self._rows("UPDATE tm_sessions SET record = %s, version = version + 1, "
-                          "last_used = GREATEST(last_used, %s) WHERE id = %s AND version = %s RETURNING version",
-                          (self._json(record_only(record)), float(record.get("last_used", time.time())), record["id"],
-                           int(version)))
+        rows = self._db.rows("UPDATE tm_sessions SET record = %s, version = version + 1, "
+                             "last_used = GREATEST(last_used, %s) WHERE id = %s AND version = %s RETURNING version",
+                             (jsonb(record_only(record)), float(record.get("last_used", time.time())), record["id"],
+                              int(version)))
         return int(rows[0][0]) if rows else None
 
     def load_session(self, session_id: str) -> dict[str, Any] | None:
         """One record (with its current version, last use and presets), or None."""
         if not valid_id(session_id):
             return None
-        rows = self._rows("SELECT record, version, last_used, presets FROM tm_sessions WHERE id = %s",
-                          (session_id,))
+        rows = self._db.rows("SELECT record, version, last_used, presets FROM tm_sessions WHERE id = %s",
+                             (session_id,))
         if not rows:
             return None
         rec, version, last_used, presets = rows[0]
@@ -261,19 +223,19 @@ class PgStore:
         """Replace a session's presets (record, version and last use untouched); False when it is gone."""
         if not valid_id(session_id):
             return False
-        return self._exec("UPDATE tm_sessions SET presets = %s WHERE id = %s", (self._json(presets), session_id)) > 0
+        return self._db.exec("UPDATE tm_sessions SET presets = %s WHERE id = %s", (jsonb(presets), session_id)) > 0
 
     def save_history(self, session_id: str, history: dict[str, Any]) -> bool:
         """Replace a session's undo history (record, version and last use untouched); False when it is gone."""
         if not valid_id(session_id):
             return False
-        return self._exec("UPDATE tm_sessions SET history = %s WHERE id = %s", (self._json(history), session_id)) > 0
+        return self._db.exec("UPDATE tm_sessions SET history = %s WHERE id = %s", (jsonb(history), session_id)) > 0
 
     def load_history(self, session_id: str) -> dict[str, Any] | None:
         """A session's undo history, or None when it is gone."""
         if not valid_id(session_id):
             return None
-        rows = self._rows("SELECT history FROM tm_sessions WHERE id = %s", (session_id,))
+        rows = self._db.rows("SELECT history FROM tm_sessions WHERE id = %s", (session_id,))
         if not rows:
             return None
         return rows[0][0] if isinstance(rows[0][0], dict) else dict(EMPTY_HISTORY)
@@ -282,75 +244,75 @@ class PgStore:
         """A session's presets, or None when it is gone."""
         if not valid_id(session_id):
             return None
-        rows = self._rows("SELECT presets FROM tm_sessions WHERE id = %s", (session_id,))
+        rows = self._db.rows("SELECT presets FROM tm_sessions WHERE id = %s", (session_id,))
         return list(rows[0][0]) if rows else None
 
     def touch_session(self, session_id: str, now: float) -> int | None:
         """Record a use (``last_used``); the stored version, or None when the session is gone."""
         if not valid_id(session_id):
             return None
-        rows = self._rows("UPDATE tm_sessions SET last_used = GREATEST(last_used, %s) WHERE id = %s "
-                          "RETURNING version", (float(now), session_id))
+        rows = self._db.rows("UPDATE tm_sessions SET last_used = GREATEST(last_used, %s) WHERE id = %s "
+                             "RETURNING version", (float(now), session_id))
         return int(rows[0][0]) if rows else None
 
     def list_sessions(self) -> list[dict[str, Any]]:
         """Every record, with its version and presets."""
         return [{**rec, "version": int(v), "last_used": float(lu), "presets": p} for rec, v, lu, p in
-                self._rows("SELECT record, version, last_used, presets FROM tm_sessions ORDER BY created, id")]
+                self._db.rows("SELECT record, version, last_used, presets FROM tm_sessions ORDER BY created, id")]
 
     def count_sessions(self, owner: str) -> int:
         """Sessions of one owner."""
-        return int(self._rows("SELECT count(*) FROM tm_sessions WHERE owner = %s", (owner,))[0][0])
+        return int(self._db.rows("SELECT count(*) FROM tm_sessions WHERE owner = %s", (owner,))[0][0])
 
     def sessions_of_mesh(self, mesh_id: str) -> list[str]:
         """Ids of the sessions on a mesh or with it as a target surface."""
-        target = self._json([{"surface": {"mesh_id": mesh_id}}])
-        return [r[0] for r in self._rows("SELECT id FROM tm_sessions WHERE mesh_id = %s OR "
-                                         "record -> 'spec' -> 'targets' @> %s ORDER BY id", (mesh_id, target))]
+        target = jsonb([{"surface": {"mesh_id": mesh_id}}])
+        return [r[0] for r in self._db.rows("SELECT id FROM tm_sessions WHERE mesh_id = %s OR "
+                                            "record -> 'spec' -> 'targets' @> %s ORDER BY id", (mesh_id, target))]
 
     def existing(self, ids: list[str]) -> set[str]:
         """Which of ``ids`` still have records."""
         if not ids:
             return set()
-        return {r[0] for r in self._rows("SELECT id FROM tm_sessions WHERE id = ANY(%s)", (ids,))}
+        return {r[0] for r in self._db.rows("SELECT id FROM tm_sessions WHERE id = ANY(%s)", (ids,))}
 
     def delete_session(self, session_id: str) -> None:
         """Remove a record."""
-        self._exec("DELETE FROM tm_sessions WHERE id = %s", (session_id,))
+        self._db.exec("DELETE FROM tm_sessions WHERE id = %s", (session_id,))
 
     def expire_idle(self, before: float) -> list[tuple[str, str]]:
         """Move sessions last used before ``before`` to ``tm_expired`` in one statement (replicas sweep at once)."""
-        rows = self._rows("WITH gone AS (DELETE FROM tm_sessions WHERE last_used < %s RETURNING id, owner) "
-                          "INSERT INTO tm_expired (id, owner, expired_at) SELECT id, owner, %s FROM gone "
-                          "ON CONFLICT (id) DO UPDATE SET expired_at = EXCLUDED.expired_at RETURNING id, owner",
-                          (float(before), time.time()))
+        rows = self._db.rows("WITH gone AS (DELETE FROM tm_sessions WHERE last_used < %s RETURNING id, owner) "
+                             "INSERT INTO tm_expired (id, owner, expired_at) SELECT id, owner, %s FROM gone "
+                             "ON CONFLICT (id) DO UPDATE SET expired_at = EXCLUDED.expired_at RETURNING id, owner",
+                             (float(before), time.time()))
         return [(r[0], r[1]) for r in rows]
 
     # ------------------------------------------------------------- tombstones
     def save_expired(self, session_id: str, owner: str, at: float) -> None:
         """Remember an expired session."""
-        self._exec("INSERT INTO tm_expired (id, owner, expired_at) VALUES (%s, %s, %s) ON CONFLICT (id) "
-                   "DO UPDATE SET expired_at = EXCLUDED.expired_at", (session_id, owner, float(at)))
+        self._db.exec("INSERT INTO tm_expired (id, owner, expired_at) VALUES (%s, %s, %s) ON CONFLICT (id) "
+                      "DO UPDATE SET expired_at = EXCLUDED.expired_at", (session_id, owner, float(at)))
 
     def expired(self, session_id: str) -> tuple[str, float] | None:
         """``(owner, expired_at)``, or None."""
         if not valid_id(session_id):
             return None
-        rows = self._rows("SELECT owner, expired_at FROM tm_expired WHERE id = %s", (session_id,))
+        rows = self._db.rows("SELECT owner, expired_at FROM tm_expired WHERE id = %s", (session_id,))
         return (rows[0][0], float(rows[0][1])) if rows else None
 
     def list_expired(self) -> list[dict[str, Any]]:
         """Every remembered expired session."""
         return [{"id": i, "owner": o, "expired_at": float(a)} for i, o, a in
-                self._rows("SELECT id, owner, expired_at FROM tm_expired")]
+                self._db.rows("SELECT id, owner, expired_at FROM tm_expired")]
 
     def delete_expired(self, session_id: str) -> None:
         """Forget an expired session."""
-        self._exec("DELETE FROM tm_expired WHERE id = %s", (session_id,))
+        self._db.exec("DELETE FROM tm_expired WHERE id = %s", (session_id,))
 
     def forget_expired(self, before: float) -> int:
         """Forget the sessions that expired before ``before``."""
-        return self._exec("DELETE FROM tm_expired WHERE expired_at < %s", (float(before),))
+        return self._db.exec("DELETE FROM tm_expired WHERE expired_at < %s", (float(before),))
 
     # ------------------------------------------------------------ rate limits
     def rate_limiter(self, rate: float, burst: int) -> Limiter:
@@ -359,13 +321,13 @@ class PgStore:
 
     def take_token(self, owner: str, rate: float, burst: int) -> tuple[bool, float]:
         """Take one token of ``owner``'s bucket (database clock): ``(granted, tokens left)``."""
-        rows = self._rows(_TAKE, {"owner": owner, "rate": float(rate), "burst": float(burst)})
+        rows = self._db.rows(_TAKE, {"owner": owner, "rate": float(rate), "burst": float(burst)})
         tokens, granted = rows[0]
         return bool(granted), float(tokens)
 
     # ------------------------------------------------------------ maintenance
     def _mesh_ids(self) -> set[str]:
-        return {r[0] for r in self._rows("SELECT id FROM tm_meshes")}
+        return {r[0] for r in self._db.rows("SELECT id FROM tm_meshes")}
 
     def remove_orphans(self) -> list[str]:
         """Remove mesh folders without a record that are older than :data:`ORPHAN_AGE_S`, and temporary files."""
@@ -385,8 +347,8 @@ class PgStore:
 
     def rename_owner(self, old: str, new: str) -> int:
         """Give every record of owner ``old`` to ``new``."""
-        n = self._exec("UPDATE tm_meshes SET owner = %s, meta = jsonb_set(meta, '{owner}', to_jsonb(%s::text)) "
-                       "WHERE owner = %s", (new, new, old))
-        n += self._exec("UPDATE tm_sessions SET owner = %s, record = jsonb_set(record, '{owner}', "
-                        "to_jsonb(%s::text)) WHERE owner = %s", (new, new, old))
+        n = self._db.exec("UPDATE tm_meshes SET owner = %s, meta = jsonb_set(meta, '{owner}', to_jsonb(%s::text)) "
+                          "WHERE owner = %s", (new, new, old))
+        n += self._db.exec("UPDATE tm_sessions SET owner = %s, record = jsonb_set(record, '{owner}', "
+                           "to_jsonb(%s::text)) WHERE owner = %s", (new, new, old))
         return n

@@ -1,8 +1,9 @@
 """The REPORT of one update: validity, constraint residuals, redundancy and conflicts, timings.
 
-:class:`Report` is a dataclass; :meth:`Report.to_dict` gives the JSON
-document the CLI writes and the service returns (keys in docs/reference/documents.md, the REPORT
-table). :func:`constraint_report` measures the hard constraints of a solve:
+:class:`Report` is the frozen dataclass of :mod:`solver.documents.report_record`
+(the REPORT's one definition, each field described there);
+:meth:`Report.to_dict` gives the JSON document the CLI writes and the service
+returns. :func:`constraint_report` measures the hard constraints of a solve:
 the residual is a distance (metres, not a per-coordinate maximum) over every
 constrained node, mid-side nodes included, and every hard row.
 """
@@ -10,7 +11,7 @@ constrained node, mid-side nodes included, and every hard row.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,7 @@ import numpy as np
 from ..constraints.assembly import describe
 from ..constraints.move import Move
 from ..constraints.rows import REPORT_IDS
+from ..documents.report_record import Report
 from ..validity.check import CheckResult
 from .constraint_set import CONFLICT_TOL, ConstraintSet
 from .rotation_field import RotationField
@@ -44,72 +46,6 @@ class ConstraintReport:
     rows: dict[str, int]
     redundant: list[dict[str, Any]]
     conflicting: list[dict[str, Any]]
-
-
-@dataclass(frozen=True)
-class Report:
-    """The REPORT of one update. ``None`` optional fields are left out of :meth:`to_dict`."""
-
-    inverted_elements: int
-    inverted_ids: list[int]
-    degenerate_elements: int
-    min_scaled_jacobian: float | None
-    p01_scaled_jacobian: float | None
-    min_scaled_jacobian_before: float | None
-    p01_scaled_jacobian_before: float | None
-    constraint_residual_max: float
-    constraint_residual_relative: float
-    constraint_rows: dict[str, int]
-    redundant_constraints: list[dict[str, Any]]
-    conflicting_constraints: list[dict[str, Any]]
-    max_displacement: float
-    solve_method: str
-    solve_mode: str
-    refine_steps: int
-    backend: str
-    lu_backend: str | None
-    finite: bool
-    degenerate_at_rest: dict[str, Any] = field(default_factory=lambda: {"count": 0, "ids": []})
-    safe_fraction: float = 1.0
-    clamped: bool = False
-    refactorized: bool = False
-    element_order: int | None = None
-    min_jacobian_ratio: float | None = None
-    invalid_at_rest_elements: int | None = None
-    midside_relaxed: dict[str, Any] | None = None
-    safe_fraction_solves: int | None = None
-    applied_fraction: float | None = None
-    inverted_elements_unclamped: int | None = None
-    repair: dict[str, Any] | None = None
-    quality: dict[str, Any] | None = None
-    interior_precision: str | None = None
-    mean_value_residual: float | None = None
-    interior_refined: bool | None = None
-    enclosed_volume_ratio: float | None = None
-    targets: dict[str, Any] | None = None
-    max_handle_displacement: float | None = None
-    max_free_displacement: float | None = None
-    timings: dict[str, Any] = field(default_factory=dict)
-
-    #: Optional keys: left out when None (``midside_relaxed`` is kept for quadratic meshes).
-    OPTIONAL = ("element_order", "min_jacobian_ratio", "invalid_at_rest_elements", "safe_fraction_solves",
-                "applied_fraction", "inverted_elements_unclamped", "repair", "quality", "interior_precision",
-                "mean_value_residual", "interior_refined", "enclosed_volume_ratio", "targets",
-                "max_handle_displacement", "max_free_displacement")
-
-    def with_(self, **changes: Any) -> Report:
-        """A copy with ``changes``."""
-        return replace(self, **changes)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The REPORT document (JSON-compatible)."""
-        out: dict[str, Any] = {}
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if v is None and (f.name in self.OPTIONAL or (f.name == "midside_relaxed" and self.element_order != 2)):
-                continue
-            out[f.name] = v
-        return out
 
 
 def all_finite(*values: Any) -> bool:

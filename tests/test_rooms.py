@@ -57,11 +57,6 @@ def test_the_reader_finder_finds_each_kind_of_read():
 #: Most lines a module (``wc -l``) and a class (``class`` to its last line) may have.
 MODULE_LINES = 700
 CLASS_LINES = 300
-#: Modules being split right now, exempt until the split lands. Remove an entry with its split:
-#: the test fails once an exempt module is within the limits, so that none stays exempt by mistake.
-BEING_SPLIT = {
-    "solver/constraints/spec.py",  # 755 lines, being split on another branch (issue 32)
-}
 
 
 def oversized(path: str, source: str) -> list[str]:
@@ -80,10 +75,8 @@ def oversized(path: str, source: str) -> list[str]:
 
 def test_no_module_and_no_class_is_over_its_limit():
     found = {path: oversized(path, (ROOT / path).read_text()) for path, _ in _sources()}
-    over = [line for path, lines in found.items() if path not in BEING_SPLIT for line in lines]
+    over = [line for lines in found.values() for line in lines]
     assert over == [], "split these along a seam:\n" + "\n".join(over)
-    done = sorted(path for path in BEING_SPLIT if not found.get(path))
-    assert done == [], f"within the limits now (or gone): remove {done} from BEING_SPLIT"
 
 
 def test_the_size_finder_names_what_is_one_line_over_and_nothing_at_the_limit():

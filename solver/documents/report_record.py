@@ -73,7 +73,7 @@ class Report:
     quality: dict[str, Any] | None = field(default=None, metadata={
         "description": "{before, after} per-metric summaries (quality=full)"})
     interior_precision: str | None = field(default=None, metadata={
-        "description": "the interior solve's precision: mixed or exact"})
+        "description": "the split solve's interior factor: single (SolveOptions.precision mixed) or double (exact)"})
     mean_value_residual: float | None = field(default=None, metadata={
         "description": "split solve: relative residual of the interior (mean value) system"})
     interior_refined: bool | None = field(default=None, metadata={

@@ -49,8 +49,9 @@ SOLVER_ENVIRONMENT = {
     "TETMORPH_SOLVER": "`cholmod`, `pardiso` or `scipy` forces the symmetric backend; a name that is not "
                        "installed fails with `unknown_backend` (see "
                        "[Method, sparse backends](../method.md#sparse-backends)). Read once, when `solver` is "
-                       "imported, into `solver.options.ENVIRONMENT`: the default `SolveOptions` of callers "
-                       "that pass none (`precompute(..., options=...)`, `--backend`, `TETMORPH_SOLVE_BACKEND`).",
+                       "imported (`solver/environment.py`), into `solver.options.ENVIRONMENT`: the default "
+                       "`SolveOptions` of callers that pass none (`precompute(..., options=...)`, `--backend`, "
+                       "`TETMORPH_SOLVE_BACKEND`); a SPEC's `solve_options.backend` wins over all of them.",
     "TETMORPH_SUPERNODAL": "`0` keeps PARDISO and CHOLMOD at every size instead of tetmorph's supernodal sweeps "
                            "(`SolveOptions(sweeps=False)`; read once at import).",
     "TETMORPH_COLUMN_BASIS": "`0` keeps the direct stacked solve of DOE blocks instead of the plan's column basis "

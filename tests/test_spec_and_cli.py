@@ -145,3 +145,24 @@ def test_singular_system_raises_factorization_error():
         cholesky(sp.csr_matrix(np.array([[np.nan, 0.0], [0.0, 1.0]])))
     with pytest.raises(FactorizationError):
         lu(sp.csr_matrix(np.array([[1.0, 2.0], [2.0, 4.0]])), "test lu").solve(np.ones(2))
+
+
+@pytest.mark.parametrize("with_nulls, without", [
+    ({"points": [{"name": "p", "vertices": [5], "edge": None, "t": None}]},
+     {"points": [{"name": "p", "vertices": [5]}]}),
+    ({"relative": [{"name": "r", "vertices": None, "points": [{"vertices": [5]}, {"edge": [6, 7], "t": 0.5}]}]},
+     {"relative": [{"name": "r", "points": [{"vertices": [5]}, {"edge": [6, 7], "t": 0.5}]}]}),
+    ({"motion": [{"name": "m", "vertices": [5], "plane": None, "line": {"direction": [1, 0, 0]}}]},
+     {"motion": [{"name": "m", "vertices": [5], "line": {"direction": [1, 0, 0]}}]}),
+    ({"selections": {**GOOD["selections"], "b": {"ids": None, "set": None,
+                                                  "box": {"min": [0, 0, 1], "max": [1, 1, 1]}}}}, {}),
+    ({"ties": {"tolerance": 1e-9, "surface": None, "surface_tolerance": None}}, {"ties": {"tolerance": 1e-9}}),
+    ({"domain": None, "constraints": None, "solve_options": None}, {}),
+])
+def test_a_null_field_of_a_spec_is_an_absent_one(with_nulls, without):
+    """JSON ``null`` for an optional field means it is not given: the SPEC solves as the one without it."""
+    mesh = mesh_from_arrays(*cube_mesh(3))
+    move = {"handles": {"h": {"translation": [0.05, 0, 0.02]}}}
+    a = precompute(mesh, {**GOOD, **with_nulls}).solve(move).V
+    b = precompute(mesh, {**GOOD, **without}).solve(move).V
+    assert np.array_equal(a, b)

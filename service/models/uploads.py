@@ -37,8 +37,8 @@ class Band(BaseModel):
     band: list[Selection] = Field(min_length=1, max_length=1000, description="SELECTION documents (as in a SPEC)")
 
     def dump(self) -> list[dict[str, Any]]:
-        """The selections as given."""
-        return [s.model_dump(exclude_unset=True) for s in self.band]
+        """The selections as given (a ``null`` field is absent)."""
+        return [s.model_dump(exclude_unset=True, exclude_none=True) for s in self.band]
 
 
 class SessionCreate(BaseModel):

@@ -105,8 +105,8 @@ SELECTION_KINDS = ("ids", "set", "box", "sphere", "plane")
 class Selection(BaseModel):
     """Exactly one of ``ids``, ``set``, ``box``, ``sphere``, ``plane``; optionally ``boundary_only``.
 
-    The schema says so (``oneOf`` of the five, none of them ``null``); the SPEC parser refuses the rest
-    (422 ``invalid_spec`` naming the selection).
+    The schema says so (``oneOf`` of the five, none of them ``null``), and so does the model's own check
+    (a ``null`` kind counts as absent).
     """
 
     model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
@@ -144,13 +144,13 @@ class RelativePoint(BaseModel):
     """
 
     model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra=_point_schema)
-    vertices: DistinctIds | None = Field(None, min_length=1, max_length=100_000)
-    weights: list[Weight] | None = Field(None, max_length=100_000)
-    edge: DistinctIds | None = Field(None, min_length=2, max_length=2)
-    t: Fraction | None = None
-    face: DistinctIds | None = Field(None, min_length=3, max_length=3)
-    barycentric: list[Fraction] | None = Field(None, min_length=3, max_length=3)
-    selection: StrictStr | None = Field(None, max_length=200)
+    vertices: Annotated[DistinctIds, Field(min_length=1, max_length=100_000)] | SkipJsonSchema[None] = None
+    weights: Annotated[list[Weight], Field(max_length=100_000)] | SkipJsonSchema[None] = None
+    edge: Annotated[DistinctIds, Field(min_length=2, max_length=2)] | SkipJsonSchema[None] = None
+    t: Fraction | SkipJsonSchema[None] = None
+    face: Annotated[DistinctIds, Field(min_length=3, max_length=3)] | SkipJsonSchema[None] = None
+    barycentric: Annotated[list[Fraction], Field(min_length=3, max_length=3)] | SkipJsonSchema[None] = None
+    selection: Annotated[StrictStr, Field(max_length=200)] | SkipJsonSchema[None] = None
 
     @model_validator(mode="after")
     def _one_form(self) -> RelativePoint:
@@ -215,8 +215,8 @@ class Motion(PointBase):
     """A point that moves on a plane or along a line."""
 
     model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra=_motion_schema)
-    plane: Normal | None = None
-    line: Direction | None = None
+    plane: Normal | SkipJsonSchema[None] = None
+    line: Direction | SkipJsonSchema[None] = None
 
     @model_validator(mode="after")
     def _plane_or_line(self) -> Motion:
@@ -231,8 +231,8 @@ class Relative(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True,
                               json_schema_extra={"oneOf": [{"required": ["vertices"]}, {"required": ["points"]}]})
     name: StrictStr = Field(max_length=200)
-    vertices: DistinctIds | None = Field(None, min_length=2, max_length=2)
-    points: list[RelativePoint] | None = Field(None, min_length=2, max_length=2)
+    vertices: Annotated[DistinctIds, Field(min_length=2, max_length=2)] | SkipJsonSchema[None] = None
+    points: Annotated[list[RelativePoint], Field(min_length=2, max_length=2)] | SkipJsonSchema[None] = None
     mode: Literal["rotate", "translate"] = "rotate"
 
     @model_validator(mode="after")
@@ -317,8 +317,9 @@ class Ties(BaseModel):
 
     model_config = ConfigDict(extra="forbid", strict=True,
                               json_schema_extra={"anyOf": [{"required": ["tolerance"]}, {"required": ["surface"]}]})
-    tolerance: NonNegLength | None = None
-    surface: list[Annotated[list[StrictStr], Field(min_length=2, max_length=2)]] | None = Field(None, max_length=1000)
+    tolerance: NonNegLength | SkipJsonSchema[None] = None
+    surface: Annotated[list[Annotated[list[StrictStr], Field(min_length=2, max_length=2)]],
+                       Field(max_length=1000)] | SkipJsonSchema[None] = None
     surface_tolerance: NonNegLength | None = None
 
     @model_validator(mode="after")
@@ -436,5 +437,5 @@ class Spec(BaseModel):
         return self
 
     def dump(self) -> dict[str, Any]:
-        """The document as given (fields not set are left out)."""
-        return self.model_dump(exclude_unset=True, mode="python")
+        """The document as given; fields not set, and fields given as ``null`` (absent in JSON's sense), left out."""
+        return self.model_dump(exclude_unset=True, exclude_none=True, mode="python")

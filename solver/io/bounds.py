@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import UnreadableFileError
+from ..errors import SolverError, UnreadableFileError
 from ..limits import MAX_CELLS, MAX_EXPANDED_BYTES, MAX_POINTS
 
 __all__ = ["ReadBounds", "check_declared_sizes", "expansion_budget", "memory_error"]
@@ -51,7 +51,8 @@ class ReadBounds:
     points, cells : int
         Most nodes and elements.
     expanded_bytes : int
-        Most bytes compressed data arrays (VTU) or HDF5 datasets may expand to, in all.
+        Most bytes a file's data arrays may take once read, in all: compressed arrays (VTU blocks, HDF5
+        datasets) by what they expand to, uncompressed tables (legacy VTK, TetGen) by their declared counts.
     points_setting, cells_setting, bytes_setting : str
         Where each bound is set, named in the errors.
     """
@@ -120,7 +121,12 @@ def check_declared_sizes(path: str, fmt: str, bounds: ReadBounds | None = None) 
         return  # text formats without declared counts: what they hold is bounded by their size
     with open(path, "rb") as fh:
         head = fh.read(_HEAD)
-    check(path, os.path.basename(path), head, bounds)
+    try:
+        check(path, os.path.basename(path), head, bounds)
+    except SolverError:
+        raise
+    except (struct.error, ValueError, IndexError, OverflowError, OSError, UnicodeDecodeError):
+        return  # a header too short or malformed to read a count from: the format's reader names the defect
 
 
 # ------------------------------------------------------------------ VTU, VTK, Gmsh

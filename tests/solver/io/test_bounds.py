@@ -191,3 +191,16 @@ def test_a_reader_out_of_memory_is_a_typed_error_not_the_allocators_words(tmp_pa
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.startswith("too_large_to_read MAX_EXPANDED_BYTES"), r.stdout
     assert "Unable to allocate" not in r.stdout and "MemoryError" not in r.stdout
+
+
+@pytest.mark.parametrize("name, data", [
+    ("short.meshb", struct.pack("<4i", 1, 2, 3, 0)),  # a keyword with no count after it
+    ("negative.meshb", struct.pack("<5i", 1, 2, 3, 0, 3) + struct.pack("<3i", 4, 0, -5)),  # a count below zero
+    ("cut.meshb", struct.pack("<2i", 1, 2) + b"\1"),  # cut inside a keyword
+    ("short.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex x\n"),  # a count that is no number
+])
+def test_a_malformed_header_is_named_by_the_reader_as_a_typed_error(tmp_path, name, data):
+    path = tmp_path / name
+    path.write_bytes(data)
+    with pytest.raises(UnreadableFileError):
+        read_mesh(str(path))

@@ -6,7 +6,7 @@ import ctypes
 import ctypes.util
 import gc
 
-from solver.linalg.pardiso import mkl_runtime
+from solver.linalg.pardiso import loaded_mkl
 
 __all__ = ["release_memory"]
 
@@ -18,11 +18,11 @@ def release_memory() -> None:
     deleted: glibc keeps freed arenas and MKL keeps its buffers for reuse.
     """
     gc.collect()
-    mkl = mkl_runtime()
-    if mkl:
+    mkl = loaded_mkl()  # only an MKL this process uses has buffers to free
+    if mkl is not None:
         try:
-            ctypes.CDLL(mkl).mkl_free_buffers()
-        except (OSError, AttributeError):
+            mkl.mkl_free_buffers()
+        except AttributeError:  # pragma: no cover - every MKL has it
             pass
     name = ctypes.util.find_library("c")
     if name:

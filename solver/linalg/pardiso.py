@@ -26,6 +26,7 @@ Bunch-Kaufman pivoting (``iparm(8) = 2``, ``iparm(21) = 1``).
 from __future__ import annotations
 
 import ctypes
+import functools
 import glob
 import os
 import sys
@@ -39,14 +40,15 @@ from ..errors import FactorizationError
 from .layout import c_copy, fortran_copy
 from .threads import WIDE_COLUMNS, mkl_local_threads, solve_threads
 
-__all__ = ["PardisoFactor", "mkl_runtime", "nested_dissection"]
+__all__ = ["PardisoFactor", "mkl_runtime", "loaded_mkl", "nested_dissection"]
 
 _LIB: ctypes.CDLL | None = None
 _LOCK = threading.Lock()
 
 
+@functools.cache
 def mkl_runtime() -> str | None:
-    """Path of MKL's single dynamic library (``libmkl_rt``), or None when MKL is not installed."""
+    """Path of MKL's single dynamic library (``libmkl_rt``), or None when MKL is not installed (looked up once)."""
     env = START.mkl_rt
     if env and os.path.exists(env):
         return env
@@ -54,6 +56,20 @@ def mkl_runtime() -> str | None:
     found = sorted(glob.glob(f"{sys.prefix}/lib/libmkl_rt.so*"), key=len) or \
         sorted(glob.glob(f"{sys.prefix}/[Ll]ib*/**/*mkl_rt*", recursive=True), key=len)
     return found[0] if found else None
+
+
+def loaded_mkl() -> ctypes.CDLL | None:
+    """MKL's library when this process has loaded it already (PARDISO, the fronts' BLAS), else None.
+
+    Never loads it: ``dlopen`` with ``RTLD_NOLOAD`` only finds a library already in the process.
+    """
+    path = mkl_runtime()
+    if path is None:
+        return None
+    try:
+        return ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_LAZY)
+    except OSError:
+        return None
 
 
 def _library() -> ctypes.CDLL:

@@ -58,9 +58,11 @@ class Settings(BaseSettings):
                                 "may declare; checked as max_file_points (422 too_many_cells).")
     max_file_expanded_mb: float = Field(
         1024.0, gt=0, le=MAX_EXPANDED_BYTES / 2**20,
-        description="Most MiB an uploaded file's compressed data arrays (VTU zlib/LZMA blocks) or HDF5 datasets "
-                    "(XDMF, CGNS) may expand to, in all; checked from their headers before anything is "
-                    "decompressed, and again while decompressing (422 too_many_bytes).")
+        description="Most MiB a mesh file's data arrays may take once read, in all: compressed arrays (VTU "
+                    "zlib/LZMA blocks, HDF5 datasets of XDMF, CGNS) from their headers before anything is "
+                    "decompressed and again while decompressing, uncompressed tables (legacy VTK, TetGen) from "
+                    "their declared counts (422 too_many_bytes). The default holds far more than "
+                    "max_elements; it applies to stored meshes when they are read back too.")
     head_timeout_s: float = Field(10.0, gt=0, description="Longest a client may take to send a request's "
                                   "line and headers, or may pause in its body (which must also average "
                                   "1 KiB/s after that long); a slower connection is closed (tetmorph serve).")

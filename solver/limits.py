@@ -61,9 +61,10 @@ BLOCK_MAX = 1024
 SHAPE_VALUE_MAX = 1e6
 #: Widest final bracket of a bounds search, in parameter units.
 BOUNDS_TOL_MAX = 1e3
-#: Most bytes the compressed data arrays of a file (VTU's zlib or LZMA blocks) or its HDF5 datasets
-#: (XDMF, CGNS, MED) may expand to, in all: checked from the block headers and dataset shapes before
-#: anything is decompressed, and again while decompressing. A file at :data:`MAX_POINTS` and
+#: Most bytes the data arrays of a file may take once read, in all: compressed ones (VTU's zlib or LZMA
+#: blocks, HDF5 datasets of XDMF, CGNS, MED) checked from the block headers and dataset shapes before
+#: anything is decompressed and again while decompressing, uncompressed tables (legacy VTK, TetGen)
+#: from their declared counts. A file at :data:`MAX_POINTS` and
 #: :data:`MAX_CELLS` (coordinates, connectivity, offsets and types) holds about 14 GB.
 MAX_EXPANDED_BYTES = 16 * 2**30
 #: Most threads a SPEC or a caller may ask one solve to use (a cap: a solve never takes more than the

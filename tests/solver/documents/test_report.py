@@ -74,7 +74,23 @@ def test_a_field_added_to_the_dataclass_is_in_the_model_with_no_second_edit():
         namespace={"MAY_BE_LEFT_OUT": (*LibraryReport.MAY_BE_LEFT_OUT, "note")})
     schema = report_model(extended, "Extended").model_json_schema(mode="serialization")
     assert list(schema["properties"])[-2:] == ["spare_ms", "note"]
-    assert schema["properties"]["spare_ms"] == {"type": "number", "description": "time spared", "title": "Spare Ms"}
+    assert schema["properties"]["spare_ms"] == {"anyOf": [{"type": "number"}, {"type": "null"}],  # NaN: null
+                                                "description": "time spared", "title": "Spare Ms"}
     assert schema["properties"]["note"]["description"] == "a note"
     assert "spare_ms" in schema["required"] and "note" not in schema["required"]
     assert schema["description"] == SCHEMA["description"] and schema["examples"] == SCHEMA["examples"]
+
+
+def test_the_schemas_example_is_a_whole_report_the_schema_takes():
+    from solver.documents.report import EXAMPLES
+
+    schema = Report.model_json_schema()
+    for example in EXAMPLES:
+        assert list(jsonschema.Draft202012Validator(schema).iter_errors(example)) == []
+        assert set(schema["required"]) <= set(example)
+    # a result that is not finite is written with nulls (JSON has no NaN), and still validates
+    whole = dict(EXAMPLES[0], finite=False, max_displacement=None, constraint_residual_max=None,
+                 min_scaled_jacobian=None)
+    assert jsonschema.Draft202012Validator(schema).is_valid(whole)
+    assert set(schema["required"]) == {f.name for f in fields(LibraryReport) if f.name not in
+                                       LibraryReport.MAY_BE_LEFT_OUT}

@@ -35,6 +35,8 @@ from ..deform.deformer import Deformer
 from ..deform.solve import check_positions, solve_positions_many
 from ..errors import SpecError
 from ..limits import BOUNDS_TOL_MAX, SHAPE_VALUE_MAX
+from ..linalg.threads import solving
+from ..options import using
 from .plan import check_block
 from .shapes import Shapes, variant_move
 
@@ -218,6 +220,13 @@ def shape_bounds(deformer: Deformer, shapes: Shapes, *, lo: float | None = None,
     if (lo is not None and lo > 0) or (hi is not None and hi < 0):
         raise SpecError(f"the range [{lo}, {hi}] must contain 0 (bounds are searched from the base "
                         "parameters)", code="invalid_range", field="range")
+    with using(deformer.data.options), solving():  # the precompute's options and thread cap, as its solves
+        return _search(deformer, shapes, lo, hi, base, tol, block, progress, cancelled)
+
+
+def _search(deformer: Deformer, shapes: Shapes, lo: float | None, hi: float | None, base: Any, tol: float,
+            block: int, progress: Callable[[int, int], None] | None,
+            cancelled: Callable[[], bool] | None) -> BoundsResult:
     t0 = time.perf_counter()
     K = shapes.count
     th0 = np.zeros(K) if base is None else np.asarray(base, np.float64)

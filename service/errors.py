@@ -49,7 +49,7 @@ CODE_STATUS: dict[str, int] = {
     # 422: the request's documents, files or parameters
     "invalid_request": 422, "invalid_message": 422, "unknown_format": 422, "unknown_metric": 422,
     "too_many_elements": 422, "too_many_triangles": 422, "non_finite_result": 422,
-    "out_of_range": 422, "index_out_of_range": 422, "job_time_limit": 422,
+    "out_of_range": 422, "index_out_of_range": 422, "job_time_limit": 422, "solve_option_not_allowed": 422,
     "surface_not_found": 422, "not_a_surface": 422, "too_many_rows": 422, "engine_unavailable": 422,
     "result_too_large": 422, "bounds_time_limit": 422, "solver_unavailable": 422, "duplicate_file_name": 422,
     # 429: limits per key

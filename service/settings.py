@@ -90,6 +90,11 @@ class Settings(BaseSettings):
                                   "backends' own solves, no supernodal sweeps, no column basis.")
     solver_threads: int = Field(0, ge=0, description="Most threads one solve uses (0: every free core; 1: "
                                 "serial solves, for hosts that run other work on every core).")
+    spec_solve_options: list[Literal["backend", "precision", "threads", "sweeps", "basis"]] = Field(
+        ["precision", "threads"], description="The fields of a SPEC's solve_options a client may set (a JSON "
+        "list); a SPEC that sets another is refused (422 solve_option_not_allowed), so that the backend and "
+        "the solve path stay the operator's (solve_backend, solve_reference). threads only lowers "
+        "solver_threads.")
     demo: bool = Field(False, description="Load the demo beam and session at start-up.")
     load_kernels: bool = Field(True, description="Load the solver's compiled kernels at start-up, before "
                                "/ready answers ready, so that no client's first session waits for them.")

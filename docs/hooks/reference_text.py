@@ -138,12 +138,19 @@ ERRORS: dict[str, tuple[str, str]] = {
     "unsupported_media_type": ("The body's content type is not one the route reads.",
                                "Send JSON as `application/json` and files as `multipart/form-data`."),
     # documents and parameters
-    "invalid_request": ("A field of the request is missing, of the wrong type, unknown, or holds a NUL; the "
-                        "message and `details` name the field.", "Fix the named field (see the document reference)."),
+    "invalid_request": ("A field of the request is missing, of the wrong type, unknown, out of its range, or holds "
+                        "a NUL; or a document breaks one of its own rules (a box's min above its max, a zero "
+                        "normal, a POINT with two forms, barycentric coordinates that do not sum to 1, two "
+                        "precisions that disagree). The message and `details` name the field.",
+                        "Fix the named field (see the document reference)."),
     "invalid_message": ("A WebSocket frame is not a JSON object `{seq, move}` (binary, not JSON, no `move`).",
                         "Send text frames `{\"seq\": k, \"move\": MOVE}`."),
     "out_of_range": ("A translation, pivot or target lies farther than 100 bounding-box diagonals from the mesh.",
                      "Check the units of the MOVE against the mesh's."),
+    "solve_option_not_allowed": ("The SPEC's `solve_options` set a field the service leaves to its operator "
+                                 "(by default `backend`, `sweeps` and `basis`).",
+                                 "Leave the field out, or ask the operator to add it to "
+                                 "`TETMORPH_SPEC_SOLVE_OPTIONS`."),
     "index_out_of_range": ("A vertex id is not below the mesh's vertex count.",
                            "Ids are 0-based, in file order; `tetmorph info` gives the count."),
     "unknown_metric": ("A quality metric that does not exist.", "Choose from the metrics the message lists."),

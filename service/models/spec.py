@@ -12,7 +12,8 @@ from solver.documents.spec import Selection, Spec, Target
 
 from ..errors import ServiceError
 
-__all__ = ["Spec", "Selection", "Target", "check_spec_ids", "check_selection_ids", "stored_surfaces"]
+__all__ = ["Spec", "Selection", "Target", "check_spec_ids", "check_selection_ids", "check_solve_options",
+           "stored_surfaces"]
 
 def _bad_ids(ids: list[int], n: int) -> list[int]:
     return [i for i in ids if not 0 <= i < n]
@@ -54,6 +55,23 @@ def check_spec_ids(spec: dict[str, Any], n: int) -> None:
                 raise ServiceError("index_out_of_range", f"SPEC.ties[{k}] has vertex ids outside [0, {n}): "
                                    f"{bad}", field=f"SPEC.ties[{k}]", ids=bad, vertices=n)
 
+
+
+def check_solve_options(spec: dict[str, Any], allowed: list[str]) -> None:
+    """Refuse a SPEC whose ``solve_options`` set a field outside ``allowed`` (the service's setting).
+
+    Raises
+    ------
+    ServiceError
+        422 ``solve_option_not_allowed`` naming the field.
+    """
+    given = spec.get("solve_options") or {}
+    refused = sorted(k for k, v in given.items() if v is not None and k not in allowed) \
+        if isinstance(given, dict) else []
+    if refused:
+        raise ServiceError("solve_option_not_allowed", f"SPEC.solve_options.{refused[0]} is the service's to "
+                           f"choose; a SPEC may set {sorted(allowed) or 'none of them'}",
+                           field=f"SPEC.solve_options.{refused[0]}", allowed=sorted(allowed))
 
 
 def stored_surfaces(spec: dict[str, Any]) -> list[tuple[int, str]]:

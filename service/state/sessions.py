@@ -29,7 +29,7 @@ from solver.errors import InvalidMeshError
 from solver.mesh import Mesh
 
 from ..errors import NotFound, ServiceError, error_from_dict
-from ..models.spec import check_spec_ids, stored_surfaces
+from ..models.spec import check_solve_options, check_spec_ids, stored_surfaces
 from ..settings import Settings
 from .builder import Builder
 from .catalogue import Catalogue
@@ -189,6 +189,7 @@ class Sessions(Mapping[str, Session]):
         self.sweep()
         meta = self.catalogue.meta(owner, mesh_id)
         check_spec_ids(spec, int(meta.get("info", {}).get("vertices", 0)))
+        check_solve_options(spec, self.settings.spec_solve_options)
         resolved = await resolve_spec(self.catalogue, owner, spec)
         parse_spec(resolved)  # malformed SPEC: 422 before anything is stored
         limit = self.settings.max_sessions

@@ -123,6 +123,32 @@ def test_a_session_refused_at_build_leaves_no_record_even_after_a_restart(tmp_pa
         assert tc.get("/v1/sessions").json() == []
 
 
+def test_a_specs_solve_options_may_set_only_what_the_operator_allows(tmp_path):
+    from service.client import Client
+
+    with running(tmp_path / "data", load_kernels=False) as tc:
+        mesh = upload_bracket(Client(http=tc))
+        for field in ("backend", "sweeps", "basis"):
+            value = "scipy" if field == "backend" else False
+            r = tc.post("/v1/sessions", json={"mesh_id": mesh["id"],
+                                              "spec": {**BRACKET_SPEC, "solve_options": {field: value}}})
+            assert r.status_code == 422, r.text
+            assert err(r)["code"] == "solve_option_not_allowed"
+            assert err(r)["details"]["field"] == f"SPEC.solve_options.{field}"
+        assert tc.get("/v1/sessions").json() == []  # nothing stored
+        ok = {**BRACKET_SPEC, "solve_options": {"precision": "exact", "threads": 1, "backend": None}}
+        r = tc.post("/v1/sessions?wait=true", json={"mesh_id": mesh["id"], "spec": ok})
+        assert r.status_code in (200, 201, 202), r.text
+    with running(tmp_path / "data2", load_kernels=False, spec_solve_options=["backend"]) as tc:
+        mesh = upload_bracket(Client(http=tc))
+        r = tc.post("/v1/sessions", json={"mesh_id": mesh["id"],
+                                          "spec": {**BRACKET_SPEC, "solve_options": {"backend": "scipy"}}})
+        assert r.status_code in (200, 201, 202), r.text
+        r = tc.post("/v1/sessions", json={"mesh_id": mesh["id"],
+                                          "spec": {**BRACKET_SPEC, "solve_options": {"threads": 1}}})
+        assert r.status_code == 422 and err(r)["details"]["field"] == "SPEC.solve_options.threads"
+
+
 def test_bad_move_is_422_and_keeps_state(client, tc):
     mesh = upload_bracket(client)
     s = client.create_session(mesh["id"], BRACKET_SPEC)

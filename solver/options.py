@@ -18,8 +18,9 @@ positions' precompute and every solve read the one in effect through
    ``--backend``, ``--reference`` and ``--threads`` (:func:`from_arguments`),
    the service's settings;
 3. the SPEC's ``solve_options`` (and its ``precision``), which replace what
-   they name (:meth:`SolveOptions.overlay`): a SPEC solves the same way
-   wherever it runs. ``threads`` there only lowers the caller's cap.
+   they name (:meth:`SolveOptions.updated`; :meth:`SolveOptions.overlay`
+   validates a document first): a SPEC solves the same way wherever it
+   runs. ``threads`` there only lowers the caller's cap.
 
 :meth:`SolveOptions.reference` is the plain path: the backends' own
 solves (CHOLMOD, PARDISO, SuperLU), no supernodal sweeps, no column basis.

@@ -274,7 +274,7 @@ class Spec:
         What the SPEC asks of the solve (``backend``, ``precision``, ``threads``,
         ``sweeps``, ``basis``; its ``precision`` is here too): laid over the
         caller's :class:`~solver.options.SolveOptions` by
-        :meth:`~solver.options.SolveOptions.overlay` at precompute. ``mixed``
+        :meth:`~solver.options.SolveOptions.updated` at precompute. ``mixed``
         precision factors the interior mean-value system in single precision
         (half the bytes per update), checks the double-precision residual and
         refines once when it exceeds :data:`~solver.deform.positions.MIXED_TOL`;

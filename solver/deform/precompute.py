@@ -137,7 +137,7 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None,
     options : SolveOptions, optional
         Backend, precision, threads, sweeps and column basis (default: those in
         effect, :func:`solver.options.current`); the SPEC's ``solve_options``
-        replace what they name (:meth:`~solver.options.SolveOptions.overlay`).
+        replace what they name (:meth:`~solver.options.SolveOptions.updated`).
 
     Returns
     -------

@@ -77,7 +77,6 @@ BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {
     "invalid_plan": ("a plan row has another number of cells than the header has columns, or a CSV text "
                      "plan does not parse", lambda e, c: "cells" in e["message"] or _csv_plan(e, c)),
     "empty_plan": ("a CSV text plan with no header or no row (the text's content)", _csv_plan),
-    "invalid_shapes": ("a reserved shape name (a DOE summary column)", lambda e, c: "reserved" in e["message"]),
     "invalid_request": ("two presets of one name (uniqueItems compares whole items, not one field); or "
                         "relations between the numbers of one array or object: a box's min above its max, a "
                         "zero normal or direction, barycentric coordinates that do not sum to 1, weights that "

@@ -37,7 +37,6 @@ serialized rather than corrupted.
 
 from __future__ import annotations
 
-import os
 import threading
 import warnings
 from collections import Counter
@@ -52,6 +51,7 @@ from ..options import current as current_options
 from .multifrontal import lu_multifrontal
 from .pardiso import PardisoFactor, mkl_runtime
 from .supernodal import Unsuitable, cholmod_supernodal
+from .threads import openblas
 
 __all__ = ["STATS", "Factor", "PerformanceWarning", "backend", "lu_backend", "cholesky", "lu", "ldl"]
 
@@ -200,16 +200,8 @@ def _quiet_system_blas() -> None:
     if _BLAS_QUIETED:
         return
     _BLAS_QUIETED = True
-    try:
-        import sys
-
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - a dependency; only speed is at stake
-        return
-    prefix = os.path.realpath(sys.prefix)
-    for lib in ThreadpoolController().lib_controllers:
-        if lib.internal_api == "openblas" and not os.path.realpath(lib.filepath).startswith(prefix):
-            lib.set_num_threads(1)
+    for lib in openblas(own=False):  # its own C function: threadpoolctl's would ignore any thread but its first
+        lib.set_num_threads(1)
 
 
 class _CholmodFactor:

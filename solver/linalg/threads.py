@@ -30,17 +30,20 @@ would otherwise spin on cores that other work needs.
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
 import numba
 
 from ..options import current as current_options
 
 __all__ = ["WIDE_COLUMNS", "solve_threads", "solving", "configure", "current_threads", "in_flight",
-           "in_flight_peak", "in_flight_reset", "free_threads", "cores", "mkl_local_threads", "one_blas_thread"]
+           "in_flight_peak", "in_flight_reset", "free_threads", "cores", "mkl_local_threads", "one_blas_thread",
+           "OpenBLAS", "openblas"]
 
 #: Right-hand-side columns above which a back-substitution counts as stacked.
 WIDE_COLUMNS = 6
@@ -177,14 +180,49 @@ def mkl_local_threads(lib: ctypes.CDLL, n: int) -> int:
     return int(f(int(n)))
 
 
-_OPENBLAS: list | None = None  # numpy's and scipy's own OpenBLAS controllers, found once
-_BLAS_LOCK = threading.Lock()
-_BLAS_USERS = 0
-_BLAS_SAVED: list[int] = []
+class OpenBLAS:
+    """One OpenBLAS library's thread count, read and set through its own C functions.
+
+    Not threadpoolctl's ``set_num_threads``: since threadpoolctl 3.8 only the first
+    thread that sets a pthreads OpenBLAS may set it again while that thread lives,
+    and a call from any other thread silently does nothing. In a process where a
+    long-lived thread set a count first (a service's build or solve pool, CHOLMOD's
+    first factor in :mod:`solver.linalg.factorization`), every other thread's
+    block would leave OpenBLAS on all its threads, or leave it on one for good.
+    OpenBLAS's own ``openblas_set_num_threads`` sets the process-wide count
+    (pthreads builds) from any thread.
+    """
+
+    __slots__ = ("filepath", "_get", "_set")
+
+    def __init__(self, filepath: str) -> None:
+        self.filepath = filepath
+        lib = ctypes.CDLL(filepath, mode=os.RTLD_NOLOAD)  # loaded already: only its handle
+        for prefix in ("", "scipy_"):  # the affixes of numpy's and scipy's wheels (scipy-openblas32/64)
+            for suffix in ("", "64_", "_64"):
+                get = getattr(lib, f"{prefix}openblas_get_num_threads{suffix}", None)
+                set_ = getattr(lib, f"{prefix}openblas_set_num_threads{suffix}", None)
+                if get is not None and set_ is not None:
+                    get.restype, get.argtypes = ctypes.c_int, []
+                    set_.restype, set_.argtypes = None, [ctypes.c_int]
+                    self._get, self._set = get, set_
+                    return
+        raise OSError(f"{filepath}: no openblas_get_num_threads/openblas_set_num_threads")
+
+    def get_num_threads(self) -> int:
+        """The library's thread count (process-wide)."""
+        return int(self._get())
+
+    def set_num_threads(self, n: int) -> None:
+        """Set the library's thread count (process-wide), from any thread."""
+        self._set(int(n))
 
 
-def _own_openblas() -> list:
-    """The OpenBLAS libraries inside this Python's prefix (numpy's and scipy's wheels; not CHOLMOD's system one)."""
+def openblas(own: bool = True) -> list[OpenBLAS]:
+    """The OpenBLAS libraries loaded in this process, inside or outside this Python's prefix.
+
+    ``own``: inside it (numpy's and scipy's wheels); ``own=False``: outside it (the system one CHOLMOD links).
+    """
     try:
         import sys
 
@@ -192,8 +230,56 @@ def _own_openblas() -> list:
     except ImportError:  # pragma: no cover - a dependency; only speed is at stake
         return []
     prefix = os.path.realpath(sys.prefix)
-    return [c for c in ThreadpoolController().lib_controllers
-            if c.internal_api == "openblas" and os.path.realpath(c.filepath).startswith(prefix)]
+    found = []
+    for c in ThreadpoolController().lib_controllers:
+        if c.internal_api == "openblas" and os.path.realpath(c.filepath).startswith(prefix) == own:
+            try:
+                found.append(OpenBLAS(c.filepath))
+            except OSError:  # pragma: no cover - an OpenBLAS without the thread API
+                pass
+    return found
+
+
+class _PhdrInfo(ctypes.Structure):  # glibc's struct dl_phdr_info up to dlpi_subs
+    _fields_ = [("addr", ctypes.c_void_p), ("name", ctypes.c_char_p), ("phdr", ctypes.c_void_p),
+                ("phnum", ctypes.c_uint16), ("adds", ctypes.c_ulonglong), ("subs", ctypes.c_ulonglong)]
+
+
+_PHDR_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(_PhdrInfo), ctypes.c_size_t, ctypes.c_void_p)
+
+
+def _loads() -> tuple[int, int] | None:
+    """Shared objects loaded and unloaded so far in this process (glibc's dlpi_adds, dlpi_subs), or None."""
+    seen: list[tuple[int, int]] = []
+
+    def first(info: Any, size: int, _data: Any) -> int:
+        if size >= ctypes.sizeof(_PhdrInfo):
+            seen.append((info.contents.adds, info.contents.subs))
+        return 1  # the counts are the same in every entry: stop at the first
+
+    iterate = getattr(_process(), "dl_iterate_phdr", None)
+    if iterate is None:  # pragma: no cover - not glibc
+        return None
+    iterate(_PHDR_CALLBACK(first), None)
+    return seen[0] if seen else None
+
+
+@functools.cache
+def _process() -> ctypes.CDLL:
+    """The symbols of the whole process (libc's among them)."""
+    return ctypes.CDLL(None)
+
+
+def _own_openblas() -> list[OpenBLAS]:
+    """NumPy's and SciPy's own OpenBLAS (inside this Python's prefix; not CHOLMOD's system one)."""
+    return openblas(own=True)
+
+
+_OPENBLAS: list[OpenBLAS] | None = None  # numpy's and scipy's own OpenBLAS, found again when a library loads
+_OPENBLAS_LOADS: tuple[int, int] | None = None
+_BLAS_LOCK = threading.Lock()
+_BLAS_USERS = 0
+_BLAS_SAVED: list[int] = []
 
 
 @contextmanager
@@ -206,13 +292,16 @@ def one_blas_thread() -> Iterator[None]:
     products, seen in a throw-away script timing the stages), and the products
     themselves ran no faster on two threads. For short runs of small dense products. Nested and concurrent
     blocks count their users: the first entry saves the thread counts, the last
-    exit restores them.
+    exit restores them. Any thread may set and restore them (:class:`OpenBLAS`),
+    and the libraries are looked up again when the process has loaded a shared
+    object since the last look.
     """
-    global _OPENBLAS, _BLAS_USERS, _BLAS_SAVED
+    global _OPENBLAS, _OPENBLAS_LOADS, _BLAS_USERS, _BLAS_SAVED
     with _BLAS_LOCK:
-        if _OPENBLAS is None:
-            _OPENBLAS = _own_openblas()
         if _BLAS_USERS == 0:
+            loads = _loads()
+            if _OPENBLAS is None or loads is None or loads != _OPENBLAS_LOADS:
+                _OPENBLAS, _OPENBLAS_LOADS = _own_openblas(), loads
             _BLAS_SAVED = [c.get_num_threads() for c in _OPENBLAS]
             for c in _OPENBLAS:
                 c.set_num_threads(1)
@@ -223,5 +312,5 @@ def one_blas_thread() -> Iterator[None]:
         with _BLAS_LOCK:
             _BLAS_USERS -= 1
             if _BLAS_USERS == 0:
-                for c, n in zip(_OPENBLAS, _BLAS_SAVED, strict=True):
+                for c, n in zip(_OPENBLAS or [], _BLAS_SAVED, strict=True):
                     c.set_num_threads(n)

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from typing import Any
 
 from solver.documents.spec import Selection, Spec, Target
@@ -57,7 +58,7 @@ def check_spec_ids(spec: dict[str, Any], n: int) -> None:
 
 
 
-def check_solve_options(spec: dict[str, Any], allowed: list[str]) -> None:
+def check_solve_options(spec: dict[str, Any], allowed: Collection[str]) -> None:
     """Refuse a SPEC whose ``solve_options`` set a field outside ``allowed`` (the service's setting).
 
     Raises

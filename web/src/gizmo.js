@@ -413,21 +413,14 @@ export class Moves {
 
   // ---------------------------------------------------------------- local axes
   /**
-   * Local axes for the move fields: from three nodes A, B, C (x along AB, z normal to ABC, y = z × x),
-   * or null for the global ones. The fields (t, axis, by, about) are read and shown in them.
+   * Local axes for the move fields and the gizmo: {origin, axes: [x, y, z]} orthonormal (csys.js
+   * makes them from picked nodes, a feature's axis or typed values), or null for the global ones.
+   * The fields (t, axis, by, about) are read and shown in them.
    */
-  setCsys(points) {
-    if (!points) { this.csys = null; } else {
-      const [A, B, C] = points.map((p) => new THREE.Vector3(...p));
-      const e1 = B.clone().sub(A), e3 = e1.clone().cross(C.clone().sub(A));
-      if (e1.lengthSq() === 0 || e3.lengthSq() === 0) return false;
-      e1.normalize(); e3.normalize();
-      const e2 = e3.clone().cross(e1);
-      this.csys = { origin: A.toArray(), axes: [e1, e2, e3] };
-    }
+  setFrame(frame) {
+    this.csys = frame ? { origin: frame.origin.slice(), axes: frame.axes.map((a) => a.clone()) } : null;
     this.loadPivot();
     this.syncFields(true);
-    return true;
   }
 
   /** Use the local axes (when set) for the fields and the gizmo. */

@@ -68,7 +68,8 @@ export function renderFeatures(list, onPick, onHover = () => {}) {
     return `<li data-k="${k}"><span class="name" title="${esc(f.kind)}, ${fmt(f.vertices)} vertices">${esc(f.name)}${what}
       <span class="muted">${fmt(f.vertices)}</span></span>
       <button data-k="${k}" data-kind="fixed" title="a fixed region from it">fixed</button>
-      <button data-k="${k}" data-kind="handle" title="a handle region from it">handle</button></li>`;
+      <button data-k="${k}" data-kind="handle" title="a handle region from it">handle</button>${f.axis || f.normal
+        ? `<button data-k="${k}" data-kind="axes" title="local axes from its ${f.axis ? "axis" : "normal"} (z), through its ${f.axis ? "centre" : "point"}">axes</button>` : ""}</li>`;
   }).join("");
   el.onclick = (ev) => {
     const b = ev.target.closest("button[data-k]");

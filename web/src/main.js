@@ -20,6 +20,7 @@ import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshRep
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
 import { ShapesPanel } from "./shapes.js";
+import { CsysPanel } from "./csys.js";
 import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
@@ -40,6 +41,9 @@ const symmetry = new SymmetryPanel(viewer, meshView, regions);
 const cyclic = new CyclicPanel(viewer, regions);
 const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
+moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
+const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () => measure.values().vertices,
+  refuse: showError });
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
 regions.busy = () => moves.dragging;
@@ -81,10 +85,7 @@ async function openMesh(id) {
     $("color-by").value = "regions";
     $("quality-metric").hidden = true;
     meshView.options.colorBy = "regions";
-    moves.setCsys(null);
-    $("local").checked = false;
-    moves.useLocal(false);
-    $("csys-text").textContent = "global x y z";
+    csys.reset();
     moves.resetFields();
     moves.snapDefaults(state.diag);
     $("format").value = "";
@@ -405,7 +406,8 @@ $("find-features").addEventListener("click", async () => {
   setBusy("finding features");
   try {
     const list = await getJson(`/v1/meshes/${state.meshId}/features?ids=true`);
-    renderFeatures(list, (f, kind) => regions.fromIds(f.name, kind, regions.resolve(f.selection), null),
+    renderFeatures(list, (f, kind) => (kind === "axes" ? csys.fromFeature(f)
+      : regions.fromIds(f.name, kind, regions.resolve(f.selection), null)),
       (f) => meshView.setPreview(f ? regions.resolve(f.selection) : null));
   } catch (e) { showError(e); } finally { setBusy(null); }
 });
@@ -460,17 +462,6 @@ $("clip-from-view").addEventListener("click", () => {
   $("clip").checked = true;
   syncViewOptions();
 });
-$("csys-from-picks").addEventListener("click", () => {
-  const v = measure.values();
-  if (v.vertices.length !== 3) { showError("pick three nodes first (pick tool): A the origin, B along x, C in the xy plane"); return; }
-  if (!moves.setCsys(v.vertices.map((i) => measure.point(i).toArray()))) { showError("the three picked nodes are on one line"); return; }
-  const e = moves.csys.axes.map((a) => a.toArray().map((x) => fmt(Number(x.toFixed(4)))).join(" "));
-  $("csys-text").textContent = `x (${e[0]}) · y (${e[1]}) · z (${e[2]}), from vertices ${v.vertices.join(", ")}`;
-  $("local").checked = true;
-  moves.useLocal(true);
-});
-moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
-$("local").addEventListener("change", () => moves.useLocal($("local").checked));
 $("hide-sel").addEventListener("click", () => hideOrIsolate(false));
 $("isolate-sel").addEventListener("click", () => hideOrIsolate(true));
 $("show-all").addEventListener("click", () => { if (state.V) meshView.setFaceFilter(null); });
@@ -571,6 +562,7 @@ window.tetmorph = Object.freeze({
   measure: () => measure.values(),
   doeJob: () => state.doeJob,
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
+  csysOrigin: () => (moves.csys ? moves.csys.origin.slice() : null),
   gizmoAxis: () => moves.gizmo.axis,
   targetSurfaces: () => targets.group.children.length,  // the target surfaces drawn  // the gizmo handle under the pointer ("X", "XY", ...), or null
   ring: () => ({ visible: regions.ring.visible, position: regions.ring.position.toArray(), radius: regions.ring.scale.x }),

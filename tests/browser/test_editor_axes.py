@@ -86,6 +86,19 @@ def drag_from(pg, x: float, y: float, dx: float, dy: float, steps: int = 10) -> 
     pg.mouse.up()
 
 
+def type_axes(pg, origin: str, x: str, z: str, enter: bool = False) -> None:
+    """Type local axes in the typed-axes fields; set them with the button, or Enter in the z field."""
+    if not pg.is_visible("#csys-origin"):
+        pg.click("#sec-csys summary")
+    pg.fill("#csys-origin", origin)
+    pg.fill("#csys-x", x)
+    pg.fill("#csys-z", z)
+    if enter:
+        pg.press("#csys-z", "Enter")
+    else:
+        pg.click("#csys-set")
+
+
 def test_local_axes_from_a_feature_candidates_axis_drive_the_numeric_moves(page, tmp_path):
     R = rotation([1, 2, 3], 35)
     deck = tilted_bracket(tmp_path / "tilted.inp", R)
@@ -125,23 +138,16 @@ def test_typed_local_axes_are_made_orthonormal_and_drive_the_gizmo_and_the_field
     bracket_session(page)
     mesh = read_mesh(BRACKET)
     V = mesh.V
-    page.click("#sec-csys summary")
     # degenerate input: said in words, and the axes stay global
     for origin, xa, za, words in (("100 10 5", "1 0 0", "0 0 0", "z axis is zero"),
                                   ("100 10 5", "0 2 2", "0 1 1", "x axis is along the z axis"),
                                   ("100 10", "1 0 0", "0 0 1", "origin needs three numbers")):
-        page.fill("#csys-origin", origin)
-        page.fill("#csys-x", xa)
-        page.fill("#csys-z", za)
-        page.click("#csys-set")
+        type_axes(page, origin, xa, za)
         page.wait_for_selector("#errors:not([hidden])")
         assert words in page.inner_text("#error-text")
         assert page.evaluate("window.tetmorph.csys()") is None and not page.is_checked("#local")
     # x not normal to z: made normal to it
-    page.fill("#csys-origin", "100 10 5")
-    page.fill("#csys-x", "1 1 0.5")
-    page.fill("#csys-z", "0 1 1")
-    page.press("#csys-z", "Enter")
+    type_axes(page, "100 10 5", "1 1 0.5", "0 1 1", enter=True)
     assert page.is_checked("#local")
     e3 = np.array([0, 1, 1]) / np.sqrt(2)
     e1 = np.array([1, 1, 0.5]) - (np.array([1, 1, 0.5]) @ e3) * e3
@@ -173,3 +179,73 @@ def test_typed_local_axes_are_made_orthonormal_and_drive_the_gizmo_and_the_field
     expected = library_positions(mesh, {"translation": (4 * e1).tolist(), "pivot": h["pivot"]})
     np.testing.assert_allclose(positions(page), expected, atol=1e-4)
     assert re.search(r"typed", page.inner_text("#csys-text"))
+
+
+def turn_on_ring(pg, ring_plane_dir, axis: str, normal) -> None:
+    """Grab the gizmo's `axis` ring (normal to `normal`) where a direction in its plane meets it, and drag
+    along normal x (to the eye) on screen, the direction the gizmo turns fastest for."""
+    centre = np.array(pg.evaluate("window.tetmorph.pivot()")["position"])
+    gx, gy, _ = grab(pg, centre, ring_plane_dir, axis)
+    cam = pg.evaluate("window.tetmorph.camera()")
+    w = np.cross(normal, np.array(cam["position"]) - np.array(cam["target"]))
+    s0, s1 = (pg.evaluate("(p) => window.tetmorph.worldToPage(p)", list(map(float, centre + k * w))) for k in (0, 1))
+    u = np.array([s1["x"] - s0["x"], s1["y"] - s0["y"]])
+    u /= np.linalg.norm(u)
+    drag_from(pg, gx, gy, 50 * u[0], 50 * u[1])
+    settle(pg)
+
+
+def assert_turned_about(pg, mesh, point, axis) -> None:
+    """The service's MOVE turns the handle about `point` (its pivot), about `axis`, and the nodes followed."""
+    h = last_handle(pg)
+    np.testing.assert_allclose(h["pivot"], point, atol=1e-4)
+    np.testing.assert_allclose(h["translation"], [0, 0, 0], atol=1e-4)
+    w, *v = h["rotation"]["quaternion"]
+    angle = np.degrees(2 * np.arccos(min(1.0, abs(w))))
+    assert angle > 10
+    np.testing.assert_allclose(abs(np.array(v) @ axis) / np.linalg.norm(v), 1, atol=1e-6)
+    R = quaternion_rotation(h["rotation"]["quaternion"])
+    load = mesh.sets["LOAD"]
+    P = positions(pg)
+    np.testing.assert_allclose(P[load], point + (mesh.V[load] - point) @ R.T, atol=1e-4)  # turned about it
+    assert np.linalg.norm(P[load].mean(0) - mesh.V[load].mean(0)) > 1  # not about the handle's centre
+    move = {"rotation": {"quaternion": h["rotation"]["quaternion"]}, "pivot": list(map(float, point))}
+    expected = library_positions(mesh, move)
+    np.testing.assert_allclose(P, expected, atol=1e-4)
+
+
+def test_the_gizmo_rings_turn_about_a_picked_node_or_the_local_origin(page):
+    bracket_session(page)
+    mesh = read_mesh(BRACKET)
+    V = mesh.V
+    page.uncheck("#snap")
+    # node A on the top face, well away from the handle (the x = 100 end)
+    top = np.flatnonzero(mesh.boundary & (np.abs(V[:, 2] - 10) < 1e-9))
+    a = int(top[np.argmin(np.linalg.norm(V[top] - [70, 10, 10], axis=1))])
+    page.check("input[name=tool][value='pick']")
+    p = page.evaluate("(i) => window.tetmorph.screenOf(i)", a)
+    page.mouse.click(p["x"], p["y"])
+    assert page.evaluate("window.tetmorph.measure()")["vertices"] == [a]
+    page.check("input[name=tool][value='orbit']")
+    page.select_option("#dpivot", "A")
+    page.keyboard.press("e")  # rotate: the rings go to node A
+    np.testing.assert_allclose(page.evaluate("window.tetmorph.pivot()")["position"], V[a], atol=1e-4)
+    turn_on_ring(page, np.array([1, 1, 0]) / np.sqrt(2), "Z", np.array([0, 0, 1]))
+    assert_turned_about(page, mesh, V[a], np.array([0, 0, 1]))
+    # about the origin of typed local axes, on the local z ring
+    page.click("#reset")
+    page.click("#confirm-ok")
+    page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
+    type_axes(page, "100 20 10", "1 0 0", "0 1 1")
+    page.select_option("#dpivot", "origin")
+    np.testing.assert_allclose(page.evaluate("window.tetmorph.pivot()")["position"], [100, 20, 10], atol=1e-9)
+    e1, e2, e3 = (np.array(e) for e in page.evaluate("window.tetmorph.csys()"))
+    turn_on_ring(page, (e1 + e2) / np.sqrt(2), "Z", e3)
+    assert_turned_about(page, mesh, np.array([100.0, 20, 10]), e3)
+    # the translate arrows are back on the handle's centre
+    page.keyboard.press("w")
+    h = last_handle(page)
+    c = np.array(page.evaluate("window.tetmorph.pivot()")["centroid"])
+    R = quaternion_rotation(h["rotation"]["quaternion"])
+    o = np.array([100.0, 20, 10])
+    np.testing.assert_allclose(page.evaluate("window.tetmorph.pivot()")["position"], o + R @ (c - o), atol=1e-4)

@@ -2,7 +2,9 @@
 // its rest centroid), the translate/rotate gizmo on the active handle with snapping and a live
 // distance/angle read-out, numeric fields that always show the active handle's transform,
 // relative moves, the history behind Undo/Redo, and named presets. With local axes on, the
-// numeric fields and the gizmo's arrows and rings are in the local x, y, z.
+// numeric fields and the gizmo's arrows and rings are in the local x, y, z. Turns (the gizmo's
+// rings, Move by) are about the handle's centre, a node picked on the model or the local origin;
+// a handle turned about a point sends that point as its MOVE's pivot.
 import * as THREE from "three";
 import { TransformControls } from "three/addons/controls/TransformControls.js";
 import { $, radio } from "./dom.js";
@@ -12,7 +14,10 @@ import { claim, emit, state } from "./state.js";
 // the owner of the state's "moves" group: the handles' transforms, the history and the MOVE the session holds
 const own = claim("moves");
 
-/** {t, q: THREE.Quaternion, s, pivot} of one handle's entry of a MOVE (quaternion or axis + angle_deg). */
+/**
+ * {t, q: THREE.Quaternion, s, pivot} of one handle's entry of a MOVE (quaternion or axis + angle_deg),
+ * t about the handle's centroid; pivot is the MOVE's own pivot when it is another point (else null).
+ */
 export function parseHandleMove(h, centroid) {
   const t = h && h.translation ? h.translation.slice() : [0, 0, 0];
   const q = new THREE.Quaternion();
@@ -28,9 +33,9 @@ export function parseHandleMove(h, centroid) {
     const c = new THREE.Vector3(...centroid), p = new THREE.Vector3(...pivot), s = h.scale ?? 1;
     // u(x) = p + t + s R (x - p)  =>  u(c) = p + t + s R (c - p) = c + t'
     const uc = c.clone().sub(p).applyQuaternion(q).multiplyScalar(s).add(p).add(new THREE.Vector3(...t));
-    return { t: uc.sub(c).toArray(), q, s };
+    return { t: uc.sub(c).toArray(), q, s, pivot: pivot.slice() };
   }
-  return { t, q, s: h && h.scale !== undefined ? h.scale : 1 };
+  return { t, q, s: h && h.scale !== undefined ? h.scale : 1, pivot: null };
 }
 
 /** Angle (degrees, 0..180) and unit axis of a quaternion. */
@@ -65,14 +70,16 @@ export class Moves {
       viewer.orbit.enabled = !ev.value && radio("tool") === "orbit";
       if (ev.value) {
         this.refusedDrag = false;
-        // in local axes the gizmo turns with the axes, not the handle: the handle's turn is taken at the start
+        // the handle and the gizmo when the drag begins: a turn is the gizmo's turn since then (in
+        // local axes the gizmo wears the axes, not the handle), about the point the gizmo is on
         const h = state.transforms[this.active];
-        this.dragQ0 = h ? h.q.clone() : new THREE.Quaternion();
+        this.dragStart = h ? { q: this.pivot.quaternion.clone(), hq: h.q.clone(), t: h.t.slice(),
+          at: this.pivot.position.toArray() } : null;
         // snap targets: the nodes where they are drawn when the drag begins (free ones move with it)
         this.snapV = $("snap-node").checked && state.V ? Float32Array.from(state.V) : null;
       }
       if (!ev.value && this.dragged) { this.dragged = false; this.commit("drag", this.dragSeq); }
-      if (!ev.value && this.frame()) this.loadPivot();  // the gizmo back to the local axes for the next drag
+      if (!ev.value) this.loadPivot();  // the gizmo back on its point and axes for the next drag
     });
     this.gizmo.addEventListener("objectChange", () => {
       if (!this.active) return;
@@ -96,6 +103,7 @@ export class Moves {
     this.clear();
     for (const r of document.querySelectorAll("input[name=gizmo]")) r.addEventListener("change", () => this.setMode(radio("gizmo")));
     for (const id of ["snap", "snap-t", "snap-r"]) $(id).addEventListener("change", () => this.applySnap());
+    $("dpivot").addEventListener("change", () => this.loadPivot());
     viewer.beforeRender.push(() => this.placeLabel());
   }
 
@@ -116,7 +124,7 @@ export class Moves {
     this.clear();
     for (const r of handleRegions) {
       own.transforms[r.handleName || r.name] = { centroid: this.regions.centroid(r), t: [0, 0, 0],
-        q: new THREE.Quaternion(), s: 1 };
+        q: new THREE.Quaternion(), s: 1, pivot: null };
     }
     const first = handleRegions[0] ? handleRegions[0].handleName || handleRegions[0].name : null;
     own.centroid = first ? own.transforms[first].centroid : null;
@@ -156,14 +164,16 @@ export class Moves {
   /** The handles' transforms, to go back to when a move cannot be sent. */
   snapshot() {
     const out = {};
-    for (const [name, h] of Object.entries(state.transforms)) out[name] = { t: h.t.slice(), q: h.q.clone(), s: h.s };
+    for (const [name, h] of Object.entries(state.transforms)) {
+      out[name] = { t: h.t.slice(), q: h.q.clone(), s: h.s, pivot: h.pivot || null };
+    }
     return out;
   }
 
   restore(snap) {
     for (const [name, v] of Object.entries(snap)) {
       const h = state.transforms[name];
-      if (h) { h.t = v.t; h.q = v.q; h.s = v.s; }
+      if (h) { h.t = v.t; h.q = v.q; h.s = v.s; h.pivot = v.pivot; }
     }
     this.loadPivot();
     this.syncFields(true);
@@ -180,6 +190,7 @@ export class Moves {
 
   setMode(mode) {
     this.gizmo.setMode(mode);
+    this.loadPivot();  // the rings on the turning point, the arrows on the handle
     const r = document.querySelector(`input[name=gizmo][value=${mode}]`);
     if (r) r.checked = true;
   }
@@ -193,29 +204,50 @@ export class Moves {
 
   // ---------------------------------------------------------------- transforms
   /**
-   * The pivot where the active handle is. In local axes the gizmo's arrows and rings are the local
-   * x, y, z (the pivot wears the axes' orientation, the gizmo in its local space); else the world's.
+   * The point turns are made about (the "turn about" choice): the picked node A, the local origin,
+   * or null for the handle's centre (also when the choice has no point yet).
+   */
+  turnPoint() {
+    const about = $("dpivot").value;
+    if (about === "A") { const p = this.picked(); return p.length ? p[0].slice() : null; }
+    if (about === "origin") return this.csys ? this.csys.origin.slice() : null;
+    return null;
+  }
+
+  /**
+   * The gizmo where the active handle is; its rings on the turning point when turns are about a
+   * picked point. In local axes the gizmo's arrows and rings are the local x, y, z (the pivot
+   * wears the axes' orientation, the gizmo in its local space); else the world's.
    */
   loadPivot() {
     const h = state.transforms[this.active];
     const qc = this.frameQuaternion();
     this.gizmo.setSpace(qc ? "local" : "world");
     if (!h) return;
-    this.pivot.position.set(h.centroid[0] + h.t[0], h.centroid[1] + h.t[1], h.centroid[2] + h.t[2]);
+    const at = this.gizmo.mode === "rotate" ? this.turnPoint() : null;
+    if (at) this.pivot.position.set(...at);
+    else this.pivot.position.set(h.centroid[0] + h.t[0], h.centroid[1] + h.t[1], h.centroid[2] + h.t[2]);
     this.pivot.quaternion.copy(qc || h.q);
   }
 
   /**
-   * The handle's transform from the pivot. In local axes the pivot turned from the axes' orientation
-   * Qc to Q by a turn about a local axis: the handle turns by Q Qc⁻¹ (that turn, in world terms) from
-   * where it was when the drag began.
+   * The handle's transform from the gizmo. Translating: the handle's centre is where the gizmo is.
+   * Turning: the gizmo turned by dq = Q Q0⁻¹ since the drag began (in world terms, whether it
+   * wears the local axes or the handle's turn); the handle turns by dq about the point the gizmo is
+   * on, which, when it is not the handle's centre, becomes the handle's MOVE pivot.
    */
   storePivot() {
-    const h = state.transforms[this.active], p = this.pivot.position;
-    h.t = [p.x - h.centroid[0], p.y - h.centroid[1], p.z - h.centroid[2]];
-    const qc = this.frameQuaternion();
-    h.q = qc ? this.pivot.quaternion.clone().multiply(qc.clone().invert()).multiply(this.dragQ0 || new THREE.Quaternion())
-      : this.pivot.quaternion.clone();
+    const h = state.transforms[this.active], p = this.pivot.position, d = this.dragStart;
+    if (this.gizmo.mode !== "rotate" || !d) {
+      h.t = [p.x - h.centroid[0], p.y - h.centroid[1], p.z - h.centroid[2]];
+      return;
+    }
+    const dq = this.pivot.quaternion.clone().multiply(d.q.clone().invert());
+    h.q = dq.clone().multiply(d.hq);
+    const c = new THREE.Vector3(...h.centroid), at = new THREE.Vector3(...d.at);
+    const uc = c.clone().add(new THREE.Vector3(...d.t)).sub(at).applyQuaternion(dq).add(at);
+    h.t = uc.sub(c).toArray();
+    if (this.turnPoint() !== null) h.pivot = d.at.slice();
   }
 
   /** The orientation of the local axes in use (null: the global ones). */
@@ -225,12 +257,22 @@ export class Moves {
     return new THREE.Quaternion().setFromRotationMatrix(new THREE.Matrix4().makeBasis(e[0], e[1], e[2]));
   }
 
-  /** The MOVE of every handle's current transform. */
+  /**
+   * The MOVE of every handle's current transform: about the handle's centroid c, or about its
+   * pivot p when it was turned about one, with the translation that makes it the same map:
+   * u(x) = c + t + s R (x - c) = p + t' + s R (x - p) for t' = c + t - p + s R (p - c).
+   */
   move() {
     const handles = {};
     for (const [name, h] of Object.entries(state.transforms)) {
       const q = h.q.w < 0 ? new THREE.Quaternion(-h.q.x, -h.q.y, -h.q.z, -h.q.w) : h.q;
-      const doc = { translation: h.t.slice(), rotation: { quaternion: [q.w, q.x, q.y, q.z] }, pivot: h.centroid };
+      let t = h.t.slice(), pivot = h.centroid;
+      if (h.pivot) {
+        const c = new THREE.Vector3(...h.centroid), p = new THREE.Vector3(...h.pivot);
+        t = p.clone().sub(c).applyQuaternion(h.q).multiplyScalar(h.s).add(c).add(new THREE.Vector3(...h.t)).sub(p).toArray();
+        pivot = h.pivot.slice();
+      }
+      const doc = { translation: t, rotation: { quaternion: [q.w, q.x, q.y, q.z] }, pivot };
       if (h.s !== 1) doc.scale = h.s;
       handles[name] = doc;
     }
@@ -242,7 +284,7 @@ export class Moves {
     for (const [name, h] of Object.entries(state.transforms)) {
       const m = move && move.handles && move.handles[name];
       const p = parseHandleMove(m, h.centroid);
-      h.t = p.t; h.q = p.q; h.s = p.s;
+      h.t = p.t; h.q = p.q; h.s = p.s; h.pivot = p.pivot;
     }
     this.loadPivot();
     this.syncFields(true);
@@ -348,7 +390,7 @@ export class Moves {
 
   /** The service reset the session: a history entry at rest. */
   rested(record = true) {
-    for (const h of Object.values(state.transforms)) { h.t = [0, 0, 0]; h.q = new THREE.Quaternion(); h.s = 1; }
+    for (const h of Object.values(state.transforms)) { h.t = [0, 0, 0]; h.q = new THREE.Quaternion(); h.s = 1; h.pivot = null; }
     this.loadPivot();
     this.syncFields(true);
     if (record && state.history[state.historyIndex].move !== null) {
@@ -469,7 +511,8 @@ export class Moves {
 
   /**
    * Relative move: turn by dθ about an axis (x, y, z, or the line AB of two picked nodes) through a
-   * pivot (the handle's current centre, or the picked node A), then translate by (dx, dy, dz).
+   * pivot (the handle's current centre, the picked node A or the local origin), then translate by
+   * (dx, dy, dz). A turn about a picked point makes it the handle's MOVE pivot.
    */
   moveBy() {
     if (!state.sessionId || !this.active) { this.io.refuse("create a session first"); return; }
@@ -482,17 +525,19 @@ export class Moves {
       this.io.refuse(`pick ${about === "AB" ? "two nodes, A and B," : "a node A"} first (pick tool)`);
       return;
     }
+    if (through === "origin" && !this.csys) { this.io.refuse("set local axes first: their origin is the pivot"); return; }
     const axis = about === "AB"
       ? new THREE.Vector3(...picked[1]).sub(new THREE.Vector3(...picked[0])).normalize()
       : new THREE.Vector3(...this.toGlobal([0, 1, 2].map((k) => (k === Number(about) ? 1 : 0))));
     if (deg && !(axis.lengthSq() > 0)) { this.io.refuse("the nodes A and B are the same point"); return; }
     const qd = new THREE.Quaternion().setFromAxisAngle(axis, THREE.MathUtils.degToRad(deg));
     const c = new THREE.Vector3(...h.centroid), uc = c.clone().add(new THREE.Vector3(...h.t));
-    const P = through === "A" ? new THREE.Vector3(...picked[0]) : uc.clone();
+    const P = through === "centre" ? uc.clone() : new THREE.Vector3(...this.turnPoint());
     // u'(x) = P + Rd (u(x) - P) + d: the handle's centre goes to P + Rd (uc - P) + d
     const ucNew = uc.clone().sub(P).applyQuaternion(qd).add(P).add(new THREE.Vector3(...d));
     h.t = ucNew.sub(c).toArray();
     if (deg) h.q = qd.multiply(h.q);
+    if (deg && through !== "centre") h.pivot = P.toArray();
     this.loadPivot();
     this.syncFields(true);
     this.sendAndCommit(`by (${d.map(fmt).join(", ")})${deg ? ` ${fmt(deg)}°` : ""}`, before);

@@ -42,6 +42,7 @@ const cyclic = new CyclicPanel(viewer, regions);
 const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
 moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
+measure.changed = () => moves.loadPivot();  // the rings follow a picked pivot
 const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () => measure.values().vertices,
   refuse: showError });
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });

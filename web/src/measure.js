@@ -14,6 +14,7 @@ export class Measure {
     this.viewer = viewer;
     this.regions = regions;
     this.picks = [];
+    this.changed = () => {};  // set by the wiring: the picked nodes changed
     const g = new THREE.BufferGeometry();
     g.setAttribute("position", new THREE.BufferAttribute(new Float32Array(9), 3));
     this.markers = new THREE.Points(g, new THREE.PointsMaterial({ color: 0xe8590c, size: 9, sizeAttenuation: false,
@@ -89,9 +90,10 @@ export class Measure {
     else if (this.picks.length >= 3) this.picks = [i];
     else this.picks.push(i);
     this.show();
+    this.changed();
   }
 
-  clear() { this.picks = []; this.show(); }
+  clear() { this.picks = []; this.show(); this.changed(); }
 
   /** A new mesh: nothing picked. */
   reset() { this.clear(); }

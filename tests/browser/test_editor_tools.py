@@ -274,12 +274,31 @@ def test_a_turn_about_an_axis_and_a_pivot_picked_on_the_model(page):
     np.testing.assert_allclose(positions(page)[a], V[a], atol=1e-4)
 
 
+def rainbow(t) -> np.ndarray:
+    """The contour's map: blue, cyan, green, yellow, red at t = 0, 1/4, 1/2, 3/4, 1 (t an array)."""
+    stops = np.array([[0, 0, 1], [0, 1, 1], [0, 1, 0], [1, 1, 0], [1, 0, 0]], float)
+    return np.stack([np.interp(t, np.linspace(0, 1, 5), stops[:, k]) for k in range(3)], axis=-1)
+
+
+def face_owners(F: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """The tet each boundary triangle is a face of."""
+    faces = np.sort(np.concatenate([T[:, [1, 2, 3]], T[:, [0, 2, 3]], T[:, [0, 1, 3]], T[:, [0, 1, 2]]]), axis=1)
+    of = {tuple(f): t % len(T) for t, f in enumerate(faces.tolist())}
+    return np.array([of[tuple(f)] for f in np.sort(F, axis=1).tolist()])
+
+
 def test_an_element_quality_contour_with_a_choice_of_metric(page):
     load_bracket(page)
     mesh = read_mesh(BRACKET)
     per_tet = {"scaled_jacobian": (scaled_jacobians(mesh.V, mesh.T), False),
                "aspect_ratio": (aspect_ratios(mesh.V, mesh.T), True),
                "min_dihedral_deg": (dihedral_angles(mesh.V, mesh.T).min(axis=1), False)}
+    owner = face_owners(mesh.F, mesh.T)
+
+    def colour(q, high_is_bad):  # the map's colour of each tet: red the worst of the mesh, blue the best
+        lo, hi = q.min(), q.max()
+        return rainbow((q - lo) / (hi - lo) if high_is_bad else (hi - q) / (hi - lo))
+
     before = image(page.locator("#canvas").screenshot())
     page.select_option("#color-by", "quality")
     for metric, (q, high_is_bad) in per_tet.items():
@@ -289,13 +308,27 @@ def test_an_element_quality_contour_with_a_choice_of_metric(page):
         best = float(page.inner_text("#legend [data-key=q-best]").replace(",", ""))
         assert worst == pytest.approx(q.max() if high_is_bad else q.min(), rel=1e-3), metric
         assert best == pytest.approx(q.min() if high_is_bad else q.max(), rel=1e-3), metric
-        # the node of the worst element is drawn in the map's worst colour (red)
+        # every surface triangle is flat in the colour of its own tet, not blended from its nodes
+        drawn = np.array(page.evaluate("window.tetmorph.faceColors()"), float)
+        np.testing.assert_allclose(drawn, colour(q, high_is_bad)[owner], atol=2e-3, err_msg=metric)
+        # the face of the worst element at the surface is red when that element is at the surface
         t = int(np.argmax(q) if high_is_bad else np.argmin(q))
-        node = next(int(i) for i in mesh.T[t] if mesh.boundary[i]) if mesh.boundary[mesh.T[t]].any() else None
-        if node is not None:
-            c = page.evaluate(f"window.tetmorph.surfaceColor({node})")
-            np.testing.assert_allclose(c, [1, 0, 0], atol=1e-6)
+        if t in owner:
+            np.testing.assert_allclose(drawn[list(owner).index(t)], [1, 0, 0], atol=1e-6)
+    assert len(set(map(tuple, np.round(drawn, 3)))) > 20  # a contour, not one colour
     assert (np.abs(image(page.locator("#canvas").screenshot()) - before).max(axis=2) > 30).sum() > 2000
+    # the section's tets wear the chosen metric's colours too
+    page.check("#clip")
+    V = mesh.V
+    for metric in ("aspect_ratio", "scaled_jacobian"):
+        page.select_option("#quality-metric", metric)
+        q, high_is_bad = per_tet[metric]
+        got = page.evaluate("window.tetmorph.sectionColors()")
+        z = V[:, 2]
+        below = (z[mesh.T] < z.min() + 0.5 * (z.max() - z.min())).sum(axis=1)
+        cut = np.flatnonzero((below > 0) & (below < 4))
+        assert sorted(got["tets"]) == cut.tolist()
+        np.testing.assert_allclose(got["colors"], colour(q, high_is_bad)[got["tets"]], atol=2e-3, err_msg=metric)
 
 
 def test_the_undo_history_survives_a_reload_and_reopening(page):

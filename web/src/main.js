@@ -555,6 +555,8 @@ window.tetmorph = Object.freeze({
     up: viewer.camera.up.toArray(), quaternion: viewer.camera.quaternion.toArray() }),
   triadAxes: () => viewer.triadAxes(),
   surfaceColor: (i) => Array.from(meshView.surfGeom.getAttribute("color").array.slice(3 * i, 3 * i + 3)),
+  faceColors: () => meshView.faceColors(),  // per surface triangle, the quality contour's colour (null: not drawn)
+  sectionColors: () => meshView.sectionColors(),  // {tets, colors}: the section's tets and their colours
   qualityColors: QUALITY_COLORS,
   showGizmo: (visible) => { moves.helper.visible = visible; viewer.draw(); },
   regions: () => state.regions.map((r) => ({ id: r.id, name: r.name, kind: r.kind, count: r.count, visible: r.visible,

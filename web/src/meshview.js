@@ -1,7 +1,8 @@
-// The mesh in the view: the shaded boundary surface with its edges, coloured by region or by
-// displacement magnitude; the rest shape as a ghost; the tets cut by the clipping plane; and
-// the poor and inverted tets drawn through the surface (clipped like it). Positions come
-// from the state (rest shape, then each streamed frame).
+// The mesh in the view: the shaded boundary surface with its edges, coloured by region, by
+// displacement magnitude, or by element quality (each surface triangle flat in the colour of the
+// tet it is a face of); the rest shape as a ghost; the tets cut by the clipping plane; and the
+// poor and inverted tets drawn through the surface (clipped like it). Positions come from the
+// state (rest shape, then each streamed frame).
 import * as THREE from "three";
 import { cutTetsAlong, scaledJacobians, tetFaces, tetMetric } from "./quality.js";
 import { setBoundaryPositions, setPositions } from "./mesh.js";
@@ -29,6 +30,9 @@ export function rainbow(t) {
   }
 }
 
+/** The faces of a tet, as corner indices (any order: faces are matched as vertex sets). */
+const TET_FACES = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
+
 export const css = (c) => `rgb(${Math.round(255 * c[0])}, ${Math.round(255 * c[1])}, ${Math.round(255 * c[2])})`;
 
 export class MeshView {
@@ -44,6 +48,13 @@ export class MeshView {
     this.surfMat = new THREE.MeshStandardMaterial({ vertexColors: true, roughness: 0.8, metalness: 0.0,
       side: THREE.DoubleSide, polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1 });
     this.surface = new THREE.Mesh(this.surfGeom, this.surfMat);
+    // the quality contour: the surface's triangles unshared, each flat in its tet's colour; drawn in
+    // place of the surface (which stays, unseen, for picking and the edges)
+    this.qualGeom = new THREE.BufferGeometry();
+    this.qualMat = new THREE.MeshStandardMaterial({ vertexColors: true, roughness: 0.8, metalness: 0.0,
+      side: THREE.DoubleSide, flatShading: true, polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1 });
+    this.qualMesh = new THREE.Mesh(this.qualGeom, this.qualMat);
+    this.qualMesh.visible = false;
     this.edgeMat = new THREE.LineBasicMaterial({ color: 0x38424f, transparent: true, opacity: 0.35 });
     this.edges = null;
     this.cutGeom = new THREE.BufferGeometry();
@@ -62,10 +73,13 @@ export class MeshView {
     this.ghostEdges = null;
     this.ghost.visible = false;
     this.ghost.renderOrder = 5;
-    for (const m of [this.surfMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]) m.clippingPlanes = [];
-    viewer.scene.add(this.surface, this.cutMesh, this.badMesh, this.ghost);
+    for (const m of this.clipped()) m.clippingPlanes = [];
+    viewer.scene.add(this.surface, this.qualMesh, this.cutMesh, this.badMesh, this.ghost);
     this.dispMax = 0;
   }
+
+  /** The materials the section plane clips. */
+  clipped() { return [this.surfMat, this.qualMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]; }
 
   /** Show the mesh of the state (after a new mesh was loaded into it). */
   load() {
@@ -92,6 +106,10 @@ export class MeshView {
     this.ghost.visible = this.options.ghost;
     own.visibleFaces = state.F.length / 3;
     this.faceFilter = null;
+    this.owners = null;
+    this.qualFaces = null;
+    this.qualMesh.visible = false;  // until the quality contour is chosen for this mesh
+    this.surfMat.visible = true;
     own.sjRest = scaledJacobians(state.V0, state.T);
     own.sj = own.sjRest.slice();
     this.dispMax = 0;
@@ -119,6 +137,8 @@ export class MeshView {
     this.edges.visible = this.options.edges;
     scene.add(this.edges);
     own.visibleFaces = idx.length / 3;
+    this.qualFaces = null;
+    if (this.options.colorBy === "quality") this.recolor();
     emit("frame");
     return own.visibleFaces;
   }
@@ -130,6 +150,10 @@ export class MeshView {
     this.surfMat.transparent = a < 1;
     this.surfMat.depthWrite = a >= 1;
     this.surfMat.needsUpdate = true;
+    this.qualMat.opacity = a;
+    this.qualMat.transparent = a < 1;
+    this.qualMat.depthWrite = a >= 1;
+    this.qualMat.needsUpdate = true;
   }
 
   /** Whether the section plane is on (the panels say how many tets it cuts). */
@@ -157,6 +181,7 @@ export class MeshView {
   setColorBy(mode) {
     this.options.colorBy = mode;
     this.recolor();
+    this.refresh();  // the section's colours follow
     emit("legend");
   }
 
@@ -192,8 +217,11 @@ export class MeshView {
     if (!state.V) return;
     const col = this.surfGeom.getAttribute("color").array;
     const n = state.V.length / 3;
-    if (this.options.colorBy === "quality") {
-      this.colorByQuality(col, n);
+    const quality = this.options.colorBy === "quality";
+    this.surfMat.visible = !quality;
+    this.qualMesh.visible = quality;
+    if (quality) {
+      this.colorByQuality();
     } else if (this.options.colorBy === "displacement") {
       const V = state.V, V0 = state.V0;
       let max = 0;
@@ -221,38 +249,116 @@ export class MeshView {
   }
 
   /**
-   * Quality contour: each node coloured by the worst element at it (the lowest scaled Jacobian or
-   * dihedral angle, the highest aspect ratio), blue for the best element of the mesh to red for the
-   * worst; `qualityRange` is [min, max] over the tets.
+   * Quality contour, per element: each surface triangle flat in the colour of the tet it is a face
+   * of (the lowest scaled Jacobian or dihedral angle, the highest aspect ratio is the worst), blue
+   * for the best element of the mesh to red for the worst; `qualityRange` is [min, max] over the
+   * tets. A triangle no tet has as a face (none on meshes read so far) is drawn grey.
    */
-  colorByQuality(col, n) {
-    const metric = this.options.qualityMetric, T = state.T;
-    const q = this.qualityValues = tetMetric(state.V, T, metric, this.qualityValues);
-    const high = metric === "aspect_ratio";  // high is bad
-    const node = this.nodeQuality && this.nodeQuality.length === n ? this.nodeQuality : (this.nodeQuality = new Float64Array(n));
-    node.fill(high ? -Infinity : Infinity);
+  colorByQuality() {
+    const metric = this.options.qualityMetric;
+    const q = this.qualityValues = tetMetric(state.V, state.T, metric, this.qualityValues);
     let lo = Infinity, hi = -Infinity;
-    for (let t = 0; t < q.length; t++) {
-      const v = q[t];
-      if (v < lo) lo = v;
-      if (v > hi) hi = v;
-      for (let k = 0; k < 4; k++) {
-        const i = T[4 * t + k];
-        if (high ? v > node[i] : v < node[i]) node[i] = v;
+    for (let t = 0; t < q.length; t++) { if (q[t] < lo) lo = q[t]; if (q[t] > hi) hi = q[t]; }
+    this.qualityRange = [lo, hi];
+    const owners = this.faceOwners(), faces = this.drawnFaces();
+    if (!this.qualGeom.getAttribute("color") || this.qualGeom.getAttribute("color").count !== 3 * faces.length) {
+      this.qualGeom.setAttribute("position", new THREE.BufferAttribute(new Float32Array(9 * faces.length), 3));
+      this.qualGeom.setAttribute("color", new THREE.BufferAttribute(new Float32Array(9 * faces.length), 3));
+    }
+    const col = this.qualGeom.getAttribute("color").array;
+    for (let k = 0; k < faces.length; k++) {
+      const t = owners[faces[k]];
+      const c = t >= 0 ? this.qualityColor(q[t]) : NONE_COLOR;
+      for (let j = 0; j < 3; j++) { col[9 * k + 3 * j] = c[0]; col[9 * k + 3 * j + 1] = c[1]; col[9 * k + 3 * j + 2] = c[2]; }
+    }
+    this.qualGeom.getAttribute("color").needsUpdate = true;
+    this.placeQuality();
+  }
+
+  /** The colour of a quality value: the contour's map over the mesh's range, red the worst. */
+  qualityColor(v) {
+    const [lo, hi] = this.qualityRange, span = hi - lo || 1;
+    return rainbow(this.options.qualityMetric === "aspect_ratio" ? (v - lo) / span : (hi - v) / span);
+  }
+
+  /** The quality contour's triangles where the surface is now (flat normals). */
+  placeQuality() {
+    if (!this.qualMesh.visible || !this.qualFaces) return;
+    const F = state.F, V = state.V, faces = this.qualFaces, pos = this.qualGeom.getAttribute("position").array;
+    for (let k = 0; k < faces.length; k++) {
+      for (let j = 0; j < 3; j++) {
+        const v = 3 * F[3 * faces[k] + j];
+        pos[9 * k + 3 * j] = V[v]; pos[9 * k + 3 * j + 1] = V[v + 1]; pos[9 * k + 3 * j + 2] = V[v + 2];
       }
     }
-    this.qualityRange = [lo, hi];
-    const span = hi - lo || 1;
-    for (let i = 0; i < n; i++) {
-      const v = node[i];
-      const c = Number.isFinite(v) ? rainbow(high ? (v - lo) / span : (hi - v) / span) : NONE_COLOR;
-      col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
+    this.qualGeom.getAttribute("position").needsUpdate = true;
+    this.qualGeom.computeVertexNormals();
+    this.qualGeom.computeBoundingSphere();
+  }
+
+  /** The surface triangles drawn (all, or those hide / isolate keeps), as indices into F. */
+  drawnFaces() {
+    if (this.qualFaces) return this.qualFaces;
+    const F = state.F, keep = this.faceFilter, out = [];
+    for (let f = 0; f < F.length / 3; f++) if (!keep || keep(F[3 * f], F[3 * f + 1], F[3 * f + 2])) out.push(f);
+    return (this.qualFaces = Uint32Array.from(out));
+  }
+
+  /**
+   * The tet each surface triangle is a face of (-1: none), found once per mesh: the triangles
+   * bucketed by their smallest vertex, then every tet face with three boundary vertices looked up.
+   */
+  faceOwners() {
+    const F = state.F, T = state.T, nf = F.length / 3;
+    if (this.owners && this.owners.length === nf) return this.owners;
+    const n = state.V.length / 3, start = new Uint32Array(n + 1), owners = new Int32Array(nf).fill(-1);
+    const sort3 = (a, b, c) => {
+      if (a > b) [a, b] = [b, a];
+      if (b > c) [b, c] = [c, b];
+      if (a > b) [a, b] = [b, a];
+      return [a, b, c];
+    };
+    for (let f = 0; f < nf; f++) start[Math.min(F[3 * f], F[3 * f + 1], F[3 * f + 2]) + 1]++;
+    for (let i = 0; i < n; i++) start[i + 1] += start[i];
+    const fill = start.slice(0, n), mid = new Uint32Array(nf), max = new Uint32Array(nf), face = new Uint32Array(nf);
+    for (let f = 0; f < nf; f++) {
+      const [a, b, c] = sort3(F[3 * f], F[3 * f + 1], F[3 * f + 2]);
+      const k = fill[a]++;
+      mid[k] = b; max[k] = c; face[k] = f;
     }
+    const B = state.boundary;
+    for (let t = 0; t < T.length / 4; t++) {
+      for (const [i, j, l] of TET_FACES) {
+        const x = T[4 * t + i], y = T[4 * t + j], z = T[4 * t + l];
+        if (!B[x] || !B[y] || !B[z]) continue;
+        const [a, b, c] = sort3(x, y, z);
+        for (let k = start[a]; k < start[a + 1]; k++) {
+          if (mid[k] === b && max[k] === c && owners[face[k]] < 0) { owners[face[k]] = t; break; }
+        }
+      }
+    }
+    return (this.owners = owners);
+  }
+
+  /** The colour drawn on each surface triangle in the quality contour (null: not drawn, or another colouring). */
+  faceColors() {
+    const out = new Array(state.F ? state.F.length / 3 : 0).fill(null);
+    if (!this.qualMesh.visible || !this.qualFaces) return out;
+    const col = this.qualGeom.getAttribute("color").array;
+    this.qualFaces.forEach((f, k) => { out[f] = Array.from(col.slice(9 * k, 9 * k + 3)); });
+    return out;
+  }
+
+  /** The tets of the section and the colour each is drawn in. */
+  sectionColors() {
+    const col = this.cutGeom.getAttribute("color");
+    const tets = this.cutTets || [];
+    return { tets: Array.from(tets), colors: col ? tets.map((_, k) => Array.from(col.array.slice(36 * k, 36 * k + 3))) : [] };
   }
 
   setQualityMetric(metric) {
     this.options.qualityMetric = metric;
-    if (this.options.colorBy === "quality") { this.recolor(); emit("legend"); }
+    if (this.options.colorBy === "quality") { this.recolor(); this.refresh(); emit("legend"); }
   }
 
   /** Show these vertices in the preview colour over any colouring (null: none). */
@@ -274,6 +380,7 @@ export class MeshView {
     setBoundaryPositions(ids, B);
     this.surfGeom.getAttribute("position").needsUpdate = true;
     this.surfGeom.computeVertexNormals();
+    this.placeQuality();
     own.boundaryFrames += 1;
     own.boundaryApplyMs = performance.now() - t0;
     emit("frame");
@@ -300,13 +407,14 @@ export class MeshView {
     return QUALITY_COLORS.good;
   }
 
-  trianglesOf(tets, geom) {
+  /** The four faces of each listed tet, each tet in colour(t) (default: good, poor or inverted). */
+  trianglesOf(tets, geom, colour = (t) => this.colorOf(state.sj[t])) {
     const F = tetFaces(state.T, tets);
     const pos = new Float32Array(F.length * 3), col = new Float32Array(F.length * 3);
     for (let i = 0; i < F.length; i++) {
       const v = F[i];
       pos[3 * i] = state.V[3 * v]; pos[3 * i + 1] = state.V[3 * v + 1]; pos[3 * i + 2] = state.V[3 * v + 2];
-      const c = this.colorOf(state.sj[tets[Math.floor(i / 12)]]);
+      const c = colour(tets[Math.floor(i / 12)]);
       col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
     }
     geom.setAttribute("position", new THREE.BufferAttribute(pos, 3));
@@ -332,15 +440,20 @@ export class MeshView {
       const c = lo + o.clipPos * (hi - lo);
       this.clipPlane.normal.set(-n[0], -n[1], -n[2]);
       this.clipPlane.constant = c;
-      const tets = cutTetsAlong(V, state.T, n, c);
+      const tets = this.cutTets = cutTetsAlong(V, state.T, n, c);
       own.cut = tets.length;
-      this.trianglesOf(tets, this.cutGeom);
+      // with the quality contour on, the section's tets wear its metric's colours too
+      const q = o.colorBy === "quality" && this.qualityValues && this.qualityValues.length === state.T.length / 4
+        ? this.qualityValues : null;
+      this.trianglesOf(tets, this.cutGeom, q ? (t) => this.qualityColor(q[t]) : undefined);
     } else {
+      this.cutTets = null;
       this.cutGeom.deleteAttribute("position");
+      this.cutGeom.deleteAttribute("color");
       own.cut = 0;
     }
     if (this.surfMat.clippingPlanes.length !== planes.length) {
-      for (const m of [this.surfMat, this.edgeMat, this.badMat, this.ghostMat, this.ghostEdgeMat]) {
+      for (const m of this.clipped()) {
         m.clippingPlanes = planes;
         m.needsUpdate = true;
       }

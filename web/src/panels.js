@@ -273,7 +273,7 @@ export function drawLegend(meshView, regions) {
     const name = { scaled_jacobian: "scaled Jacobian", aspect_ratio: "aspect ratio", min_dihedral_deg: "min dihedral angle (°)" }[o.qualityMetric];
     const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => `${css(rainbow(t))} ${100 * t}%`).join(", ");
     const best = high ? lo : hi, worst = high ? hi : lo;
-    items.push(`<div class="lg-title">${name}, worst element at each node</div>`,
+    items.push(`<div class="lg-title">${name} of each element</div>`,
       `<div class="ramp" style="background:linear-gradient(to right, ${stops})"></div>`,
       `<div class="ramp-ticks"><span data-key="q-best">${fmt(best)}</span><span data-key="q-worst">${fmt(worst)}</span></div>`);
   } else if (o.colorBy === "displacement") {

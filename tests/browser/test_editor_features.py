@@ -422,6 +422,7 @@ def test_presets_live_on_the_service_another_browser_sees_and_applies_them(pages
     np.testing.assert_allclose(positions(b), server_positions(server, sid), atol=1e-4)
     assert b.input_value("#tz") == "5" and b.input_value("#angle") == "20"
     b.click("#presets li:has-text('kept here') button[data-act=delete]")
+    b.click("#confirm-ok")  # deleting a preset asks first
     b.wait_for_function("window.tetmorph.session().presets.length === 1")
     assert [p["name"] for p in httpx.get(f"{server}/v1/sessions/{sid}").json()["presets"]] == ["lift 5"]
     # a save the service refuses (the session was deleted behind the editor's back) is shown, and the

@@ -22,6 +22,7 @@ from tests.browser.conftest import (
     BRACKET,
     assign_set,
     bracket_session,
+    confirm,
     create,
     differs,
     image,
@@ -442,6 +443,26 @@ def test_presets_are_shapes_with_sliders_and_a_plan_runs_as_a_doe(page, tmp_path
     for name, expected in zip(decks, (combined, lifted), strict=True):
         (tmp_path / name).write_bytes(zf.read(name))
         np.testing.assert_allclose(read_mesh(tmp_path / name).V, expected, atol=1e-4)
+
+
+def test_deleting_a_preset_asks_first(page):
+    bracket_session(page)
+    numeric_move(page, t=(0, 0, 5))
+    settle(page)
+    page.fill("#preset-name", "lift")
+    page.click("#preset-save")
+    page.wait_for_selector("#shapes input[data-shape=lift]")
+    sid = page.evaluate("window.tetmorph.session().id")
+    stored = lambda: [p["name"] for p in httpx.get(f"{page.base}/v1/sessions/{sid}").json()["presets"]]  # noqa: E731
+    assert stored() == ["lift"]
+    page.click("#presets button[data-act=delete][data-name=lift]")
+    assert "lift" in confirm(page, ok=False)
+    page.wait_for_timeout(300)
+    assert stored() == ["lift"] and page.locator("#shapes input[data-shape=lift]").count() == 1
+    page.click("#presets button[data-act=delete][data-name=lift]")
+    assert "shape slider" in confirm(page, ok=True)
+    page.wait_for_function("window.tetmorph.session().presets.length === 0")
+    assert stored() == [] and page.locator("#shapes input[data-shape]").count() == 0
 
 
 def test_a_cyclic_sector_is_set_up_in_the_panel_and_kept_in_the_spec(page):

@@ -3,7 +3,7 @@
 // mesh, and all of them in the Sessions dialog).
 import { $ } from "./dom.js";
 import { css } from "./meshview.js";
-import { fmt } from "./panels.js";
+import { ask, fmt } from "./panels.js";
 import { state } from "./state.js";
 
 const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
@@ -106,7 +106,13 @@ export function renderPresets(moves) {
   el.onclick = (ev) => {
     const b = ev.target.closest("button[data-act]");
     if (!b) return;
-    if (b.dataset.act === "apply") moves.applyPreset(b.dataset.name); else moves.deletePreset(b.dataset.name);
+    const name = b.dataset.name;
+    if (b.dataset.act === "apply") { moves.applyPreset(name); return; }
+    // the preset is the session's, on the service: every browser that opens the session loses it
+    ask(`Delete the preset “${name}” from the session on the service? Its shape slider and its column of ` +
+      "the DOE go with it, for every browser that opens this session.", "Delete").then((yes) => {
+      if (yes) moves.deletePreset(name);
+    });
   };
 }
 

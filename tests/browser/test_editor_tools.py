@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import io
 import json
+import subprocess
+import sys
 import zipfile
 
 import httpx
@@ -15,7 +17,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from solver import read_mesh
+from solver import precompute, read_mesh
 from solver.constraints.features import feature_candidates
 from solver.validity.quality import aspect_ratios, dihedral_angles, scaled_jacobians
 from tests.browser.conftest import (
@@ -399,19 +401,25 @@ def test_a_mirror_plane_from_the_section_goes_into_the_spec_and_is_drawn(page):
     assert page.evaluate("window.tetmorph.spec()")["symmetry"] == stored
 
 
+def lift_and_twist(pg) -> np.ndarray:
+    """A bracket session with two presets: lift (5 along z) and twist (20 degrees about x); answers the lifted shape."""
+    bracket_session(pg)
+    numeric_move(pg, t=(0, 0, 5))
+    settle(pg)
+    lifted = positions(pg)
+    pg.fill("#preset-name", "lift")
+    pg.click("#preset-save")
+    pg.wait_for_function("window.tetmorph.session().presets.length === 1")
+    numeric_move(pg, t=(0, 0, 0), axis=(1, 0, 0), angle=20)
+    settle(pg)
+    pg.fill("#preset-name", "twist")
+    pg.click("#preset-save")
+    pg.wait_for_function("window.tetmorph.session().presets.length === 2")
+    return lifted
+
+
 def test_presets_are_shapes_with_sliders_and_a_plan_runs_as_a_doe(page, tmp_path):
-    bracket_session(page)
-    numeric_move(page, t=(0, 0, 5))
-    settle(page)
-    lifted = positions(page)
-    page.fill("#preset-name", "lift")
-    page.click("#preset-save")
-    page.wait_for_function("window.tetmorph.session().presets.length === 1")
-    numeric_move(page, t=(0, 0, 0), axis=(1, 0, 0), angle=20)
-    settle(page)
-    page.fill("#preset-name", "twist")
-    page.click("#preset-save")
-    page.wait_for_function("window.tetmorph.session().presets.length === 2")
+    lifted = lift_and_twist(page)
     page.click("#reset")
     page.click("#confirm-ok")
     page.wait_for_function("window.tetmorph.report() && window.tetmorph.report().reset === true")
@@ -463,6 +471,35 @@ def test_deleting_a_preset_asks_first(page):
     assert "shape slider" in confirm(page, ok=True)
     page.wait_for_function("window.tetmorph.session().presets.length === 0")
     assert stored() == [] and page.locator("#shapes input[data-shape]").count() == 0
+
+
+def test_the_doe_files_run_unchanged_with_tetmorph_doe(page, tmp_path):
+    lift_and_twist(page)
+    page.click("#sec-doe summary")
+    page.fill("#doe-plan", "lift,twist\n0.5,1\n1,0\n")
+    files = {}
+    for what in ("spec", "shapes", "plan"):
+        with page.expect_download() as dl:
+            page.click(f"#doe-{what}-file")
+        files[what] = tmp_path / dl.value.suggested_filename
+        dl.value.save_as(files[what])
+    assert [p.name for p in files.values()] == ["bracket.spec.json", "bracket.shapes.json", "bracket.plan.csv"]
+    spec = json.loads(files["spec"].read_text())
+    assert {k: spec[k] for k in ("selections", "fixed", "handles")} == {
+        "selections": {"FIXED": {"set": "FIXED"}, "LOAD": {"set": "LOAD"}}, "fixed": ["FIXED"],
+        "handles": {"LOAD": "LOAD"}}
+    out = subprocess.run([sys.executable, "-m", "service.cli", "doe", str(BRACKET), "--spec", str(files["spec"]),
+                          "--shapes", str(files["shapes"]), "--plan", str(files["plan"]),
+                          "--output", str(tmp_path / "deck_{i}.inp"), "--summary", str(tmp_path / "summary.csv")],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    mesh = read_mesh(BRACKET)
+    centre = mesh.V[mesh.sets["LOAD"]].mean(axis=0).tolist()
+    d = precompute(mesh, {k: spec[k] for k in ("selections", "fixed", "handles")})
+    for row, move in ((1, {"translation": [0, 0, 2.5], "rotation": {"axis": [1, 0, 0], "angle_deg": 20}}),
+                      (2, {"translation": [0, 0, 5]})):
+        expected = d.solve({"handles": {"LOAD": {**move, "pivot": centre}}}).V
+        np.testing.assert_allclose(read_mesh(tmp_path / f"deck_{row}.inp").V, expected, atol=1e-4)
 
 
 def test_a_cyclic_sector_is_set_up_in_the_panel_and_kept_in_the_spec(page):

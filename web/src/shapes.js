@@ -80,6 +80,27 @@ export class ShapesPanel {
     el.addEventListener("input", (ev) => { if (ev.target.dataset.shape) this.slide(ev.target, false); });
     el.addEventListener("change", (ev) => { if (ev.target.dataset.shape) this.slide(ev.target, true); });
     $("doe-run").addEventListener("click", () => this.runDoe());
+    $("doe-spec-file").addEventListener("click", () => this.saveFile("spec"));
+    $("doe-shapes-file").addEventListener("click", () => this.saveFile("shapes"));
+    $("doe-plan-file").addEventListener("click", () => this.saveFile("plan"));
+  }
+
+  /**
+   * The DOE as the files `tetmorph doe` reads, so it runs unchanged from the command line: the
+   * SPEC the session was created from, SHAPES.json ({"shapes": {name: MOVE}}) and the PLAN.
+   */
+  saveFile(what) {
+    if (what !== "plan" && !state.sessionId) { showError("create a session first"); return; }
+    if (what === "shapes" && !state.presets.length) { showError("save a preset first: the presets are the shapes"); return; }
+    const stem = (state.meshName || "mesh").replace(/\.[^.]+$/, "");
+    const json = (doc) => new Blob([`${JSON.stringify(doc, null, 1)}\n`], { type: "application/json" });
+    if (what === "spec") saveBlob(json(state.specSent), `${stem}.spec.json`);
+    else if (what === "shapes") saveBlob(json({ shapes: this.shapes() }), `${stem}.shapes.json`);
+    else {
+      const plan = $("doe-plan").value.trim();
+      if (!plan) { showError("the PLAN is empty: a header of shape names, then a row of values per variant"); return; }
+      saveBlob(new Blob([`${plan}\n`], { type: "text/csv" }), `${stem}.plan.csv`);
+    }
   }
 
   /** The presets as shapes: {name: MOVE}. */

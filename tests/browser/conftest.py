@@ -207,6 +207,14 @@ def assign_set(pg, name: str, role: int) -> None:
     pg.click("#set-apply")
 
 
+def use_spec(pg, spec: dict) -> None:
+    """Type a SPEC into the SPEC dialog and use it (its selections become the regions)."""
+    pg.click("#spec-view")
+    pg.fill("#spec-text", json.dumps(spec))
+    pg.click("#spec-apply")
+    pg.click("#spec-close")
+
+
 def create(pg, policy: str = "warn", timeout: float = 60000) -> None:
     pg.select_option("#policy", policy)
     before = json.dumps(pg.evaluate("window.tetmorph.session().id"))

@@ -35,6 +35,7 @@ from tests.browser.conftest import (
     settle,
     shared_file,
     upload,
+    use_spec,
 )
 
 
@@ -509,10 +510,7 @@ def test_a_cyclic_sector_is_set_up_in_the_panel_and_kept_in_the_spec(page):
     spec = {"selections": {"hub": {"sphere": {"center": [0.05, 0.12 * c15, 0.12 * s15], "radius": 0.05}},
                            "rim": {"sphere": {"center": [0.05, 0.975 * c15, 0.975 * s15], "radius": 0.15}}},
             "fixed": ["hub"], "handles": {"rim": "rim"}}
-    page.click("#spec-view")
-    page.fill("#spec-text", json.dumps(spec))
-    page.click("#spec-apply")
-    page.click("#spec-close")
+    use_spec(page, spec)
     page.click("#sec-symmetry summary")
     page.fill("#cyc-point", "0 0 0")
     page.fill("#cyc-dir", "2 0 0")

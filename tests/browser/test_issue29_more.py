@@ -15,6 +15,7 @@ import pytest
 from solver import read_mesh
 from tests.browser.conftest import (
     BRACKET,
+    DATA,
     assign_set,
     bracket_session,
     create,
@@ -25,6 +26,8 @@ from tests.browser.conftest import (
     positions,
     report_row,
     settle,
+    upload,
+    use_spec,
 )
 
 
@@ -230,3 +233,76 @@ def test_a_target_surface_is_set_up_in_the_panel_and_drawn(page, tmp_path):
     page.click("#tgt-list button[data-k='0']")
     assert "targets" not in page.evaluate("window.tetmorph.spec()")
     page.wait_for_function("window.tetmorph.targetSurfaces() === 0")
+
+
+def _spec_domain(pg) -> np.ndarray:
+    """The morph domain of the open session's SPEC on the service, as vertex ids."""
+    sid = pg.evaluate("window.tetmorph.session().id")
+    spec = httpx.get(f"{pg.base}/v1/sessions/{sid}").json()["spec"]
+    return spec, spec["selections"][spec["domain"]]
+
+
+def test_a_morph_domain_painted_with_the_brush_takes_the_ball_under_it(page):
+    mesh = read_mesh(BRACKET)
+    V = mesh.V
+    load_bracket(page)
+    assign_set(page, "FIXED", 1)
+    assign_set(page, "LOAD", 2)
+    page.check("input[name=role][value='3']")
+    page.check("input[name=tool][value='brush']")
+    page.focus("#brush")
+    page.keyboard.press("End")  # the largest brush: 15 % of the diagonal
+    r = 0.15 * np.linalg.norm(V.max(0) - V.min(0))
+    assert f"r {r:.3g}" in page.inner_text("#brush-size")
+    load = mesh.sets["LOAD"]  # the end face x = 100; brush its middle node
+    n = int(load[np.argmin(np.linalg.norm(V[load] - [100, 10, 5], axis=1))])
+    p = page.evaluate("(i) => window.tetmorph.screenOf(i)", n)
+    page.mouse.click(p["x"], p["y"])
+    page.check("input[name=tool][value='orbit']")
+    assert page.inner_text("#domain-count") != "domain: whole mesh"
+    create(page)
+    spec, sel = _spec_domain(page)
+    domain = np.asarray(sel["ids"])
+    d = np.linalg.norm(V - V[n], axis=1)  # the ball about the point brushed (within a pixel of node n)
+    assert set(np.flatnonzero(d < r - 0.5)) <= set(domain.tolist())
+    assert d[domain].max() <= r + 0.5
+    assert not mesh.boundary[domain].all()  # the nodes inside the ball too, not only the surface
+    numeric_move(page, t=(0, 0, 2))
+    settle(page)
+    moved = np.linalg.norm(positions(page) - V, axis=1)
+    assert moved[np.setdiff1d(np.arange(len(V)), domain)].max() < 1e-4  # outside the ball: at rest
+    np.testing.assert_allclose(positions(page)[load] - V[load], np.tile([0, 0, 2], (len(load), 1)), atol=1e-4)
+
+
+def test_a_morph_domain_from_a_named_set_is_sent_as_the_set_and_kept_on_reopen(page):
+    deck = DATA / "mixed.msh"  # a 40 x 10 x 14 bar: hexahedra x < 20, tets x > 20 (set TET), wedges on top
+    mesh = read_mesh(deck)
+    V = mesh.V
+    upload(page, deck)
+    spec = {"selections": {"FIXED": {"set": "FIXED"}, "end": {"box": {"min": [39.9, -1, -1], "max": [41, 11, 10.01]}}},
+            "fixed": ["FIXED"], "handles": {"end": "end"}}
+    use_spec(page, spec)
+    page.check("input[name=role][value='3']")
+    page.select_option("#sets", "TET")
+    page.click("#set-apply")
+    tet = mesh.sets["TET"]
+    assert page.inner_text("#domain-count").startswith(f"domain: {len(tet)} vertices")
+    got = page.evaluate("window.tetmorph.spec()")
+    assert got["selections"][got["domain"]] == {"set": "TET"}
+    create(page)
+    stored, sel = _spec_domain(page)
+    assert sel == {"set": "TET"}
+    numeric_move(page, t=(0, 0, 0.5))
+    settle(page)
+    moved = np.linalg.norm(positions(page) - V, axis=1)
+    assert moved[np.setdiff1d(np.arange(len(V)), tet)].max() < 1e-4  # the hexahedra and wedges at rest
+    end = np.flatnonzero((V[:, 0] >= 39.9) & (V[:, 2] <= 10.01))
+    np.testing.assert_allclose(positions(page)[end] - V[end], np.tile([0, 0, 0.5], (len(end), 1)), atol=1e-4)
+    assert 0.01 < moved[np.setdiff1d(tet, end)].max()  # the domain's free nodes followed
+    sid = page.evaluate("window.tetmorph.session().id")
+    page.reload()
+    page.wait_for_function("window.tetmorph !== undefined")
+    _open_from_sessions(page, sid)
+    again = page.evaluate("window.tetmorph.spec()")
+    assert again["selections"][again["domain"]] == {"set": "TET"}
+    assert page.inner_text("#domain-count").startswith(f"domain: {len(tet)} vertices")

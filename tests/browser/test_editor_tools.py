@@ -185,6 +185,29 @@ def test_hide_isolate_show_and_opacity(page):
     assert differs(seen, opaque) > 2000 and differs(isolated, opaque) > 2000
 
 
+def test_hide_and_isolate_a_region_made_on_the_model(page):
+    load_bracket(page)
+    mesh = read_mesh(BRACKET)
+    F = mesh.F
+    page.click("#find-features")
+    page.click("#features li:has-text('hole_1') button[data-kind=handle]")  # a region, not a set of the file
+    hole = next(c.to_dict() for c in feature_candidates(mesh, 30, 1e-3) if c.name == "hole_1")["selection"]["ids"]
+    inside = np.zeros(mesh.n, bool)
+    inside[hole] = True
+    whole = inside[F].all(axis=1)
+    assert 0 < whole.sum() < len(F)
+    (region,) = [r for r in page.evaluate("window.tetmorph.regions()") if r["name"] == "hole_1"]
+    visible = lambda: page.evaluate("window.tetmorph.view().visibleFaces")  # noqa: E731
+    page.select_option("#show-what", f"region:{region['id']}")
+    assert page.inner_text("#show-what option:checked") == "region hole_1"
+    page.click("#hide-sel")
+    assert visible() == len(F) - whole.sum()
+    page.click("#isolate-sel")
+    assert visible() == whole.sum()
+    page.click("#show-all")
+    assert visible() == len(F)
+
+
 def shot_of(pg) -> bytes:
     return pg.locator("#canvas").screenshot()
 

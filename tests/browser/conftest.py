@@ -223,11 +223,16 @@ def create(pg, policy: str = "warn", timeout: float = 60000) -> None:
                          " && s.stream && (s.stream.open || s.stream.readyState === 1); })()", timeout=timeout)
 
 
-def bracket_session(pg, policy: str = "warn") -> None:
-    load_bracket(pg)
-    assign_set(pg, "FIXED", 1)
-    assign_set(pg, "LOAD", 2)
+def set_session(pg, deck: Path, fixed: str, handle: str, policy: str = "warn") -> None:
+    """Upload a deck, assign a named set as the fixed region and one as the handle, and create a session."""
+    upload(pg, deck)
+    assign_set(pg, fixed, 1)
+    assign_set(pg, handle, 2)
     create(pg, policy)
+
+
+def bracket_session(pg, policy: str = "warn") -> None:
+    set_session(pg, BRACKET, "FIXED", "LOAD", policy)
 
 
 def settle(pg, timeout: float = 30000) -> None:

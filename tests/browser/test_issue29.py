@@ -30,6 +30,7 @@ from tests.browser.conftest import (
     positions,
     report_row,
     rest,
+    set_session,
     settle,
     shared_file,
     upload,
@@ -76,16 +77,22 @@ def test_create_session_starts_from_the_rest_shape(page):
 
 
 # 2 ----------------------------------------------------------------------------------------
+def download(pg, tmp_path):
+    """Click Download (the format chosen) and save the file the page gives; answers its path."""
+    with pg.expect_download() as dl:
+        pg.click("#download")
+    path = tmp_path / dl.value.suggested_filename
+    dl.value.save_as(path)
+    return path
+
+
 def test_download_defaults_to_the_decks_format_and_says_what_a_conversion_drops(page, server, tmp_path):
     bracket_session(page)
     numeric_move(page, t=(0, 0, 5))
     settle(page)
     assert ".inp" in page.inner_text("#format option[value='']")
-    with page.expect_download() as dl:
-        page.click("#download")
-    assert dl.value.suggested_filename.endswith(".inp")
-    path = tmp_path / dl.value.suggested_filename
-    dl.value.save_as(path)
+    path = download(page, tmp_path)
+    assert path.suffix == ".inp"
     # byte-faithful: every line but the node coordinates is the deck's own
     data_line = re.compile(r"^\s*\d+\s*,\s*[-+0-9.eE]+\s*,")
     mine = [ln for ln in path.read_text().splitlines() if not data_line.match(ln) or "*" in ln]
@@ -108,6 +115,38 @@ def test_download_defaults_to_the_decks_format_and_says_what_a_conversion_drops(
     zpath = tmp_path / dl.value.suggested_filename
     dl.value.save_as(zpath)
     assert sorted(zipfile.ZipFile(zpath).namelist())[1].endswith(".node")
+
+
+def gmsh_coordinate_lines(lines: list[str]) -> set[int]:
+    """Indices of the node coordinate lines of an ASCII Gmsh 4.1 file (every $Nodes block's second half)."""
+    k = lines.index("$Nodes") + 2
+    out: set[int] = set()
+    while lines[k] != "$EndNodes":
+        count = int(lines[k].split()[3])
+        out.update(range(k + 1 + count, k + 1 + 2 * count))
+        k += 1 + 2 * count
+    return out
+
+
+def test_a_gmsh_mesh_downloads_in_its_own_format_with_only_node_coordinates_changed(page, server, tmp_path):
+    deck = DATA / "mixed.msh"  # ASCII Gmsh 4.1: hexahedra, tets, pyramids, wedges, physical groups
+    set_session(page, deck, "FIXED", "LOAD")
+    numeric_move(page, t=(0, 0, 1.5))
+    settle(page)
+    assert ".msh" in page.inner_text("#format option[value='']")
+    path = download(page, tmp_path)
+    assert path.suffix == ".msh"
+    mine, orig = path.read_text().split("\n"), deck.read_text().split("\n")
+    assert len(mine) == len(orig)
+    coords = gmsh_coordinate_lines(orig)
+    changed = {k for k, (a, b) in enumerate(zip(mine, orig, strict=True)) if a != b}
+    assert changed and changed <= coords  # every other line is the file's own, byte for byte
+    sid = page.evaluate("window.tetmorph.session().id")
+    got, was = meshio.read(path), meshio.read(deck)
+    np.testing.assert_allclose(got.points, server_positions(server, sid), atol=1e-9)
+    assert [c.type for c in got.cells] == [c.type for c in was.cells]
+    for a, b in zip(got.cells, was.cells, strict=True):
+        np.testing.assert_array_equal(a.data, b.data)
 
 
 # 3 ----------------------------------------------------------------------------------------
@@ -374,10 +413,7 @@ def test_nothing_of_one_mesh_stays_on_the_next(pages, demo_server):
 def test_a_set_region_is_the_whole_set_again_on_reopen(page):
     deck = shared_file("tet/tractor_wheel_coarse.INP")
     mesh = read_mesh(deck)
-    upload(page, deck)
-    assign_set(page, "BC_RIMTIRE", 1)
-    assign_set(page, "BC_SURF", 2)
-    create(page)
+    set_session(page, deck, "BC_RIMTIRE", "BC_SURF")
     numeric_move(page, t=(0, 0, 0.005))
     settle(page)
     whole = mesh.sets["BC_RIMTIRE"]

@@ -30,6 +30,12 @@ service and the built editor of another checkout (a ``git worktree`` of an earli
 editor built with ``npm run build``), to compare side by side::
 
     python benchmarks/bench_editor.py --mesh wheel --drag 20 --repeat 3 [--load 2] [--root DIR]
+
+A row says the checkout (``--label``, else its commit), the mesh, the load, the median and p95 of every
+step, each drag's median, the steps timed and missed, and the 1-minute load average before and after.
+Editors from before the test hook (``window.tetmorph.session()`` and the other accessors of
+web/src/testhook.js, added after issue 18) expose their state object as ``window.tetmorph.state``;
+the drags read it through the same few accessors, added to the page (``HOOK_FALLBACK``).
 """
 
 from __future__ import annotations
@@ -64,6 +70,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="drags of --drag")
     ap.add_argument("--load", type=int, default=0, help="CPU-bound processes running during the drags")
     ap.add_argument("--root", type=Path, default=ROOT, help="the checkout whose service and editor are served")
+    ap.add_argument("--label", default="", help="what the checkout is called in the row (default: its commit)")
     a = ap.parse_args()
     if a.drag:
         drags(a)
@@ -138,6 +145,17 @@ def _spin() -> None:
 
 WHEEL = Path("/work/shared/data/tet/tractor_wheel_coarse.INP")
 RAF = "() => new Promise((r) => requestAnimationFrame(() => r()))"
+#: The accessors the drags read, for an editor that has only ``window.tetmorph.state`` (no test hook yet).
+HOOK_FALLBACK = """() => {
+  const t = window.tetmorph;
+  if (typeof t.session === "function" || !t.state) return false;
+  const s = t.state;
+  t.session = () => ({ id: s.sessionId, seq: s.seq, lastSeq: s.lastSeq,
+    stream: s.ws ? { open: s.ws.open, readyState: s.ws.ws ? s.ws.ws.readyState : undefined } : null });
+  t.mesh = () => ({ open: s.V !== null });
+  t.tets = () => Array.from(s.T || []);
+  return true;
+}"""
 
 
 def _open(pg, base: str, a: argparse.Namespace) -> str:
@@ -201,8 +219,8 @@ def drags(a: argparse.Namespace) -> None:
     sys.path.insert(0, str(root))
     from service.process import serve_process
 
-    commit = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
+    commit = a.label or subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True,
+                                       text=True).stdout.strip() or root.name
     data = Path(tempfile.mkdtemp())
     if a.mesh == "demo":
         from tests.browser.conftest import demo_process
@@ -218,9 +236,11 @@ def drags(a: argparse.Namespace) -> None:
         pg = b.new_context(viewport={"width": 1300, "height": 800}, bypass_csp=True).new_page()
         pg.goto(base + "/")
         pg.wait_for_function("window.tetmorph !== undefined")
+        pg.evaluate(HOOK_FALLBACK)
         what = _open(pg, base, a)
         tets = pg.evaluate("window.tetmorph.tets().length / 4")
         _drag(pg, 3, 1)  # warm-up
+        load_before = os.getloadavg()[0]
         try:
             load = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(a.load)]
             for proc in load:
@@ -234,12 +254,14 @@ def drags(a: argparse.Namespace) -> None:
             for proc in load:
                 proc.terminate()
                 proc.join()
+        load_after = os.getloadavg()[0]
         b.close()
     every = np.concatenate(per) * 1e3
     medians = [float(np.median(t)) * 1e3 for t in per if t]
     print(f"| {commit} | {what} ({int(tets):,} tets) | {'quiet' if not a.load else f'{a.load} CPU-bound'} | "
           f"{np.median(every):.0f} | {np.percentile(every, 95):.0f} | "
-          f"{' / '.join(f'{m:.0f}' for m in medians)} | {len(every)} | {missed} |")
+          f"{' / '.join(f'{m:.0f}' for m in medians)} | {len(every)} | {missed} | "
+          f"{load_before:.1f} / {load_after:.1f} |")
 
 
 #: (label, page script switching the view on, script switching it off)

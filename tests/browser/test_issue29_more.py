@@ -61,8 +61,13 @@ def _open_from_sessions(pg, sid: str) -> None:
     pg.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open")
 
 
-def _editor_history(pg) -> tuple[list, list]:
-    """The MOVEs of the editor's history before and after the entry shown (entry 0, the rest, left out)."""
+def _editor_history(pg, doc: dict | None = None) -> tuple[list, list]:
+    """The MOVEs of the editor's history before and after the entry shown (entry 0, the rest, left out);
+    with the service's history `doc`, once the editor holds as many entries (it reads them after the
+    stream opens)."""
+    if doc is not None:
+        n = 1 + len(doc["applied"]) + len(doc["undone"])
+        pg.wait_for_function(f"window.tetmorph.history().entries.length === {n}", timeout=10000)
     h = pg.evaluate("window.tetmorph.history()")
     moves = [e["move"] for e in h["entries"]]
     return moves[1:h["index"] + 1], moves[h["index"] + 1:]
@@ -86,7 +91,7 @@ def test_the_undo_history_is_kept_with_the_session_on_the_service(pages, server)
     page.reload()
     page.wait_for_function("window.tetmorph !== undefined")
     _open_from_sessions(page, sid)
-    assert _editor_history(page) == (doc["applied"], doc["undone"])
+    assert _editor_history(page, doc) == (doc["applied"], doc["undone"])
     np.testing.assert_allclose(positions(page), shapes[1], atol=1e-4)
     page.click("#undo")
     settle(page)
@@ -97,7 +102,7 @@ def test_the_undo_history_is_kept_with_the_session_on_the_service(pages, server)
     # another browser (nothing of the first one's storage) reopens it with the same history
     other = pages(server)
     _open_from_sessions(other, sid)
-    assert _editor_history(other) == (doc["applied"], doc["undone"])
+    assert _editor_history(other, doc) == (doc["applied"], doc["undone"])
     other.keyboard.press("Control+Shift+Z")
     settle(other)
     np.testing.assert_allclose(positions(other), shapes[1], atol=1e-5)

@@ -3,8 +3,9 @@
 numba compiles a kernel on its first call and keeps the machine code in
 ``__pycache__`` next to the module (``cache=True``). Later processes load it
 from there, but a process's first kernel also starts numba's own runtime
-(its typing and lowering registries), a fixed cost per process.
-:func:`load_kernels` pays both ahead of the first set-up:
+(its typing and lowering registries), a fixed cost per process. The
+document models (pydantic, :mod:`solver.documents`) are built on first use
+too. :func:`load_kernels` pays all of it ahead of the first set-up:
 
 - ``make install`` and the Docker image run ``python -m solver.kernels`` once,
   so no process compiles;
@@ -72,7 +73,17 @@ def load_kernels() -> float:
         coupled_residual_norms(sp.identity(4, format="csr"), sp.identity(4, format="csr"), np.ones((4, 3)),
                                np.ones(X.shape), X, 3)
     _supernodal_kernels()
+    _document_models()
     return time.perf_counter() - t0
+
+
+def _document_models() -> None:
+    """The SPEC and MOVE models (pydantic and the models' validators are built on first use)."""
+    from .constraints.move import parse_move
+    from .constraints.spec import parse_spec
+
+    spec = parse_spec({"selections": {"a": {"ids": [0]}, "b": {"ids": [1]}}, "fixed": ["a"], "handles": {"h": "b"}})
+    parse_move({"handles": {"h": {"translation": [0, 0, 0]}}}, list(spec.handles), spec.names)
 
 
 def _supernodal_kernels() -> None:

@@ -150,12 +150,13 @@ export class SessionControl {
       setBusy(doc.status === "ready" ? "loading" : "building");
       const r = await api(`/v1/sessions/${id}/positions?result=binary&dtype=float32`);
       const { data } = decodeFrame(await r.arrayBuffer());
+      // the history is read before the stream opens: a session that is open and streaming has its history
+      const kept = await this.serviceHistory(id);
       this.start(id, this.regions.handles());
       own.specSent = doc.spec;
       emit("session");
       this.dropBoundary();
       this.meshView.applyPositions(data);
-      const kept = await this.serviceHistory(id);
       // the history kept with the session (its current entry is what the session holds), then
       // the service's last MOVE when it was moved without it since
       this.historyOf = id;

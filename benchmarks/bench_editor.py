@@ -34,7 +34,7 @@ editor built with ``npm run build``), to compare side by side::
 A row says the checkout (``--label``, else its commit), the mesh, the load, the median and p95 of every
 step, each drag's median, the steps timed and missed, and the 1-minute load average before and after.
 Editors from before the test hook (``window.tetmorph.session()`` and the other accessors of
-web/src/testhook.js, added after issue 18) expose their state object as ``window.tetmorph.state``;
+web/src/testhook.js, added later) expose their state object as ``window.tetmorph.state``;
 the drags read it through the same few accessors, added to the page (``HOOK_FALLBACK``).
 """
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
@@ -39,12 +40,16 @@ _MISMATCH = {"none_required", "bool_type", "string_type", "list_type", "literal_
              "float_type", "int_type", "model_attributes_type", "is_instance_of"}
 
 
+#: pydantic's name for a union member that is a number or a string with bounds (``t: Fraction | None``).
+_CONSTRAINED = re.compile(r"constrained-(float|int|str|bytes|decimal)")
+
+
 def _is_tag(part: Any) -> bool:
     """True for the name pydantic gives a member of a union in an error's location (``Box``, ``str``, ...)."""
     if not isinstance(part, str):
         return False
     return (part in {"str", "int", "float", "bool", "none"} or any(c in part for c in "[(")
-            or (part[:1].isupper() and part in _model_names()))
+            or _CONSTRAINED.fullmatch(part) is not None or (part[:1].isupper() and part in _model_names()))
 
 
 def _model_names() -> set[str]:
@@ -54,31 +59,43 @@ def _model_names() -> set[str]:
             and issubclass(getattr(mod, n), BaseModel)}
 
 
-def _tag_at(loc: tuple[Any, ...]) -> int:
-    return next((i for i, part in enumerate(loc) if i > 0 and isinstance(loc[i - 1], str) and _is_tag(part)), -1)
+def _tag_at(loc: tuple[Any, ...], start: int = 0) -> int:
+    return next((i for i, part in enumerate(loc) if i > max(start, 0) and isinstance(loc[i - 1], str)
+                 and _is_tag(part)), -1)
 
 
-def _fitting_members(errors: list[Any]) -> list[Any]:
+def _fitting_members(errors: list[Any], start: int = 0) -> list[Any]:
     """The errors of the union member that fits the input best, without the members' names in their locations.
 
     pydantic reports an input that matches no member of a union once per member; a person wants to
     hear about the member they meant: the one with the fewest errors among those whose kind matched.
+    A name that looks like a member's but is alone at its place is a key the person chose (a handle
+    called ``tip(1)``), kept as it is; the search goes on after it.
     """
     groups: dict[tuple[Any, ...], dict[Any, list[Any]]] = {}
     out = []
     for err in errors:
         loc = tuple(err.get("loc", ()))
-        i = _tag_at(loc)
+        i = _tag_at(loc, start)
         if i < 0:
             out.append(err)
         else:
-            groups.setdefault(loc[:i], {}).setdefault(loc[i], []).append({**err, "loc": loc[:i] + loc[i + 1:]})
-    for members in groups.values():
+            groups.setdefault(loc[:i], {}).setdefault(loc[i], []).append(err)
+    for prefix, members in groups.items():
+        i = len(prefix)
+        if len(members) == 1:
+            name, errs = next(iter(members.items()))
+            if name == "[key]":  # an error in a dictionary's key: named at the key
+                out.extend(_fitting_members([{**e, "loc": tuple(e["loc"])[:i]} for e in errs], i - 1))
+            else:  # not a union: one name, every error under it
+                out.extend(_fitting_members(errs, i))
+            continue
+
         def score(errs: list[Any]) -> tuple[int, int]:
             whole = all(len(e["loc"]) == len(errs[0]["loc"]) and e.get("type") in _MISMATCH for e in errs)
             return (1 if whole else 0, len(errs))
         best = min(members.values(), key=score)
-        out.extend(_fitting_members(best))
+        out.extend(_fitting_members([{**e, "loc": tuple(e["loc"])[:i] + tuple(e["loc"])[i + 1:]} for e in best], i - 1))
     return out
 
 

@@ -26,6 +26,7 @@ from pydantic import (
     model_validator,
 )
 from pydantic.json_schema import SkipJsonSchema
+from pydantic_core import PydanticCustomError
 
 from ..limits import THREADS_MAX
 from .choices import BACKENDS, PRECISIONS
@@ -432,8 +433,9 @@ class Spec(BaseModel):
     def _one_precision(self) -> Spec:
         inner = self.solve_options.precision if self.solve_options is not None else None
         if "precision" in self.model_fields_set and inner is not None and inner != self.precision:
-            raise ValueError(f"precision {self.precision!r} and solve_options.precision {inner!r} disagree; "
-                             "give one")
+            raise PydanticCustomError(
+                "disagreeing_fields", "precision '{outer}' and solve_options.precision '{inner}' disagree; give one",
+                {"outer": self.precision, "inner": inner, "at": ("solve_options", "precision")})
         return self
 
     def dump(self) -> dict[str, Any]:

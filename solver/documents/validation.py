@@ -148,7 +148,8 @@ def validated(model: type[M], doc: Any, what: str, context: dict[str, Any] | Non
     except ValidationError as e:
         errors = []
         for err in _fitting_members(list(e.errors(include_url=False))):
-            loc = tuple(err.get("loc", ()))
+            # a rule over several fields (a model validator) names the one it blames in its context's "at"
+            loc = tuple(err.get("loc", ())) or tuple((err.get("ctx") or {}).get("at", ()))
             field, where, text = describe(what, loc, err)
             errors.append({"field": field, "where": where, "message": text, "loc": list(loc),
                            "type": err.get("type"), "msg": str(err.get("msg", "")), "got": _got(err)})

@@ -475,11 +475,42 @@ def _hdf5(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
             total += n * obj.dtype.itemsize
 
     try:
-        with h5py.File(path, "r") as f:
-            f.visititems(visit)
+        f = h5py.File(path, "r")
     except (OSError, ValueError):
         return  # not HDF5 after all: the reader names it
+    with f:
+        _own_data_only(h5py, f, name)
+        f.visititems(visit)
     _check(name, bounds, nbytes=total)
+
+
+def _own_data_only(h5py: Any, f: Any, name: str) -> None:
+    """Refuse an HDF5 file whose data lives in other files: external links, virtual or external datasets.
+
+    Each would make the reader open a path of the uploader's choosing on the server.
+    """
+    def refuse(where: str, what: str, ref: str) -> None:
+        raise UnreadableFileError(
+            f"{name!r} holds {what} at {where!r} to {ref!r}, data outside the uploaded files; store the data "
+            "in the file itself", code="external_reference", file=name, reference=ref[:200])
+
+    def links(group: Any) -> None:
+        for key in group:
+            link = group.get(key, getlink=True)
+            if isinstance(link, h5py.ExternalLink):
+                refuse(f"{group.name.rstrip('/')}/{key}", "an external link", f"{link.filename}:{link.path}")
+
+    def visit(where: str, obj: Any) -> None:
+        if isinstance(obj, h5py.Group):
+            links(obj)
+        elif isinstance(obj, h5py.Dataset):
+            if obj.is_virtual:
+                refuse(where, "a virtual dataset", ", ".join(sorted({m.file_name for m in obj.virtual_sources()})))
+            if obj.external:
+                refuse(where, "a dataset stored in an external file", str(obj.external[0][0]))
+
+    links(f)
+    f.visititems(visit)
 
 
 _CHECKS = {"vtu": _vtu, "vtk": _vtk, "gmsh": _gmsh, "medit": _medit, "tetgen": _tetgen, "ply": _ply,

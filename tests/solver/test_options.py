@@ -138,7 +138,7 @@ def test_precision_and_solve_options_precision_must_agree():
     assert parse_spec(base).solve_options == {}
     with pytest.raises(SpecError) as e:
         parse_spec({**base, "precision": "exact", "solve_options": {"precision": "mixed"}})
-    assert "disagree" in str(e.value) and e.value.details["field"] == "SPEC"
+    assert "disagree" in str(e.value) and e.value.details["field"] == "SPEC.solve_options.precision"
     with pytest.raises(SpecError) as e:
         parse_spec({**base, "solve_options": {"threads": -1}})
     assert e.value.details["field"] == "SPEC.solve_options.threads"

@@ -204,3 +204,37 @@ def test_a_malformed_header_is_named_by_the_reader_as_a_typed_error(tmp_path, na
     path.write_bytes(data)
     with pytest.raises(UnreadableFileError):
         read_mesh(str(path))
+
+
+def _h5_with(path, kind: str, secret) -> None:
+    """An HDF5 file whose /points is an external link, a virtual dataset or external raw storage to ``secret``."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(secret, "w") as f:
+        f["points"] = np.arange(12.0).reshape(4, 3)
+    with h5py.File(path, "w") as f:
+        if kind == "link":
+            f["points"] = h5py.ExternalLink(str(secret), "/points")
+        elif kind == "virtual":
+            layout = h5py.VirtualLayout(shape=(4, 3), dtype="f8")
+            layout[:] = h5py.VirtualSource(str(secret), "points", shape=(4, 3))
+            f.create_virtual_dataset("points", layout)
+        else:
+            raw = secret.with_suffix(".bin")
+            raw.write_bytes(np.arange(12.0).tobytes())
+            f.create_dataset("points", shape=(4, 3), dtype="<f8", external=[(str(raw), 0, 96)])
+
+
+@pytest.mark.parametrize("kind", ["link", "virtual", "external"])
+def test_hdf5_data_in_a_file_outside_the_upload_is_refused(tmp_path, kind):
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    mesh = tmp_path / "upload"
+    mesh.mkdir()
+    _h5_with(mesh / "points.h5", kind, outside / "secret.h5")
+    (mesh / "a.xdmf").write_bytes(xdmf("points.h5:/points"))
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(mesh / "a.xdmf")
+    assert e.value.code == "external_reference", e.value.message
+    assert e.value.details["file"] == "points.h5" and "elsewhere" in e.value.details["reference"]

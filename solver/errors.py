@@ -100,7 +100,8 @@ class UnreadableFileError(InvalidMeshError):
     (details ``element``, ``node``, ``line``), ``no_nodes``, ``unsupported_coordinate_system``,
     ``too_many_points``, ``too_many_cells``, ``too_many_bytes`` (details ``declared``, ``bound``,
     ``setting``: :mod:`solver.io.bounds`), ``too_large_to_read`` (the reader ran out of memory),
-    ``external_reference`` (an XDMF file naming data outside its folder),
+    ``external_reference`` (an XDMF file naming data outside its folder, an HDF5 file with external
+    links, virtual datasets or external storage),
     ``unreadable_file`` (anything else; the reader's own words are in the message).
     """
 

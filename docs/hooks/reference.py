@@ -391,8 +391,10 @@ def documents_page() -> str:
 
 @functools.cache
 def model_classes() -> dict[str, Any]:
-    """The pydantic models of ``solver.documents`` and ``service.models`` by class name (for defaults made
-    by factories)."""
+    """The pydantic models of ``solver.documents`` and ``service.models`` by class name.
+
+    Used for the defaults that factories make.
+    """
     import importlib
     import pkgutil
 
@@ -448,8 +450,10 @@ def _fields_table(s: dict[str, Any], defs: dict[str, Any], link: str, model: str
 
 
 def _merge(note: str, desc: str) -> str:
-    """A field's hand-written note and its model's description, once when one starts with the other
-    (punctuation aside)."""
+    """A field's hand-written note and its model's description, joined.
+
+    Once only when one starts with the other (punctuation aside).
+    """
     a, b = (" ".join(s.split()) for s in (note, desc))
     words_a, words_b = (" ".join(re.findall(r"\w+", s)) for s in (a, b))
     if not b or words_b.startswith(words_a):

@@ -237,9 +237,11 @@ ERRORS: dict[str, tuple[str, str]] = {
     "too_large_to_read": ("Reading the file needed more memory than the process could allocate, though its "
                           "declared sizes passed the bounds.",
                           "Lower the bounds (TETMORPH_MAX_FILE_*), give the service more memory, or split the mesh."),
-    "external_reference": ("An XDMF file names a data file outside the mesh's own files (a path out of its "
-                           "folder, or a raw Binary DataItem, which its reader opens from the server's folder).",
-                           "Upload the HDF5 file as a companion and name it without a folder."),
+    "external_reference": ("A file's data lives outside the uploaded files: an XDMF DataItem with a path out "
+                           "of its folder or a raw Binary DataItem (opened from the server's folder), or an HDF5 "
+                           "file with an external link, a virtual dataset or external raw storage.",
+                           "Upload the HDF5 file as a companion and name it without a folder; copy linked or "
+                           "virtual data into the file itself (h5copy, or h5py's copy)."),
     "mesh_missing": ("A session's mesh file is gone from the data directory.",
                      "Upload the mesh again and create a new session."),
     "unwritable_format": ("The result cannot be written in the requested format.",

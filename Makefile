@@ -159,7 +159,7 @@ install: sysdeps $(STAMP)
 
 # ruff and mypy on the Python, ESLint (web/eslint.config.js, pinned by the lock file) on the editor
 lint: install web
-	$(BIN)/ruff check solver service tests benchmarks
+	$(BIN)/ruff check solver service tests benchmarks docs
 	$(BIN)/mypy solver service
 	cd web && npm run lint --silent
 

@@ -255,9 +255,11 @@ def sector_page_inputs(text: str) -> tuple[str, dict[str, Any], list[dict[str, A
 
 
 def target_morph() -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-    """The target-surface tutorial's morph, made by the page's first two blocks (the scan, the SPEC and
-    its solve) in a scratch folder: rest positions, morphed positions, boundary faces and the blocks'
-    scope (``plate``, ``xy``, ``z``, ``top``, ``result``, ...)."""
+    """The target-surface tutorial's morph: rest and morphed positions, boundary faces, the blocks' scope.
+
+    Made by the page's first two blocks (the scan, the SPEC and its solve) in a scratch folder; the
+    scope holds ``plate``, ``xy``, ``z``, ``top``, ``result``, ...
+    """
     blocks = re.findall(r"```python\n(.*?)```", TARGET_PAGE.read_text(), re.S)[:2]
     scope: dict[str, Any] = {}
     with tempfile.TemporaryDirectory() as d, contextlib.chdir(d):

@@ -229,6 +229,27 @@ def test_a_feature_candidate_shows_what_it_selects_under_the_pointer(page):
     page.wait_for_function(f"Math.abs(window.tetmorph.surfaceColor({ids[0]})[0] - {before[0]}) < 1e-6")
 
 
+def test_a_feature_candidate_shows_over_the_quality_contour(page):
+    load_bracket(page)
+    mesh = read_mesh(BRACKET)
+    page.select_option("#color-by", "quality")
+    page.click("#find-features")
+    page.wait_for_selector("#features li button")
+    expected = next(c for c in feature_candidates(mesh, 30, 1e-3) if c.name == "hole_1")
+    ids = np.asarray(expected.to_dict()["selection"]["ids"])
+    inside = np.isin(mesh.F, ids)
+    whole, untouched = np.flatnonzero(inside.all(axis=1)), np.flatnonzero(~inside.any(axis=1))
+    assert len(whole) > 10 and len(untouched) > 10
+    contour = np.array(page.evaluate("window.tetmorph.faceColors()"), float)
+    preview = np.array(page.evaluate("window.tetmorph.previewColor()"), float)
+    page.hover("#features li:has-text('hole_1') .name")
+    shown = np.array(page.evaluate("window.tetmorph.faceColors()"), float)
+    np.testing.assert_allclose(shown[whole], np.broadcast_to(preview, (len(whole), 3)), atol=1e-6)
+    np.testing.assert_allclose(shown[untouched], contour[untouched], atol=1e-6)  # the contour elsewhere
+    page.mouse.move(5, 5)  # off the list: the contour is back
+    page.wait_for_function(f"Math.abs(window.tetmorph.faceColors()[{int(whole[0])}][0] - {contour[whole[0], 0]}) < 1e-6")
+
+
 def test_local_axes_from_three_picked_nodes_drive_the_numeric_moves(page):
     bracket_session(page)
     mesh = read_mesh(BRACKET)

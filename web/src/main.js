@@ -13,7 +13,7 @@ import { Moves } from "./gizmo.js";
 import { renderFeatures, renderHandleSelect, renderHistory, renderMeshSessions, renderPresets, renderRegions,
   renderSessionsTable, wireRegions } from "./lists.js";
 import { loadMesh, setUnits } from "./mesh.js";
-import { MeshView, QUALITY_COLORS } from "./meshview.js";
+import { MeshView, PREVIEW_COLOR, QUALITY_COLORS } from "./meshview.js";
 import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshReport, setBusy, setReport, showError,
   showModel, showReport, unitText,
   thresholdPageX, wireThreshold } from "./panels.js";
@@ -555,6 +555,7 @@ window.tetmorph = Object.freeze({
     up: viewer.camera.up.toArray(), quaternion: viewer.camera.quaternion.toArray() }),
   triadAxes: () => viewer.triadAxes(),
   surfaceColor: (i) => Array.from(meshView.surfGeom.getAttribute("color").array.slice(3 * i, 3 * i + 3)),
+  previewColor: () => Array.from(PREVIEW_COLOR),  // what a hovered candidate is drawn in
   faceColors: () => meshView.faceColors(),  // per surface triangle, the quality contour's colour (null: not drawn)
   sectionColors: () => meshView.sectionColors(),  // {tets, colors}: the section's tets and their colours
   qualityColors: QUALITY_COLORS,

@@ -266,13 +266,25 @@ export class MeshView {
       this.qualGeom.setAttribute("color", new THREE.BufferAttribute(new Float32Array(9 * faces.length), 3));
     }
     const col = this.qualGeom.getAttribute("color").array;
+    const shown = this.previewMask(state.V.length / 3), F = state.F;
     for (let k = 0; k < faces.length; k++) {
       const t = owners[faces[k]];
       const c = t >= 0 ? this.qualityColor(q[t]) : NONE_COLOR;
-      for (let j = 0; j < 3; j++) { col[9 * k + 3 * j] = c[0]; col[9 * k + 3 * j + 1] = c[1]; col[9 * k + 3 * j + 2] = c[2]; }
+      for (let j = 0; j < 3; j++) {
+        const d = shown && shown[F[3 * faces[k] + j]] ? PREVIEW_COLOR : c;  // a hovered candidate shows over the contour
+        col[9 * k + 3 * j] = d[0]; col[9 * k + 3 * j + 1] = d[1]; col[9 * k + 3 * j + 2] = d[2];
+      }
     }
     this.qualGeom.getAttribute("color").needsUpdate = true;
     this.placeQuality();
+  }
+
+  /** Per vertex, 1 where the preview is shown (null: no preview). */
+  previewMask(n) {
+    if (!this.preview) return null;
+    const mask = new Uint8Array(n);
+    for (const i of this.preview) mask[i] = 1;
+    return mask;
   }
 
   /** The colour of a quality value: the contour's map over the mesh's range, red the worst. */

@@ -10,6 +10,7 @@ real, not only 404s. Sized for CI: ``max_examples`` per operation.
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 
 import pytest
@@ -58,3 +59,9 @@ def test_openapi_documents_the_envelope_and_the_documents():
     deform = doc["paths"]["/v1/sessions/{session_id}/deform"]["post"]
     assert {"200", "401", "404", "410", "422", "429", "500"} <= set(deform["responses"])
     assert deform["requestBody"]["content"]["application/json"]["schema"]["$ref"].endswith("/Move")
+
+
+def teardown_module():
+    """End the module's one lifespan (its workers and stores) and remove its data folder."""
+    _client.__exit__(None, None, None)
+    shutil.rmtree(_DATA, ignore_errors=True)

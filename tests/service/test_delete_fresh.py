@@ -15,6 +15,7 @@ The study's cases run ccx (marker ``ccx``).
 from __future__ import annotations
 
 import functools
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -229,3 +230,9 @@ def test_every_delete_route_is_exercised():
     covered = {"/v1/meshes/{mesh_id}", "/v1/sessions/{session_id}", "/v1/sessions/{session_id}/batch/{job_id}",
                "/v1/sessions/{session_id}/study/{job_id}", "/v1/jobs/{job_id}"}
     assert deletes == covered, deletes ^ covered  # a new DELETE route needs its fresh resource here
+
+
+def teardown_module():
+    """End the module's one lifespan (its workers and stores) and remove its data folder."""
+    client.__exit__(None, None, None)
+    shutil.rmtree(_DATA, ignore_errors=True)

@@ -14,6 +14,7 @@ the transport that the schema does not repeat on each string.
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 from collections.abc import Callable
 from typing import Any
@@ -139,3 +140,8 @@ def test_schema_valid_requests_are_accepted_and_answered_as_documented(case):
     if not beyond_the_schema(response, case):
         case.validate_response(response, checks=[positive_data_acceptance])
 
+
+def teardown_module():
+    """End the module's one lifespan (its workers and stores) and remove its data folder."""
+    client.__exit__(None, None, None)
+    shutil.rmtree(_DATA, ignore_errors=True)

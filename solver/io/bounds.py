@@ -281,10 +281,32 @@ def _medit(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
         _holds(name, f"{word} entries", n, 2, size)
 
 
+def _medit_entry_bytes(template: str, dim: int, isize: int, fsize: int) -> int | None:
+    """Bytes of one entry of a binary Medit keyword from its template (None: not a sizable template).
+
+    ``i`` is an integer, ``r`` a real, and ``d`` makes the next letter count ``dim`` times
+    (``"dri"``: a vertex, ``dim`` reals and a reference).
+
+    Examples
+    --------
+    >>> _medit_entry_bytes("dri", 3, 4, 8), _medit_entry_bytes("iiiii", 3, 4, 8), _medit_entry_bytes("hr", 3, 4, 8)
+    (28, 20, None)
+    """
+    width, count = 0, 1
+    for ch in template:
+        if ch == "d":
+            count = dim
+            continue
+        if ch not in "ir":
+            return None
+        width += count * (isize if ch == "i" else fsize)
+        count = 1
+    return width or None
+
+
 def _medit_binary(path: str, name: str, size: int, bounds: ReadBounds) -> None:
     """Walk a ``.meshb`` keyword by keyword (code, position, count), skipping the data by its size."""
-    from meshio.medit._medit import _produce_dtype
-    from meshio.medit._medit_internal import medit_codes
+    from meshio.medit._medit_internal import medit_codes  # keyword code -> (name, count kind, entry template)
 
     with open(path, "rb") as fh:
         end = "<" if struct.unpack("<i", fh.read(4))[0] == 1 else ">"
@@ -311,12 +333,14 @@ def _medit_binary(path: str, name: str, size: int, bounds: ReadBounds) -> None:
                 if len(raw) < np.dtype(itype).itemsize:
                     return
                 n = int(np.frombuffer(raw, end + itype)[0])
-            try:
-                width = np.dtype(_produce_dtype(entry[2], dim, end + itype, end + ftype)).itemsize
-            except Exception:  # noqa: BLE001 - a template meshio cannot size: its reader says why
+            width = _medit_entry_bytes(entry[2], dim, np.dtype(itype).itemsize, np.dtype(ftype).itemsize)
+            if width is None:  # a template the reader cannot size either: it says why
                 return
-            if entry[0] == "GmfDimension":
-                dim = int(np.frombuffer(fh.read(width), end + itype)[0])
+            if entry[0] == "GmfDimension":  # a 4-byte integer in every version, as the reader reads it
+                raw = fh.read(4)
+                if len(raw) < 4:
+                    return
+                dim = struct.unpack(end + "i", raw)[0]
                 continue
             _check(name, bounds, *((n, 0) if entry[0] == "GmfVertices" else (0, n)))
             _holds(name, f"{entry[0][3:]} entries", n, width, size)

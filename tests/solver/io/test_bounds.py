@@ -238,3 +238,27 @@ def test_hdf5_data_in_a_file_outside_the_upload_is_refused(tmp_path, kind):
         read_mesh(mesh / "a.xdmf")
     assert e.value.code == "external_reference", e.value.message
     assert e.value.details["file"] == "points.h5" and "elsewhere" in e.value.details["reference"]
+
+
+@pytest.mark.parametrize("reals, ints, version", [("f8", "i4", 3), ("f8", "i8", 4)])  # what meshio writes
+def test_a_binary_medit_file_under_the_bounds_is_walked_and_read(tmp_path, reals, ints, version):
+    import meshio
+    import numpy as np
+
+    from solver.testing import cube_mesh
+
+    V, T = cube_mesh(3)
+    V = V.astype(reals)
+    path = tmp_path / "cube.meshb"
+    meshio.write(path, meshio.Mesh(V, [("tetra", T.astype(ints))],
+                                   cell_data={"medit:ref": [(np.arange(len(T)) % 3).astype(ints)]}))
+    assert struct.unpack("<2i", path.read_bytes()[:8]) == (1, version)
+    mesh = read_mesh(path)
+    np.testing.assert_array_equal(mesh.V, V.astype(float))
+    assert len(mesh.T) == len(T)
+    # the walk sizes every keyword: a bound one below the file's counts is what refuses it
+    for bounds, code in ((ReadBounds(points=len(V) - 1), "too_many_points"),
+                         (ReadBounds(cells=len(T) - 1), "too_many_cells")):
+        with pytest.raises(UnreadableFileError) as e:
+            read_mesh(path, bounds=bounds)
+        assert e.value.code == code and e.value.details["declared"] == (len(V) if "points" in code else len(T))

@@ -527,11 +527,18 @@ def test_histogram_threshold_drags_and_counts_follow(page):
     settle(page)
     ticks = page.evaluate("window.tetmorph.histogramTicks()")
     assert ticks[:4] == ["0", "10", "100", "1k"]  # a log y scale, labelled by decades
-    hist = page.eval_on_selector("#hist", "c => { const r = c.getBoundingClientRect(); return {x: r.left, y: r.top,"
-                                 " w: r.width, h: r.height, cw: c.width}; }")
-    x_of = page.evaluate("(t) => window.tetmorph.histogramX(t)", 0.2)
-    x1 = page.evaluate("(t) => window.tetmorph.histogramX(t)", 0.5)
-    drag(page, x_of, hist["y"] + hist["h"] / 2, x1, hist["y"] + hist["h"] / 2, steps=5)
+    # the REPORT rows above the histogram move it as they come (displacements are fetched after the
+    # frame): the pointer goes down through the locator, which waits until the canvas is still and
+    # is what the point hits, and each point is measured where the canvas is at that moment
+    page.wait_for_selector("#report tr[data-key=max_free_displacement]")
+    where = "(t) => { const r = document.getElementById('hist').getBoundingClientRect();" \
+            " return {x: window.tetmorph.histogramX(t), left: r.left, y: r.top + r.height / 2, h: r.height}; }"
+    a = page.evaluate(where, 0.2)
+    page.locator("#hist").hover(position={"x": a["x"] - a["left"], "y": a["h"] / 2})
+    page.mouse.down()
+    b = page.evaluate(where, 0.5)
+    page.mouse.move(b["x"], b["y"], steps=5)
+    page.mouse.up()
     t = page.evaluate("window.tetmorph.view().threshold")
     assert t == pytest.approx(0.5, abs=0.011)
     sj = scaled_jacobians(positions(page).astype(np.float64), read_mesh(BRACKET).T)

@@ -247,7 +247,8 @@ def test_a_feature_candidate_shows_over_the_quality_contour(page):
     np.testing.assert_allclose(shown[whole], np.broadcast_to(preview, (len(whole), 3)), atol=1e-6)
     np.testing.assert_allclose(shown[untouched], contour[untouched], atol=1e-6)  # the contour elsewhere
     page.mouse.move(5, 5)  # off the list: the contour is back
-    page.wait_for_function(f"Math.abs(window.tetmorph.faceColors()[{int(whole[0])}][0] - {contour[whole[0], 0]}) < 1e-6")
+    k, red = int(whole[0]), float(contour[whole[0], 0])
+    page.wait_for_function(f"Math.abs(window.tetmorph.faceColors()[{k}][0] - {red}) < 1e-6")
 
 
 def test_local_axes_from_three_picked_nodes_drive_the_numeric_moves(page):

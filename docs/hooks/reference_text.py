@@ -226,10 +226,14 @@ ERRORS: dict[str, tuple[str, str]] = {
     "duplicate_node_number": ("A TetGen node number is defined twice.", _REEXPORT),
     "missing_companion": ("A TetGen `.node` without its `.ele` (or the other way round).",
                           "Upload both files (the `.ele` as a companion)."),
-    "too_many_points": ("The file declares more nodes than tetmorph reads (50M); nothing was read.",
-                        "Split or coarsen the mesh."),
-    "too_many_cells": ("The file declares more elements than tetmorph reads (300M); nothing was read.",
-                       "Split or coarsen the mesh."),
+    "too_many_points": ("The file declares more nodes than tetmorph reads (50M by default; `details.bound`, "
+                        "set by `details.setting`): refused before reading where the format declares its "
+                        "counts, once read where it does not (Abaqus, Nastran, HDF5 formats).",
+                        "Split or coarsen the mesh, or raise the setting."),
+    "too_many_cells": ("The file declares more elements than tetmorph reads (300M by default; `details.bound`, "
+                       "set by `details.setting`): refused before reading where the format declares its "
+                       "counts, once read where it does not.",
+                       "Split or coarsen the mesh, or raise the setting."),
     "too_many_bytes": ("The file's compressed data arrays (VTU zlib/LZMA blocks), HDF5 datasets or declared "
                        "tables expand to more bytes than tetmorph reads (`details.bound`, set by "
                        "`details.setting`); nothing was expanded.",

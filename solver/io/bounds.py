@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import SolverError, UnreadableFileError
 from ..limits import MAX_CELLS, MAX_EXPANDED_BYTES, MAX_POINTS
 
-__all__ = ["ReadBounds", "check_declared_sizes", "expansion_budget", "memory_error"]
+__all__ = ["ReadBounds", "check_declared_sizes", "check_read_sizes", "expansion_budget", "memory_error"]
 
 
 @dataclass(frozen=True)
@@ -79,6 +79,27 @@ def _too_many(name: str, what: str, declared: int, bounds: ReadBounds) -> Unread
     return UnreadableFileError(
         f"{name!r} declares {declared:,} {unit}; tetmorph reads at most {bound:,} ({setting}); nothing was read",
         code=code, file=name, declared=declared, bound=bound, setting=setting)
+
+
+def check_read_sizes(name: str, points: int, cells: int, bounds: ReadBounds) -> None:
+    """Refuse a mesh, once read, that holds more nodes or elements than ``bounds``.
+
+    The bound on what a file declares (:func:`check_declared_sizes`) is checked before reading where
+    the format declares counts; a format that declares none (Abaqus, Nastran, OBJ, ...) is held to
+    the same settings here, so the bounds mean the same whatever the format.
+
+    Raises
+    ------
+    UnreadableFileError
+        ``too_many_points`` or ``too_many_cells``, naming the count, the bound and its setting.
+    """
+    for n, bound, setting, code, unit in (
+            (points, bounds.points, bounds.points_setting, "too_many_points", "nodes"),
+            (cells, bounds.cells, bounds.cells_setting, "too_many_cells", "elements")):
+        if n > bound:
+            raise UnreadableFileError(
+                f"{name!r} holds {n:,} {unit}; tetmorph reads at most {bound:,} ({setting})",
+                code=code, file=name, declared=n, bound=bound, setting=setting)
 
 
 def _check(name: str, bounds: ReadBounds, points: int = 0, cells: int = 0, nbytes: int = 0) -> None:
@@ -190,7 +211,10 @@ def _blocks(name: str, read: Any, item: int, fmt: str, size: int) -> int:
 
 
 def _vtk(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    _check(name, bounds, _total(rb"(?m)^\s*POINTS\s+(\d+)", head), _total(rb"(?m)^\s*CELLS\s+(\d+)", head))
+    cells = _total(rb"(?m)^\s*CELLS\s+(\d+)", head)
+    if re.match(rb"#\s*vtk DataFile Version 5", head) and cells:  # 5.x: CELLS counts the offsets, one more
+        cells -= len(re.findall(rb"(?m)^\s*CELLS\s+\d+", head))
+    _check(name, bounds, _total(rb"(?m)^\s*POINTS\s+(\d+)", head), cells)
     size = os.path.getsize(path)
     least = 1 if re.search(rb"(?m)^\s*BINARY\s*$", head[:1024]) else 2  # bytes a number takes at the least
     with open(path, "rb") as fh:
@@ -209,6 +233,11 @@ def _vtk(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
 
 
 def _gmsh(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
+    fmt = re.match(rb"\$MeshFormat\s*\r?\n\s*4\.1\s+1\s+(\d+)[ \t]*\r?\n", head)
+    if fmt:  # binary 4.1: the sections' headers are machine integers, not text; the integer 1 tells the order
+        one = head[fmt.end():fmt.end() + 4]
+        order = {struct.pack("<i", 1): "<", struct.pack(">i", 1): ">"}.get(one)
+        return _gmsh41_binary(path, name, head, int(fmt[1]), order, bounds) if order else None
     nodes = elems = tag = 0
     m = re.search(rb"\$Nodes\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
     if m:  # 2.2: the count; 4.1: blocks, count, smallest and largest tag
@@ -235,6 +264,55 @@ def _gmsh(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
     size = os.path.getsize(path)
     _holds(name, "nodes", nodes, 2, size)  # at least a tag and a blank each (binary: more)
     _holds(name, "elements", elems, 2, size)
+
+
+def _gmsh41_binary(path: str, name: str, head: bytes, size_t: int, end: str, bounds: ReadBounds) -> None:
+    """The totals of a binary Gmsh 4.1 file's ``$Nodes`` and ``$Elements`` headers, and each node block's count.
+
+    Each section opens with four ``size_t`` (blocks, entries, smallest and largest tag); a node block
+    is three ``int`` (dimension, entity, parametric) and a ``size_t`` count, then the tags and the
+    coordinates. The walk over the node blocks finds where ``$Elements`` starts without reading data.
+    """
+    k = head.find(b"$Nodes\n")
+    if k < 0 or size_t not in (4, 8):
+        return  # the reader names it
+    word = end + ("Q" if size_t == 8 else "I")
+    size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        fh.seek(k + len(b"$Nodes\n"))
+        raw = fh.read(4 * size_t)
+        if len(raw) < 4 * size_t:
+            return
+        blocks, nodes, _, tag = struct.unpack(end + 4 * word[1], raw)
+        _check(name, bounds, points=nodes)
+        if tag > 4 * bounds.points:  # arrays indexed by tag would be too large
+            raise UnreadableFileError(
+                f"{name!r} declares node tags up to {tag:,}; tetmorph reads at most {bounds.points:,} nodes "
+                f"({bounds.points_setting})", code="too_many_points", file=name, declared=tag, bound=bounds.points,
+                setting=bounds.points_setting)
+        _holds(name, "nodes", nodes, size_t + 24, size)
+        for _ in range(min(blocks, 100_000)):
+            raw = fh.read(12 + size_t)
+            if len(raw) < 12 + size_t:
+                return
+            _, _, parametric, n = struct.unpack(end + "iii" + word[1], raw)
+            if n > nodes:
+                raise UnreadableFileError(
+                    f"{name!r}: a $Nodes block declares {n:,} entries, more than the {nodes:,} of the whole "
+                    "section: the file is inconsistent", code="too_many_points", file=name, declared=n,
+                    bound=min(nodes, bounds.points))
+            if parametric:
+                return  # parametric coordinates: sized by the entity's dimension; the reader walks it
+            fh.seek(n * (size_t + 24), os.SEEK_CUR)
+        rest = fh.read(1 << 20)
+    j = rest.find(b"$Elements\n")
+    if j < 0:
+        return
+    raw = rest[j + len(b"$Elements\n"):][:4 * size_t]
+    if len(raw) == 4 * size_t:
+        _, elems, _, _ = struct.unpack(end + 4 * word[1], raw)
+        _check(name, bounds, cells=elems)
+        _holds(name, "elements", elems, 2 * size_t, size)
 
 
 def _gmsh_blocks(head: bytes, section: bytes, lines_per_item: int) -> int:

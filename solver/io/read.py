@@ -15,7 +15,7 @@ from ..errors import MAX_IDS, InvalidMeshError, UnreadableFileError, Unsupported
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
 from ..ops.unique import unique
-from .bounds import ReadBounds, check_declared_sizes, expansion_budget, memory_error
+from .bounds import ReadBounds, check_declared_sizes, check_read_sizes, expansion_budget, memory_error
 from .diagnose import check_complete, check_file, diagnose
 from .formats import SURFACE_FORMATS, format_of
 from .patch_inp import node_block_sets
@@ -166,6 +166,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     bounds = bounds or ReadBounds()
     check_declared_sizes(path, fmt, bounds)
     m = _read(path, fmt, bounds)
+    check_read_sizes(name, len(m.points), sum(len(c.data) for c in m.cells), bounds)
     if np.asarray(m.points).size == 0:
         raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",
                                   code="no_nodes", file=name)
@@ -227,6 +228,7 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None, *
     bounds = bounds or ReadBounds()
     check_declared_sizes(path, fmt, bounds)
     m = _read(path, fmt, bounds)
+    check_read_sizes(name, len(m.points), sum(len(c.data) for c in m.cells), bounds)
     counts = {c.type: len(c.data) for c in m.cells if len(c.data)}
     if any(t in VOLUME_CELLS or t in MIXED_TYPES for t in counts):
         raise UnreadableFileError(f"{name!r} is a volume mesh already ({counts}): morph it directly",

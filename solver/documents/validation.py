@@ -59,24 +59,37 @@ def _model_names() -> set[str]:
             and issubclass(getattr(mod, n), BaseModel)}
 
 
-def _tag_at(loc: tuple[Any, ...], start: int = 0) -> int:
+def _is_key(doc: Any, path: tuple[Any, ...], name: Any) -> bool:
+    """True when ``name`` is a key of the dictionary the document holds at ``path`` (a name a person chose)."""
+    node = doc
+    for part in path:
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+        else:
+            return False
+    return isinstance(node, dict) and name in node
+
+
+def _tag_at(loc: tuple[Any, ...], start: int, doc: Any) -> int:
     return next((i for i, part in enumerate(loc) if i > max(start, 0) and isinstance(loc[i - 1], str)
-                 and _is_tag(part)), -1)
+                 and _is_tag(part) and not _is_key(doc, loc[:i], part)), -1)
 
 
-def _fitting_members(errors: list[Any], start: int = 0) -> list[Any]:
+def _fitting_members(errors: list[Any], doc: Any, start: int = 0) -> list[Any]:
     """The errors of the union member that fits the input best, without the members' names in their locations.
 
     pydantic reports an input that matches no member of a union once per member; a person wants to
     hear about the member they meant: the one with the fewest errors among those whose kind matched.
-    A name that looks like a member's but is alone at its place is a key the person chose (a handle
-    called ``tip(1)``), kept as it is; the search goes on after it.
+    A name that looks like a member's but is a key of the document at its place (a handle called
+    ``tip(1)`` or ``str``) is the person's, kept as it is; so is a name alone at its place.
     """
     groups: dict[tuple[Any, ...], dict[Any, list[Any]]] = {}
     out = []
     for err in errors:
         loc = tuple(err.get("loc", ()))
-        i = _tag_at(loc, start)
+        i = _tag_at(loc, start, doc)
         if i < 0:
             out.append(err)
         else:
@@ -86,16 +99,17 @@ def _fitting_members(errors: list[Any], start: int = 0) -> list[Any]:
         if len(members) == 1:
             name, errs = next(iter(members.items()))
             if name == "[key]":  # an error in a dictionary's key: named at the key
-                out.extend(_fitting_members([{**e, "loc": tuple(e["loc"])[:i]} for e in errs], i - 1))
+                out.extend(_fitting_members([{**e, "loc": tuple(e["loc"])[:i]} for e in errs], doc, i - 1))
             else:  # not a union: one name, every error under it
-                out.extend(_fitting_members(errs, i))
+                out.extend(_fitting_members(errs, doc, i))
             continue
 
         def score(errs: list[Any]) -> tuple[int, int]:
             whole = all(len(e["loc"]) == len(errs[0]["loc"]) and e.get("type") in _MISMATCH for e in errs)
             return (1 if whole else 0, len(errs))
         best = min(members.values(), key=score)
-        out.extend(_fitting_members([{**e, "loc": tuple(e["loc"])[:i] + tuple(e["loc"])[i + 1:]} for e in best], i - 1))
+        out.extend(_fitting_members([{**e, "loc": tuple(e["loc"])[:i] + tuple(e["loc"])[i + 1:]} for e in best],
+                                    doc, i - 1))
     return out
 
 
@@ -147,7 +161,7 @@ def validated(model: type[M], doc: Any, what: str, context: dict[str, Any] | Non
         return model.model_validate(doc, context=context)
     except ValidationError as e:
         errors = []
-        for err in _fitting_members(list(e.errors(include_url=False))):
+        for err in _fitting_members(list(e.errors(include_url=False)), doc):
             # a rule over several fields (a model validator) names the one it blames in its context's "at"
             loc = tuple(err.get("loc", ())) or tuple((err.get("ctx") or {}).get("at", ()))
             field, where, text = describe(what, loc, err)

@@ -31,91 +31,21 @@ import struct
 import threading
 import zlib
 from collections.abc import Iterator
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..errors import SolverError, UnreadableFileError
-from ..limits import MAX_CELLS, MAX_EXPANDED_BYTES, MAX_POINTS
+from .binary_headers import gmsh41_binary, medit_binary
+from .read_bounds import ReadBounds, check_read_sizes
+from .read_bounds import check_bounds as _check
+from .read_bounds import check_holds as _holds
 
 __all__ = ["ReadBounds", "check_declared_sizes", "check_read_sizes", "expansion_budget", "memory_error"]
 
 
-@dataclass(frozen=True)
-class ReadBounds:
-    """The most a mesh file may declare or expand to, and the names of the settings that hold each bound.
-
-    Attributes
-    ----------
-    points, cells : int
-        Most nodes and elements.
-    expanded_bytes : int
-        Most bytes a file's data arrays may take once read, in all: compressed arrays (VTU blocks, HDF5
-        datasets) by what they expand to, uncompressed tables (legacy VTK, TetGen) by their declared counts.
-    points_setting, cells_setting, bytes_setting : str
-        Where each bound is set, named in the errors.
-    """
-
-    points: int = MAX_POINTS
-    cells: int = MAX_CELLS
-    expanded_bytes: int = MAX_EXPANDED_BYTES
-    points_setting: str = "MAX_POINTS (solver/limits.py)"
-    cells_setting: str = "MAX_CELLS (solver/limits.py)"
-    bytes_setting: str = "MAX_EXPANDED_BYTES (solver/limits.py)"
-
-
 #: Bytes of a file's head read for the counts it declares (XML headers, Gmsh sections before $Nodes).
 _HEAD = 4 << 20
-
-
-def _too_many(name: str, what: str, declared: int, bounds: ReadBounds) -> UnreadableFileError:
-    """``too_many_points`` / ``too_many_cells`` / ``too_many_bytes`` for ``declared`` of ``what``."""
-    bound, setting, code, unit = {
-        "points": (bounds.points, bounds.points_setting, "too_many_points", "nodes"),
-        "cells": (bounds.cells, bounds.cells_setting, "too_many_cells", "elements"),
-        "bytes": (bounds.expanded_bytes, bounds.bytes_setting, "too_many_bytes", "bytes of data"),
-    }[what]
-    return UnreadableFileError(
-        f"{name!r} declares {declared:,} {unit}; tetmorph reads at most {bound:,} ({setting}); nothing was read",
-        code=code, file=name, declared=declared, bound=bound, setting=setting)
-
-
-def check_read_sizes(name: str, points: int, cells: int, bounds: ReadBounds) -> None:
-    """Refuse a mesh, once read, that holds more nodes or elements than ``bounds``.
-
-    The bound on what a file declares (:func:`check_declared_sizes`) is checked before reading where
-    the format declares counts; a format that declares none (Abaqus, Nastran, OBJ, ...) is held to
-    the same settings here, so the bounds mean the same whatever the format.
-
-    Raises
-    ------
-    UnreadableFileError
-        ``too_many_points`` or ``too_many_cells``, naming the count, the bound and its setting.
-    """
-    for n, bound, setting, code, unit in (
-            (points, bounds.points, bounds.points_setting, "too_many_points", "nodes"),
-            (cells, bounds.cells, bounds.cells_setting, "too_many_cells", "elements")):
-        if n > bound:
-            raise UnreadableFileError(
-                f"{name!r} holds {n:,} {unit}; tetmorph reads at most {bound:,} ({setting})",
-                code=code, file=name, declared=n, bound=bound, setting=setting)
-
-
-def _check(name: str, bounds: ReadBounds, points: int = 0, cells: int = 0, nbytes: int = 0) -> None:
-    for what, n, bound in (("points", points, bounds.points), ("cells", cells, bounds.cells),
-                           ("bytes", nbytes, bounds.expanded_bytes)):
-        if n > bound:
-            raise _too_many(name, what, n, bounds)
-
-
-def _holds(name: str, what: str, declared: int, least: int, size: int) -> None:
-    """Refuse ``declared`` entries of at least ``least`` bytes each in a file of ``size`` bytes."""
-    if declared * least > size:
-        raise UnreadableFileError(
-            f"{name!r} declares {declared:,} {what}, which need at least {declared * least:,} bytes; the file "
-            f"has {size:,}: it is truncated or its count is wrong", code="truncated_file", file=name,
-            declared=declared, size=size)
 
 
 def check_declared_sizes(path: str, fmt: str, bounds: ReadBounds | None = None) -> None:
@@ -233,11 +163,13 @@ def _vtk(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
 
 
 def _gmsh(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    fmt = re.match(rb"\$MeshFormat\s*\r?\n\s*4\.1\s+1\s+(\d+)[ \t]*\r?\n", head)
-    if fmt:  # binary 4.1: the sections' headers are machine integers, not text; the integer 1 tells the order
+    fmt = re.search(rb"\$MeshFormat[ \t]*\r?\n[ \t]*(\S+)[ \t]+1[ \t]+(\d+)[ \t]*\r?\n", head[:1 << 16])
+    if fmt and fmt[1] != b"4.0" and fmt[1].split(b".")[0] == b"4":
+        # binary, read as 4.1 (meshio reads "4", "4.1", "4.10", ... so): the sections' headers are
+        # machine integers, not text; the integer 1 after the format line tells the byte order
         one = head[fmt.end():fmt.end() + 4]
         order = {struct.pack("<i", 1): "<", struct.pack(">i", 1): ">"}.get(one)
-        return _gmsh41_binary(path, name, head, int(fmt[1]), order, bounds) if order else None
+        return gmsh41_binary(path, name, head, int(fmt[2]), order, bounds) if order else None
     nodes = elems = tag = 0
     m = re.search(rb"\$Nodes\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
     if m:  # 2.2: the count; 4.1: blocks, count, smallest and largest tag
@@ -264,55 +196,6 @@ def _gmsh(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
     size = os.path.getsize(path)
     _holds(name, "nodes", nodes, 2, size)  # at least a tag and a blank each (binary: more)
     _holds(name, "elements", elems, 2, size)
-
-
-def _gmsh41_binary(path: str, name: str, head: bytes, size_t: int, end: str, bounds: ReadBounds) -> None:
-    """The totals of a binary Gmsh 4.1 file's ``$Nodes`` and ``$Elements`` headers, and each node block's count.
-
-    Each section opens with four ``size_t`` (blocks, entries, smallest and largest tag); a node block
-    is three ``int`` (dimension, entity, parametric) and a ``size_t`` count, then the tags and the
-    coordinates. The walk over the node blocks finds where ``$Elements`` starts without reading data.
-    """
-    k = head.find(b"$Nodes\n")
-    if k < 0 or size_t not in (4, 8):
-        return  # the reader names it
-    word = end + ("Q" if size_t == 8 else "I")
-    size = os.path.getsize(path)
-    with open(path, "rb") as fh:
-        fh.seek(k + len(b"$Nodes\n"))
-        raw = fh.read(4 * size_t)
-        if len(raw) < 4 * size_t:
-            return
-        blocks, nodes, _, tag = struct.unpack(end + 4 * word[1], raw)
-        _check(name, bounds, points=nodes)
-        if tag > 4 * bounds.points:  # arrays indexed by tag would be too large
-            raise UnreadableFileError(
-                f"{name!r} declares node tags up to {tag:,}; tetmorph reads at most {bounds.points:,} nodes "
-                f"({bounds.points_setting})", code="too_many_points", file=name, declared=tag, bound=bounds.points,
-                setting=bounds.points_setting)
-        _holds(name, "nodes", nodes, size_t + 24, size)
-        for _ in range(min(blocks, 100_000)):
-            raw = fh.read(12 + size_t)
-            if len(raw) < 12 + size_t:
-                return
-            _, _, parametric, n = struct.unpack(end + "iii" + word[1], raw)
-            if n > nodes:
-                raise UnreadableFileError(
-                    f"{name!r}: a $Nodes block declares {n:,} entries, more than the {nodes:,} of the whole "
-                    "section: the file is inconsistent", code="too_many_points", file=name, declared=n,
-                    bound=min(nodes, bounds.points))
-            if parametric:
-                return  # parametric coordinates: sized by the entity's dimension; the reader walks it
-            fh.seek(n * (size_t + 24), os.SEEK_CUR)
-        rest = fh.read(1 << 20)
-    j = rest.find(b"$Elements\n")
-    if j < 0:
-        return
-    raw = rest[j + len(b"$Elements\n"):][:4 * size_t]
-    if len(raw) == 4 * size_t:
-        _, elems, _, _ = struct.unpack(end + 4 * word[1], raw)
-        _check(name, bounds, cells=elems)
-        _holds(name, "elements", elems, 2 * size_t, size)
 
 
 def _gmsh_blocks(head: bytes, section: bytes, lines_per_item: int) -> int:
@@ -347,7 +230,7 @@ _MEDIT_POINTS = {"Vertices", "Corners", "RequiredVertices", "Normals", "NormalAt
 def _medit(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
     size = os.path.getsize(path)
     if head[:4] in (struct.pack("<i", 1), struct.pack(">i", 1)):
-        return _medit_binary(path, name, size, bounds)
+        return medit_binary(path, name, size, bounds)
     with open(path, "rb") as fh:
         data = fh.read()
     # meshio reads the count on the line after the keyword, and skips that many lines or numbers
@@ -357,72 +240,6 @@ def _medit(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
             continue
         _check(name, bounds, *((n, 0) if word in _MEDIT_POINTS else (0, n)))
         _holds(name, f"{word} entries", n, 2, size)
-
-
-def _medit_entry_bytes(template: str, dim: int, isize: int, fsize: int) -> int | None:
-    """Bytes of one entry of a binary Medit keyword from its template (None: not a sizable template).
-
-    ``i`` is an integer, ``r`` a real, and ``d`` makes the next letter count ``dim`` times
-    (``"dri"``: a vertex, ``dim`` reals and a reference).
-
-    Examples
-    --------
-    >>> _medit_entry_bytes("dri", 3, 4, 8), _medit_entry_bytes("iiiii", 3, 4, 8), _medit_entry_bytes("hr", 3, 4, 8)
-    (28, 20, None)
-    """
-    width, count = 0, 1
-    for ch in template:
-        if ch == "d":
-            count = dim
-            continue
-        if ch not in "ir":
-            return None
-        width += count * (isize if ch == "i" else fsize)
-        count = 1
-    return width or None
-
-
-def _medit_binary(path: str, name: str, size: int, bounds: ReadBounds) -> None:
-    """Walk a ``.meshb`` keyword by keyword (code, position, count), skipping the data by its size."""
-    from meshio.medit._medit_internal import medit_codes  # keyword code -> (name, count kind, entry template)
-
-    with open(path, "rb") as fh:
-        end = "<" if struct.unpack("<i", fh.read(4))[0] == 1 else ">"
-        version = struct.unpack(end + "i", fh.read(4))[0]
-        if not 1 <= version <= 4:
-            return  # the reader names it
-        itype, ftype, ptype = {1: ("i4", "f4", "i4"), 2: ("i4", "f8", "i4"), 3: ("i4", "f8", "i8")}.get(
-            version, ("i8", "f8", "i8"))
-        dim = 3
-        for _ in range(10_000):  # keywords: a handful in any real file
-            raw = fh.read(4)
-            if len(raw) < 4:
-                return
-            code = struct.unpack(end + "i", raw)[0]
-            entry = medit_codes.get(code)
-            if entry is None or entry[0] == "GmfEnd":
-                return
-            if entry[0] == "GmfReserved":
-                continue
-            fh.read(np.dtype(ptype).itemsize)
-            n = 1
-            if entry[1] == "i":
-                raw = fh.read(np.dtype(itype).itemsize)
-                if len(raw) < np.dtype(itype).itemsize:
-                    return
-                n = int(np.frombuffer(raw, end + itype)[0])
-            width = _medit_entry_bytes(entry[2], dim, np.dtype(itype).itemsize, np.dtype(ftype).itemsize)
-            if width is None:  # a template the reader cannot size either: it says why
-                return
-            if entry[0] == "GmfDimension":  # a 4-byte integer in every version, as the reader reads it
-                raw = fh.read(4)
-                if len(raw) < 4:
-                    return
-                dim = struct.unpack(end + "i", raw)[0]
-                continue
-            _check(name, bounds, *((n, 0) if entry[0] == "GmfVertices" else (0, n)))
-            _holds(name, f"{entry[0][3:]} entries", n, width, size)
-            fh.seek(n * width, os.SEEK_CUR)
 
 
 # ------------------------------------------------------------------ TetGen

@@ -29,3 +29,17 @@ def test_a_union_is_named_by_the_member_that_fits():
         validated(Move, {"handles": {"h": {"translation": [0, 0, "x"]}}}, "MOVE")
     assert e.value.details["field"] == "MOVE.handles.h.translation"
     assert all("none" not in err["where"] for err in e.value.details["errors"])
+
+
+def test_keys_that_look_like_union_members_side_by_side_are_each_named():
+    with pytest.raises(SpecError) as e:
+        validated(Move, {"handles": {"tip(1)": {"scale": True}, "arm(2)": {"scale": "x"}}}, "MOVE")
+    assert [err["where"] for err in e.value.details["errors"]] == ["MOVE.handles.tip(1).scale",
+                                                                   "MOVE.handles.arm(2).scale"]
+    with pytest.raises(SpecError) as e:
+        validated(Spec, {"selections": {"str": {"ids": ["x"]}, "int": {"ids": ["y"]}}}, "SPEC")
+    assert [err["where"] for err in e.value.details["errors"]] == ["SPEC.selections.str.ids[0]",
+                                                                   "SPEC.selections.int.ids[0]"]
+    with pytest.raises(SpecError) as e:
+        validated(Move, {"handles": {"[key]": {"scale": True}}}, "MOVE")
+    assert e.value.details["field"] == "MOVE.handles.[key].scale"

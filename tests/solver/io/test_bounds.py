@@ -298,3 +298,42 @@ def test_every_format_is_held_to_the_bounds_at_its_own_counts(tmp_path, case):
             read_mesh(path, bounds=bounds)
         assert e.value.code == code, e.value.message
         assert e.value.details["declared"] == count and e.value.details["bound"] == count - 1
+
+
+def _binary_gmsh41(tmp_path) -> tuple[bytes, int, int]:
+    import meshio
+
+    from solver.testing import cube_mesh
+
+    V, T = cube_mesh(3)
+    path = tmp_path / "w.msh"
+    meshio.write(path, meshio.Mesh(V, [("tetra", T)]), file_format="gmsh", binary=True)
+    return path.read_bytes(), len(V), len(T)
+
+
+@pytest.mark.parametrize("variant", ["4.1", "4", "4.10", "crlf"])
+def test_binary_gmsh_headers_meshio_reads_as_4_1_are_bounded(tmp_path, variant):
+    data, n_points, _ = _binary_gmsh41(tmp_path)
+    if variant == "crlf":
+        data = data.replace(b"$Nodes\n", b"$Nodes\r\n", 1)
+    else:
+        data = data.replace(b"\n4.1 1 8\n", f"\n{variant} 1 8\n".encode(), 1)
+    path = tmp_path / "a.msh"
+    path.write_bytes(data)
+    assert len(read_mesh(path).V) == n_points  # the reader reads it
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(path, bounds=ReadBounds(points=n_points - 1))
+    assert e.value.code == "too_many_points" and "declares" in e.value.message  # before reading
+
+
+def test_a_binary_gmsh_element_block_larger_than_its_section_is_refused(tmp_path):
+    data, _, n_cells = _binary_gmsh41(tmp_path)
+    k = data.index(b"$Elements\n") + len(b"$Elements\n") + 4 * 8  # the section's four size_t, then block 1
+    header = struct.unpack("<iiiQ", data[k:k + 20])
+    assert header[3] == n_cells  # one tetra block
+    path = tmp_path / "a.msh"
+    path.write_bytes(data[:k] + struct.pack("<iiiQ", *header[:3], 10**12) + data[k + 20:])
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(path)
+    assert e.value.code == "too_many_cells" and e.value.details["declared"] == 10**12
+    assert "more than the" in e.value.message

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import re
 import struct
+from collections.abc import Callable
 
 import numpy as np
 
@@ -42,11 +43,23 @@ def gmsh41_binary(path: str, name: str, head: bytes, size_t: int, end: str, boun
     word = ("Q" if size_t == 8 else "I")
     size = os.path.getsize(path)
 
-    def block_over(section: str, n: int, total: int, code: str, bound: int) -> None:
-        if n > total:
-            raise UnreadableFileError(
-                f"{name!r}: a ${section} block declares {n:,} entries, more than the {total:,} of the whole "
-                "section: the file is inconsistent", code=code, file=name, declared=n, bound=min(total, bound))
+    def walk(blocks: int, section: str, total: int, code: str, bound: int,
+             entry_bytes: Callable[[int], int | None]) -> bool:
+        """Seek over a section's blocks (``entry_bytes`` of a block's third int); False where the walk stops."""
+        for _ in range(min(blocks, 100_000)):
+            raw = fh.read(12 + size_t)
+            if len(raw) < 12 + size_t:
+                return False
+            _, _, third, n = struct.unpack(end + "iii" + word, raw)
+            if n > total:
+                raise UnreadableFileError(
+                    f"{name!r}: a ${section} block declares {n:,} entries, more than the {total:,} of the whole "
+                    "section: the file is inconsistent", code=code, file=name, declared=n, bound=min(total, bound))
+            width = entry_bytes(third)
+            if width is None:
+                return False
+            fh.seek(n * width, os.SEEK_CUR)
+        return True
 
     with open(path, "rb") as fh:
         fh.seek(m.end())
@@ -61,15 +74,10 @@ def gmsh41_binary(path: str, name: str, head: bytes, size_t: int, end: str, boun
                 f"({bounds.points_setting})", code="too_many_points", file=name, declared=tag, bound=bounds.points,
                 setting=bounds.points_setting)
         check_holds(name, "nodes", nodes, size_t + 24, size)
-        for _ in range(min(blocks, 100_000)):
-            raw = fh.read(12 + size_t)
-            if len(raw) < 12 + size_t:
-                return
-            _, _, parametric, n = struct.unpack(end + "iii" + word, raw)
-            block_over("Nodes", n, nodes, "too_many_points", bounds.points)
-            if parametric:
-                return  # parametric coordinates: sized by the entity's dimension; the reader walks it
-            fh.seek(n * (size_t + 24), os.SEEK_CUR)
+        # parametric coordinates are sized by the entity's dimension: the reader walks those
+        if not walk(blocks, "Nodes", nodes, "too_many_points", bounds.points,
+                    lambda parametric: None if parametric else size_t + 24):
+            return
         at = fh.tell()
         m = _SECTION[b"Elements"].search(fh.read(1 << 20))
         if m is None:
@@ -81,15 +89,8 @@ def gmsh41_binary(path: str, name: str, head: bytes, size_t: int, end: str, boun
         blocks, elems, _, _ = struct.unpack(end + 4 * word, raw)
         check_bounds(name, bounds, cells=elems)
         check_holds(name, "elements", elems, 2 * size_t, size)
-        for _ in range(min(blocks, 100_000)):
-            raw = fh.read(12 + size_t)
-            if len(raw) < 12 + size_t:
-                return
-            _, _, kind, n = struct.unpack(end + "iii" + word, raw)
-            block_over("Elements", n, elems, "too_many_cells", bounds.cells)
-            if kind not in _GMSH_NODES:
-                return  # a type the reader names
-            fh.seek(n * (1 + _GMSH_NODES[kind]) * size_t, os.SEEK_CUR)
+        walk(blocks, "Elements", elems, "too_many_cells", bounds.cells,  # a type not known here: the reader names it
+             lambda kind: (1 + _GMSH_NODES[kind]) * size_t if kind in _GMSH_NODES else None)
 
 
 def _medit_entry_bytes(template: str, dim: int, isize: int, fsize: int) -> int | None:

@@ -398,8 +398,13 @@ def _hdf5(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
     except (OSError, ValueError):
         return  # not HDF5 after all: the reader names it
     with f:
-        _own_data_only(h5py, f, name)
-        f.visititems(visit)
+        try:
+            _own_data_only(h5py, f, name)
+            f.visititems(visit)
+        except UnreadableFileError:
+            raise
+        except Exception:  # noqa: BLE001 - a damaged file (h5py raises RuntimeError, KeyError...): the reader names it
+            return
     _check(name, bounds, nbytes=total)
 
 

@@ -337,3 +337,31 @@ def test_a_binary_gmsh_element_block_larger_than_its_section_is_refused(tmp_path
         read_mesh(path)
     assert e.value.code == "too_many_cells" and e.value.details["declared"] == 10**12
     assert "more than the" in e.value.message
+
+
+def test_a_damaged_hdf5_file_gets_a_typed_error(tmp_path):
+    import meshio
+    import numpy as np
+
+    from solver.errors import SolverError
+    from solver.testing import cube_mesh
+
+    V, T = cube_mesh(2)
+    clean = tmp_path / "clean.h5m"
+    meshio.write(clean, meshio.Mesh(V, [("tetra", T)]))
+    data = clean.read_bytes()
+    rng = np.random.default_rng(7)
+    untyped = []
+    for k in range(60):  # a few bytes changed at random, as a broken transfer does
+        damaged = bytearray(data)
+        for at in rng.integers(0, len(data), 4):
+            damaged[at] = int(rng.integers(0, 256))
+        path = tmp_path / f"d{k}.h5m"
+        path.write_bytes(bytes(damaged))
+        try:
+            read_mesh(path)
+        except SolverError:
+            pass
+        except Exception as e:  # noqa: BLE001 - what the test counts
+            untyped.append((k, type(e).__name__, str(e)[:80]))
+    assert untyped == []

@@ -15,8 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import UnreadableFileError
-from .read_bounds import ReadBounds, check_bounds, check_holds
+from .read_bounds import ReadBounds, check_block, check_bounds, check_holds, check_node_tags
 
 __all__ = ["gmsh41_binary", "medit_binary"]
 
@@ -51,10 +50,7 @@ def gmsh41_binary(path: str, name: str, head: bytes, size_t: int, end: str, boun
             if len(raw) < 12 + size_t:
                 return False
             _, _, third, n = struct.unpack(end + "iii" + word, raw)
-            if n > total:
-                raise UnreadableFileError(
-                    f"{name!r}: a ${section} block declares {n:,} entries, more than the {total:,} of the whole "
-                    "section: the file is inconsistent", code=code, file=name, declared=n, bound=min(total, bound))
+            check_block(name, section, n, total, code, bound)
             width = entry_bytes(third)
             if width is None:
                 return False
@@ -68,11 +64,7 @@ def gmsh41_binary(path: str, name: str, head: bytes, size_t: int, end: str, boun
             return
         blocks, nodes, _, tag = struct.unpack(end + 4 * word, raw)
         check_bounds(name, bounds, points=nodes)
-        if tag > 4 * bounds.points:  # arrays indexed by tag would be too large
-            raise UnreadableFileError(
-                f"{name!r} declares node tags up to {tag:,}; tetmorph reads at most {bounds.points:,} nodes "
-                f"({bounds.points_setting})", code="too_many_points", file=name, declared=tag, bound=bounds.points,
-                setting=bounds.points_setting)
+        check_node_tags(name, tag, bounds)
         check_holds(name, "nodes", nodes, size_t + 24, size)
         # parametric coordinates are sized by the entity's dimension: the reader walks those
         if not walk(blocks, "Nodes", nodes, "too_many_points", bounds.points,

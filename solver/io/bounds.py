@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import SolverError, UnreadableFileError
 from .binary_headers import gmsh41_binary, medit_binary
-from .read_bounds import ReadBounds, check_read_sizes
+from .read_bounds import ReadBounds, check_block, check_node_tags, check_read_sizes
 from .read_bounds import check_bounds as _check
 from .read_bounds import check_holds as _holds
 
@@ -182,16 +182,10 @@ def _gmsh(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
     for section, per, total, code, bound in ((b"Nodes", 2, nodes, "too_many_points", bounds.points),
                                              (b"Elements", 1, elems, "too_many_cells", bounds.cells)):
         block = _gmsh_blocks(head, section, per) if b"$MeshFormat\n4" in head[:64] else 0
-        if block > max(total, 0) and block > 0:
-            raise UnreadableFileError(
-                f"{name!r}: a ${section.decode()} block declares {block:,} entries, more than the "
-                f"{total:,} of the whole section: the file is inconsistent", code=code, file=name,
-                declared=block, bound=min(total, bound))
-    if tag > 4 * bounds.points and nodes <= bounds.points:  # arrays indexed by tag would be too large
-        raise UnreadableFileError(
-            f"{name!r} declares node tags up to {tag:,}; tetmorph reads at most {bounds.points:,} nodes "
-            f"({bounds.points_setting})", code="too_many_points", file=name, declared=tag, bound=bounds.points,
-            setting=bounds.points_setting)
+        if block > 0:
+            check_block(name, section.decode(), block, max(total, 0), code, bound)
+    if nodes <= bounds.points:  # else the count itself is named below
+        check_node_tags(name, tag, bounds)
     _check(name, bounds, nodes, elems)
     size = os.path.getsize(path)
     _holds(name, "nodes", nodes, 2, size)  # at least a tag and a blank each (binary: more)
@@ -378,15 +372,19 @@ def _xdmf(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
 
 
 def _hdf5(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    """The bytes an HDF5 file's datasets declare, summed over their shapes (nothing is read)."""
+    """The bytes an HDF5 file's datasets declare, summed over their shapes (nothing is read).
+
+    The same walk refuses data kept in other files (:func:`_own_data_only`).
+    """
     try:
         import h5py
     except ImportError:
         return
     total = 0
 
-    def visit(_: str, obj: Any) -> None:
+    def visit(where: str, obj: Any) -> None:
         nonlocal total
+        _own_data_only(h5py, name, where, obj)
         if isinstance(obj, h5py.Dataset) and obj.shape is not None:
             n = 1
             for d in obj.shape:
@@ -399,7 +397,7 @@ def _hdf5(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
         return  # not HDF5 after all: the reader names it
     with f:
         try:
-            _own_data_only(h5py, f, name)
+            _own_data_only(h5py, name, "/", f)  # the root group is not visited
             f.visititems(visit)
         except UnreadableFileError:
             raise
@@ -408,33 +406,26 @@ def _hdf5(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
     _check(name, bounds, nbytes=total)
 
 
-def _own_data_only(h5py: Any, f: Any, name: str) -> None:
-    """Refuse an HDF5 file whose data lives in other files: external links, virtual or external datasets.
+def _own_data_only(h5py: Any, name: str, where: str, obj: Any) -> None:
+    """Refuse a group's external links, or a virtual or externally stored dataset, of an HDF5 file.
 
     Each would make the reader open a path of the uploader's choosing on the server.
     """
-    def refuse(where: str, what: str, ref: str) -> None:
+    def refuse(at: str, what: str, ref: str) -> None:
         raise UnreadableFileError(
-            f"{name!r} holds {what} at {where!r} to {ref!r}, data outside the uploaded files; store the data "
+            f"{name!r} holds {what} at {at!r} to {ref!r}, data outside the uploaded files; store the data "
             "in the file itself", code="external_reference", file=name, reference=ref[:200])
 
-    def links(group: Any) -> None:
-        for key in group:
-            link = group.get(key, getlink=True)
+    if isinstance(obj, h5py.Group):
+        for key in obj:
+            link = obj.get(key, getlink=True)
             if isinstance(link, h5py.ExternalLink):
-                refuse(f"{group.name.rstrip('/')}/{key}", "an external link", f"{link.filename}:{link.path}")
-
-    def visit(where: str, obj: Any) -> None:
-        if isinstance(obj, h5py.Group):
-            links(obj)
-        elif isinstance(obj, h5py.Dataset):
-            if obj.is_virtual:
-                refuse(where, "a virtual dataset", ", ".join(sorted({m.file_name for m in obj.virtual_sources()})))
-            if obj.external:
-                refuse(where, "a dataset stored in an external file", str(obj.external[0][0]))
-
-    links(f)
-    f.visititems(visit)
+                refuse(f"{obj.name.rstrip('/')}/{key}", "an external link", f"{link.filename}:{link.path}")
+    elif isinstance(obj, h5py.Dataset):
+        if obj.is_virtual:
+            refuse(where, "a virtual dataset", ", ".join(sorted({m.file_name for m in obj.virtual_sources()})))
+        if obj.external:
+            refuse(where, "a dataset stored in an external file", str(obj.external[0][0]))
 
 
 _CHECKS = {"vtu": _vtu, "vtk": _vtk, "gmsh": _gmsh, "medit": _medit, "tetgen": _tetgen, "ply": _ply,

@@ -164,9 +164,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     assert fmt is not None  # check_file refuses unknown extensions
     check_complete(path, fmt)
     bounds = bounds or ReadBounds()
-    check_declared_sizes(path, fmt, bounds)
     m = _read(path, fmt, bounds)
-    check_read_sizes(name, len(m.points), sum(len(c.data) for c in m.cells), bounds)
     if np.asarray(m.points).size == 0:
         raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",
                                   code="no_nodes", file=name)
@@ -226,9 +224,7 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None, *
     assert fmt is not None
     check_complete(path, fmt)
     bounds = bounds or ReadBounds()
-    check_declared_sizes(path, fmt, bounds)
     m = _read(path, fmt, bounds)
-    check_read_sizes(name, len(m.points), sum(len(c.data) for c in m.cells), bounds)
     counts = {c.type: len(c.data) for c in m.cells if len(c.data)}
     if any(t in VOLUME_CELLS or t in MIXED_TYPES for t in counts):
         raise UnreadableFileError(f"{name!r} is a volume mesh already ({counts}): morph it directly",
@@ -254,7 +250,18 @@ def reading_name(fmt: str | None) -> str | None:
 
 
 def _read(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
-    """The file through its reader; the reader's failures become typed errors (:func:`diagnose`)."""
+    """The file through its reader, held to ``bounds`` before and after it is read.
+
+    What the file declares is checked before its reader runs, what it held once read (formats that
+    declare no counts); the reader's failures become typed errors (:func:`diagnose`).
+    """
+    check_declared_sizes(path, fmt, bounds)
+    m = _read_file(path, fmt, bounds)
+    check_read_sizes(os.path.basename(path), len(m.points), sum(len(c.data) for c in m.cells), bounds)
+    return m
+
+
+def _read_file(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
     reader = read_tetgen if fmt == "tetgen" else meshio._helpers.reader_map.get(fmt)
     if reader is None:
         raise UnreadableFileError(f"tetmorph cannot read {fmt!r} files ({os.path.basename(path)!r})",

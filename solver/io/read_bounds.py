@@ -14,7 +14,8 @@ from dataclasses import dataclass
 from ..errors import UnreadableFileError
 from ..limits import MAX_CELLS, MAX_EXPANDED_BYTES, MAX_POINTS
 
-__all__ = ["ReadBounds", "check_bounds", "check_holds", "check_read_sizes", "too_many"]
+__all__ = ["ReadBounds", "check_block", "check_bounds", "check_holds", "check_node_tags", "check_read_sizes",
+           "too_many"]
 
 
 @dataclass(frozen=True)
@@ -40,16 +41,20 @@ class ReadBounds:
     bytes_setting: str = "MAX_EXPANDED_BYTES (solver/limits.py)"
 
 
-def too_many(name: str, what: str, declared: int, bounds: ReadBounds) -> UnreadableFileError:
-    """``too_many_points`` / ``too_many_cells`` / ``too_many_bytes`` for ``declared`` of ``what``."""
+def too_many(name: str, what: str, declared: int, bounds: ReadBounds, *, held: bool = False) -> UnreadableFileError:
+    """``too_many_points`` / ``too_many_cells`` / ``too_many_bytes`` for ``declared`` of ``what``.
+
+    ``held``: the count is of a mesh already read, not of a file's declaration.
+    """
     bound, setting, code, unit = {
         "points": (bounds.points, bounds.points_setting, "too_many_points", "nodes"),
         "cells": (bounds.cells, bounds.cells_setting, "too_many_cells", "elements"),
         "bytes": (bounds.expanded_bytes, bounds.bytes_setting, "too_many_bytes", "bytes of data"),
     }[what]
-    return UnreadableFileError(
-        f"{name!r} declares {declared:,} {unit}; tetmorph reads at most {bound:,} ({setting}); nothing was read",
-        code=code, file=name, declared=declared, bound=bound, setting=setting)
+    said = (f"holds {declared:,} {unit}; tetmorph reads at most {bound:,} ({setting})" if held else
+            f"declares {declared:,} {unit}; tetmorph reads at most {bound:,} ({setting}); nothing was read")
+    return UnreadableFileError(f"{name!r} {said}", code=code, file=name, declared=declared, bound=bound,
+                               setting=setting)
 
 
 def check_read_sizes(name: str, points: int, cells: int, bounds: ReadBounds) -> None:
@@ -64,13 +69,9 @@ def check_read_sizes(name: str, points: int, cells: int, bounds: ReadBounds) -> 
     UnreadableFileError
         ``too_many_points`` or ``too_many_cells``, naming the count, the bound and its setting.
     """
-    for n, bound, setting, code, unit in (
-            (points, bounds.points, bounds.points_setting, "too_many_points", "nodes"),
-            (cells, bounds.cells, bounds.cells_setting, "too_many_cells", "elements")):
+    for what, n, bound in (("points", points, bounds.points), ("cells", cells, bounds.cells)):
         if n > bound:
-            raise UnreadableFileError(
-                f"{name!r} holds {n:,} {unit}; tetmorph reads at most {bound:,} ({setting})",
-                code=code, file=name, declared=n, bound=bound, setting=setting)
+            raise too_many(name, what, n, bounds, held=True)
 
 
 def check_bounds(name: str, bounds: ReadBounds, points: int = 0, cells: int = 0, nbytes: int = 0) -> None:
@@ -88,3 +89,20 @@ def check_holds(name: str, what: str, declared: int, least: int, size: int) -> N
             f"{name!r} declares {declared:,} {what}, which need at least {declared * least:,} bytes; the file "
             f"has {size:,}: it is truncated or its count is wrong", code="truncated_file", file=name,
             declared=declared, size=size)
+
+
+def check_node_tags(name: str, tag: int, bounds: ReadBounds) -> None:
+    """Refuse node tags up to ``tag`` when arrays indexed by tag would be too large (Gmsh)."""
+    if tag > 4 * bounds.points:
+        raise UnreadableFileError(
+            f"{name!r} declares node tags up to {tag:,}; tetmorph reads at most {bounds.points:,} nodes "
+            f"({bounds.points_setting})", code="too_many_points", file=name, declared=tag, bound=bounds.points,
+            setting=bounds.points_setting)
+
+
+def check_block(name: str, section: str, n: int, total: int, code: str, bound: int) -> None:
+    """Refuse a block of ``n`` entries in a section of ``total`` (a Gmsh 4.1 ``$Nodes`` or ``$Elements`` block)."""
+    if n > total:
+        raise UnreadableFileError(
+            f"{name!r}: a ${section} block declares {n:,} entries, more than the {total:,} of the whole "
+            "section: the file is inconsistent", code=code, file=name, declared=n, bound=min(total, bound))

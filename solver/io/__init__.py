@@ -5,6 +5,7 @@ file in place where a patcher is registered, and converts to other formats with
 what each can hold; closed surfaces are tetrahedralized with fTetWild.
 """
 
+from . import own_formats  # noqa: F401  (the format modules register themselves)
 from .conversion import Loss
 from .formats import detect_format, format_of
 from .patchers import PATCHERS, Patcher, patcher_for

@@ -14,6 +14,8 @@ import re
 
 import meshio
 
+from .registry import FORMATS, by_extension, own_format, sniff_registered
+
 __all__ = ["format_of", "detect_format", "describe", "a_format", "FORMAT_NAMES", "SURFACE_FORMATS"]
 
 #: Human names of the formats, for messages.
@@ -71,11 +73,17 @@ def format_of(path: str | os.PathLike[str], file_format: str | None = None) -> s
     """
     if file_format:
         key = file_format.strip().lower()
+        own = own_format(key)
+        if own is not None:
+            return own.name
         if key in meshio._helpers.reader_map or key in meshio._helpers._writer_map:
             return key
         ext = key if key.startswith(".") else "." + key
         return _by_extension(ext) or key
     name = os.fspath(path).lower()
+    own = by_extension(name)
+    if own is not None:
+        return own.name
     for ext in sorted({*meshio.extension_to_filetypes, *_EXTRA}, key=len, reverse=True):
         if name.endswith(ext):
             return _by_extension(ext)
@@ -156,6 +164,9 @@ def detect_format(data: bytes, size: int | None = None) -> str | None:
         return "stl"
     if text[:5].lower() == b"solid" and b"facet" in head:
         return "stl"
+    own = sniff_registered(head)
+    if own is not None:
+        return own
     if _ABAQUS.search(head):
         return "abaqus"
     if _NASTRAN.search(head):
@@ -194,4 +205,6 @@ def describe(fmt: str | None) -> str:
     """
     if fmt is None:
         return "no known mesh format"
+    if fmt in FORMATS:
+        return FORMATS[fmt].title
     return FORMAT_NAMES.get(fmt, fmt)

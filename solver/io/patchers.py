@@ -47,6 +47,16 @@ class Patcher:
         holds the coordinates and is patched (TetGen: ``"node"``).
     companions : tuple of str
         Extensions of the other files, kept byte for byte (TetGen: ``("ele",)``).
+    includes : callable, optional
+        ``includes(path) -> list of str``: the files a deck includes (Abaqus and
+        LS-DYNA ``*INCLUDE``), as paths relative to the deck's folder, in the
+        order they are read; :func:`solver.io.read.read_mesh` keeps their bytes
+        in :attr:`Mesh.companions` under those paths.
+    patch_tree : callable, optional
+        ``patch_tree(raw, included, V) -> dict of str to bytes``: the deck and its
+        included files (``included`` by relative path) with new coordinates;
+        the key ``""`` is the deck itself. Used instead of ``patch`` when the
+        deck includes files.
     """
 
     name: str
@@ -56,6 +66,8 @@ class Patcher:
     patch: Callable[[bytes, np.ndarray], bytes | None]
     main: str | None = None
     companions: tuple[str, ...] = ()
+    includes: Callable[[str], list[str]] | None = None
+    patch_tree: Callable[[bytes, dict[str, bytes], np.ndarray], dict[str, bytes] | None] | None = None
 
     def files(self, path: str) -> tuple[str, dict[str, str]]:
         """The patched file and the companion files (by extension) of a mesh named ``path``.

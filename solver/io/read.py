@@ -20,6 +20,7 @@ from .diagnose import check_complete, check_file, diagnose
 from .formats import SURFACE_FORMATS, format_of
 from .patch_inp import node_block_sets
 from .patchers import patcher_for
+from .registry import FORMATS
 from .tetgen import read_tetgen, tetgen_paths
 
 __all__ = ["read_mesh", "read_surface", "mesh_from_meshio", "REGION_KEYS", "SET_PREFIX"]
@@ -188,6 +189,11 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
         for ext, cp in companions.items():
             with open(cp, "rb") as fh:
                 mesh.companions[ext] = fh.read()
+        if p.includes is not None:  # the files a deck includes, written back beside the deck
+            folder = os.path.dirname(os.path.abspath(path))
+            for rel in p.includes(path):
+                with open(os.path.join(folder, rel), "rb") as fh:
+                    mesh.companions[rel] = fh.read()
     return mesh
 
 
@@ -262,6 +268,9 @@ def _read(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
 
 
 def _read_file(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
+    own = FORMATS.get(fmt)
+    if own is not None and own.read is not None:
+        return _read_own(path, fmt, own.read, bounds)
     reader = read_tetgen if fmt == "tetgen" else meshio._helpers.reader_map.get(fmt)
     if reader is None:
         raise UnreadableFileError(f"tetmorph cannot read {fmt!r} files ({os.path.basename(path)!r})",
@@ -289,6 +298,18 @@ def _read_file(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
                 if ids.size and ids.max() < len(m.points):
                     m.point_sets.setdefault(name, ids)
     return m
+
+
+def _read_own(path: str, fmt: str, reader: Any, bounds: ReadBounds) -> meshio.Mesh:
+    """A file through a reader of tetmorph's own (:mod:`solver.io.registry`): typed errors pass, others named."""
+    try:
+        return reader(path, bounds)  # type: ignore[no-any-return]
+    except (UnreadableFileError, UnsupportedElementError, InvalidMeshError):
+        raise
+    except MemoryError as e:
+        raise memory_error(path, fmt, e, bounds) from None
+    except (Exception, SystemExit) as e:
+        raise diagnose(path, fmt, e) from e
 
 
 @contextlib.contextmanager

@@ -75,7 +75,7 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
                file_format: str | None = None, point_data: dict[str, np.ndarray] | None = None,
                cell_data: dict[str, list[np.ndarray]] | None = None,
                point_sets: dict[str, np.ndarray] | None = None, quality: bool = False,
-               lossy: bool = False, nastran_large: bool = False) -> Written:
+               lossy: bool = False, nastran_large: bool = False, flatten: bool = False) -> Written:
     """Write ``mesh`` with new coordinates ``V``, changing nothing else.
 
     Written in the format of the file the mesh was read from, the file is
@@ -119,6 +119,13 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         (:func:`~solver.io.patch_bdf.patch_bdf`). Listed in ``skipped`` for
         other formats. A deck written from another format is large field
         throughout.
+    flatten : bool
+        Writing an Abaqus/CAE assembly deck (``*Part``/``*Instance``) as an
+        Abaqus deck: write one flat deck instead of patching the parts
+        (:mod:`solver.io.abaqus_flat`): every instance's nodes and elements
+        numbered apart, sets named ``Instance_Set``, includes spliced in. For
+        instances of one part morphed apart, and for solvers that read no
+        assemblies (CalculiX).
 
     Returns
     -------
@@ -150,6 +157,12 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         skipped.append(f"quality: {describe(fmt)} holds no per-element data")
     if nastran_large and fmt != "nastran":
         skipped.append(f"nastran_large: {describe(fmt)} is not a Nastran deck")
+    if flatten:
+        flat = _flatten(mesh, V, target, fmt)
+        if flat is not None:
+            flat.skipped = skipped
+            return flat
+        skipped.append("flatten: the mesh was not read from an Abaqus deck, or is written to another format")
     losses: list[Loss] = []
     patched = _patch_in_place(mesh, V, target, fmt, point_sets, point_data, cell_data, quality and holds_cells,
                               losses, nastran_large)
@@ -209,12 +222,18 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
         return None  # extras the format holds: written through the conversion
     reason = None
     data: bytes | None = None
-    if not p.accepts(mesh.raw, mesh.n):
+    tree: dict[str, bytes] | None = None
+    included = {k: v for k, v in mesh.companions.items() if k not in p.companions}
+    if not (included and p.patch_tree is not None) and not p.accepts(mesh.raw, mesh.n):
         reason = f"its node definitions no longer match the mesh's {mesh.n} points"
     else:
         try:
-            data = patch_bdf(mesh.raw, V, large=True) if nastran_large and p.name == "nastran" else \
-                p.patch(mesh.raw, V)
+            if included and p.patch_tree is not None:
+                tree = p.patch_tree(mesh.raw, included, V)
+                data = None if tree is None else tree.pop("")
+            else:
+                data = patch_bdf(mesh.raw, V, large=True) if nastran_large and p.name == "nastran" else \
+                    p.patch(mesh.raw, V)
         except ValueError as e:
             reason = str(e)
         if data is None and reason is None:
@@ -234,8 +253,32 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
         with open(cp, "wb") as fh:
             fh.write(mesh.companions[ext])
         files.append(cp)
+    for rel, body in (tree or {}).items():  # the included files, at the same place relative to the deck
+        out = os.path.join(os.path.dirname(os.path.abspath(main)), rel)
+        os.makedirs(os.path.dirname(out), exist_ok=True)
+        with open(out, "wb") as fh:
+            fh.write(body)
+        files.append(out)
     rounding = _rounding(data, V, main) if p.name == "nastran" else None
     return Written(main, fmt, files, True, write_rounding=rounding)
+
+
+def _flatten(mesh: Mesh, V: np.ndarray, target: str, fmt: str) -> Written | None:
+    """An Abaqus assembly deck written flat (:func:`solver.io.abaqus_flat.flatten`), or None."""
+    if fmt != "abaqus" or mesh.raw is None or mesh.file_format != "abaqus":
+        return None
+    from .abaqus_flat import flatten
+
+    included = dict(mesh.companions)
+    try:
+        data = flatten(mesh.raw, V, included)
+    except ValueError as e:
+        raise InvalidMeshError(f"cannot write {os.path.basename(target)!r} flat: {e}", code="unwritable_format",
+                               format=fmt) from e
+    os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
+    with open(target, "wb") as fh:
+        fh.write(data)
+    return Written(target, fmt, [target], False)
 
 
 def _rounding(deck: bytes, V: np.ndarray, path: str) -> float:

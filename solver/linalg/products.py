@@ -226,7 +226,7 @@ def combination(W: np.ndarray, C: np.ndarray, dtype: type = np.float64) -> np.nd
     if W.ndim != 2 or C.ndim != 2 or W.shape[1] != C.shape[0]:
         raise ValueError(f"combination: W {W.shape}, C {C.shape} do not agree")
     Wc = np.ascontiguousarray(W, dtype=np.float32 if W.dtype == np.float32 else np.float64)
-    out = np.empty((W.shape[0], C.shape[1]), dtype=np.dtype(dtype))
+    out: np.ndarray = np.empty((W.shape[0], C.shape[1]), dtype=np.dtype(dtype))
     _combine_rows(Wc, _f64(C), out)
     return out
 

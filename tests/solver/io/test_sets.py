@@ -13,7 +13,7 @@ def test_sets_named_on_node_lines_are_sets_like_any_other():
     end = next(k for k in range(start + 1, len(text)) if text[k].startswith("*") and not text[k].startswith("**"))
     expected = sum(1 for ln in text[start + 1:end] if ln.strip() and not ln.startswith("**"))
     mesh = read_mesh(path)
-    assert mesh.sets["NSET1"].size == expected == mesh.n
+    assert mesh.sets["PART1-1.NSET1"].size == expected == mesh.n  # a part set, named by its instance
     seg = read_mesh(shared_file("tet/segmenttet.inp"))  # *Node,NSET=Nall
     assert seg.sets["Nall"].size == seg.n
     # and a SPEC can name it (an unknown set would be refused with unknown_set)

@@ -1,0 +1,3 @@
+"""The format modules that register themselves in :mod:`solver.io.registry` (imported for that effect)."""
+
+from . import abaqus_deck  # noqa: F401  Abaqus/CalculiX, assemblies and includes

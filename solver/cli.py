@@ -133,7 +133,7 @@ def cmd_morph(args: argparse.Namespace) -> int:
             continue
         os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
         w = write_mesh(mesh, res.V, out, args.output_format, quality=args.quality, lossy=args.lossy,
-                       nastran_large=args.nastran_large)
+                       nastran_large=args.nastran_large, flatten=args.flatten)
         _dropped(w, f"move {i}")
         rep = {"move": i, "output": out, **res.report, "written": w.to_dict()}
         reports.append(rep)
@@ -245,6 +245,8 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
                     "everything the input carries (sets, element types, data); what is dropped is listed")
     pm.add_argument("--nastran-large", action="store_true", help="Nastran decks: write moved nodes whose "
                     "coordinates do not fit 8 columns exactly as large-field GRID* cards (16 columns)")
+    pm.add_argument("--flatten", action="store_true", help="Abaqus/CAE assembly decks: write one flat deck (no "
+                    "*Part/*Instance; every instance numbered apart), e.g. for CalculiX or instances morphed apart")
     add_solve_arguments(pm)
     pm.set_defaults(func=cmd_morph)
     pf = sub.add_parser("features", help="form-feature candidates (holes, bosses, planes) or the "

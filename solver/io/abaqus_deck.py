@@ -49,7 +49,7 @@ from .patchers import Patcher
 from .read_bounds import ReadBounds, check_read_sizes
 from .registry import FileFormat, register_format
 
-__all__ = ["read_deck", "to_meshio", "patch_deck", "flatten_deck", "deck_includes", "AssemblyWriteError",
+__all__ = ["is_assembly", "read_deck", "to_meshio", "patch_deck", "flatten_deck", "deck_includes", "AssemblyWriteError",
            "MAX_INCLUDE_DEPTH", "parse_deck"]
 
 
@@ -146,7 +146,13 @@ def to_meshio(deck: Deck) -> meshio.Mesh:
         np.zeros(0, np.int64)
     m.points_id = labels  # type: ignore[attr-defined]
     m.cells_id = cell_labels  # type: ignore[attr-defined]
+    m.instances = [i.name for i in deck.instances]  # type: ignore[attr-defined]
     return m
+
+
+def is_assembly(mesh: Any) -> bool:
+    """Whether a mesh was read from an Abaqus/CAE assembly deck (parts placed by instances)."""
+    return bool(getattr(getattr(mesh, "source", None), "instances", None))
 
 
 #: meshio cell types of volume elements.

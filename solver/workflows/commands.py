@@ -70,7 +70,7 @@ def cmd_doe(args: argparse.Namespace) -> int:
     plan = _plan_for(args, "out_{i}.inp")
     _one_stdout(summary=args.summary, report=args.report)
     mesh, deformer, shapes = _setup(args)
-    writer = deck_writer(mesh, args.output, args.output_format, args.nastran_large)
+    writer = deck_writer(mesh, args.output, args.output_format, args.nastran_large, args.flatten)
 
     def output(row: int, res: Any) -> str | None:
         path = writer(row, res)
@@ -166,6 +166,8 @@ def _plan_options(p: argparse.ArgumentParser, output_help: str) -> None:
 def _nastran_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--nastran-large", action="store_true", help="Nastran decks: write moved nodes whose "
                    "coordinates do not fit 8-column fields as large-field GRID* cards")
+    p.add_argument("--flatten", action="store_true", help="Abaqus/CAE assembly decks: write one flat deck "
+                   "(no *Part/*Instance; every instance numbered apart) instead of patching the parts")
 
 
 def _one_stdout(**paths: str | None) -> None:

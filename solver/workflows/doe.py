@@ -264,7 +264,8 @@ def run_doe(deformer: Deformer, shapes: Shapes, plan: Plan, *, block: int = BLOC
     return DoeResult(shapes.names, variants, plan.rows, stopped, block, timings)
 
 
-def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None, nastran_large: bool = False) -> Output:
+def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None, nastran_large: bool = False,
+                flatten: bool = False) -> Output:
     """An ``output`` callback writing each variant with :func:`~solver.io.write_mesh`, as ``morph`` does.
 
     Parameters
@@ -279,6 +280,9 @@ def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None, nastra
     nastran_large : bool
         Nastran decks: moved nodes that do not fit their 8-column fields as
         large-field ``GRID*`` cards (:func:`~solver.io.write_mesh`).
+    flatten : bool
+        Abaqus/CAE assembly decks: write each variant as one flat deck
+        (:func:`~solver.io.write_mesh`'s ``flatten``).
 
     Returns
     -------
@@ -288,7 +292,7 @@ def deck_writer(mesh: Mesh, pattern: str, file_format: str | None = None, nastra
     def write(row: int, res: DeformResult) -> str:
         path = pattern.replace("{i}", str(row))
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-        write_mesh(mesh, res.V, path, file_format, nastran_large=nastran_large)
+        write_mesh(mesh, res.V, path, file_format, nastran_large=nastran_large, flatten=flatten)
         return path
 
     return write

@@ -36,6 +36,7 @@ import numpy as np
 
 from ..deform.deformer import Deformer
 from ..errors import SolverError
+from ..io.abaqus_deck import is_assembly
 from ..mesh import Mesh
 from .doe import BLOCK, DoeResult, deck_writer, run_doe, write_rows
 from .plan import Plan
@@ -338,7 +339,8 @@ def morph_rows(mesh: Mesh, deformer: Deformer, shapes: Shapes, plan: Plan, *, ou
     list of StudyRow
         In plan order; rows that are not ``ok`` say why in ``message``.
     """
-    result = run_doe(deformer, shapes, plan, block=block, output=deck_writer(mesh, output, file_format, nastran_large),
+    result = run_doe(deformer, shapes, plan, block=block, output=deck_writer(mesh, output, file_format, nastran_large,
+                                                                             flatten=is_assembly(mesh)),
                      inversion=inversion, cancelled=cancelled)
     return study_rows(result)
 

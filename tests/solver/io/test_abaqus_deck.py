@@ -192,3 +192,29 @@ def test_a_real_cae_deck_reads_its_part_and_assembly_sets():
 def test_an_lsdyna_like_keyword_file_is_not_sniffed_as_abaqus():
     assert detect_format(b"*KEYWORD\n*NODE\n       1             0.0             0.0             0.0\n") != "abaqus"
     assert detect_format((DATA / "plate.inp").read_bytes()[:8192]) == "abaqus"
+
+
+def test_the_cli_morphs_an_assembly_in_place_or_flat(tmp_path):
+    import json
+
+    from solver.cli import main
+
+    labels, X, *_ = bracket()
+    n = len(labels)
+    src = _write(tmp_path, assembly_deck())
+    spec = {"selections": {"fix": {"set": "Lug-1.FIXED"}, "hole": {"set": "Lug-1.HOLE"},
+                           "bracket": {"set": "Bracket-1.FIXED"}},
+            "fixed": ["fix", "bracket"], "handles": {"hole": "hole"}}
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    (tmp_path / "moves.json").write_text(json.dumps([{"handles": {"hole": {"translation": [0, 0, 0.5]}}}]))
+    args = ["morph", str(src), "--spec", str(tmp_path / "spec.json"), "--moves", str(tmp_path / "moves.json")]
+    assert main([*args, "--output", str(tmp_path / "in_place_{i}.inp")]) == 0
+    assert main([*args, "--output", str(tmp_path / "flat_{i}.inp"), "--flatten"]) == 0
+    in_place = node_lines((tmp_path / "in_place_0.inp").read_text())
+    flat = node_lines((tmp_path / "flat_0.inp").read_text())
+    assert {p for p, _ in in_place} == {"BRACKET", "LUG"} and {p for p, _ in flat} == {""}
+    lug = np.array([in_place[("LUG", int(lab))] for lab in labels])
+    flat_lug = np.array([flat[("", int(lab) + 20000)] for lab in labels])  # Lug-1 is the second instance
+    np.testing.assert_allclose(place(lug), flat_lug, rtol=0, atol=1e-9)
+    assert np.abs(flat_lug - place(LUG_SCALE * X)).max() > 0.1  # it moved
+    assert n == len(flat_lug)

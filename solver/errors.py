@@ -97,7 +97,9 @@ class UnreadableFileError(InvalidMeshError):
 
     Codes: ``empty_file``, ``truncated_file``, ``wrong_format`` (details ``detected``, the
     format the content looks like, or None), ``surface_not_volume``, ``undefined_node``
-    (details ``element``, ``node``, ``line``), ``no_nodes``, ``unsupported_coordinate_system``,
+    (details ``element``, ``node``, ``line``), ``no_nodes``, ``undefined_coordinate_system``,
+    ``cyclic_coordinate_system``, ``unsupported_coordinate_system``, ``invalid_coordinate_system``
+    (a Nastran GRID's CP system that cannot be placed; details ``grid``, ``system``, ``chain``),
     ``too_many_points``, ``too_many_cells``, ``too_many_bytes`` (details ``declared``, ``bound``,
     ``setting``: :mod:`solver.io.bounds`), ``too_large_to_read`` (the reader ran out of memory),
     ``external_reference`` (an XDMF file naming data outside its folder, an HDF5 file with external

@@ -221,8 +221,22 @@ ERRORS: dict[str, tuple[str, str]] = {
     "no_elements": ("The file has no tetrahedra, other volume elements or triangles.",
                     "Export the volume mesh (or a triangle surface)."),
     "no_triangles": ("A surface file without triangles.", "Export the surface as triangles."),
-    "unsupported_coordinate_system": ("Nastran GRIDs given in a local coordinate system (CP field).",
-                                      "Export the GRIDs in the basic system."),
+    "undefined_coordinate_system": ("A Nastran GRID's CP field, or the RID of a CORD2x card in its chain, names a "
+                                    "coordinate system no CORD2R, CORD2C or CORD2S card of the deck defines "
+                                    "(`details.grid`, `details.system`, `details.chain`).",
+                                    "Add the system's card to the deck (a system in an INCLUDE file is not read)."),
+    "cyclic_coordinate_system": ("The RIDs of a Nastran GRID's CP system loop back to it (`details.chain`): no "
+                                 "system of the loop is placed in the basic system.",
+                                 "Give one system of the loop RID 0 or a system outside the loop."),
+    "unsupported_coordinate_system": ("A Nastran GRID's CP system (or one in its chain of RIDs) is defined by a "
+                                      "CORD1R/C/S card, three GRIDs that move with the mesh, or by CORD3G "
+                                      "(`details.card`).",
+                                      "Define the system by a CORD2R, CORD2C or CORD2S card, or export the GRIDs "
+                                      "in the basic system."),
+    "invalid_coordinate_system": ("A CORD2R/C/S card in a Nastran GRID's chain defines no system: A and B "
+                                  "coincide, C is on the line AB, a field is not a number, or the id is defined "
+                                  "twice differently (`details.card`, `details.line`).",
+                                  "Correct the card named in the message."),
     "duplicate_node_number": ("A TetGen node number is defined twice.", _REEXPORT),
     "missing_companion": ("A TetGen `.node` without its `.ele` (or the other way round).",
                           "Upload both files (the `.ele` as a companion)."),

@@ -1,9 +1,14 @@
 """Nastran bulk data: GRID cards (small, large and free field), real fields, and a writer.
 
-meshio reads GRID and element cards. Its writer fails on reals such as
-``-3.55e-15`` (a 16-character check) and writes no executive or case control;
-tetmorph patches a deck in place (:mod:`solver.io.patch_bdf`) and writes other
-meshes with :func:`write_nastran`, whose fields it formats itself.
+meshio reads GRID and element cards; :func:`read_nastran`, registered as
+meshio's Nastran reader when this module is imported, also reads a deck of bulk
+data alone (no ``BEGIN BULK`` line and no ``CEND``, as OptiStruct ``.fem`` files
+and include files come). GRID positions given in local coordinate systems are
+moved to the basic system by :mod:`solver.io.nastran_coords`. meshio's writer
+fails on reals such as ``-3.55e-15`` (a 16-character check) and writes no
+executive or case control; tetmorph patches a deck in place
+(:mod:`solver.io.patch_bdf`) and writes other meshes with :func:`write_nastran`,
+whose fields it formats itself.
 
 Field formats (MSC/NX Nastran Quick Reference): small field has ten 8-column
 fields per line; large field (``GRID*``) has 8-column first and last fields and
@@ -17,12 +22,15 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
+from typing import IO
 
 import meshio
 import numpy as np
+from meshio.nastran._nastran import read as _meshio_read
+from meshio.nastran._nastran import read_buffer as _meshio_read_buffer
 
-__all__ = ["nastran_float", "nastran_real", "grid_cards", "grid_rounding", "GridCard", "write_nastran",
-           "NASTRAN_TYPES"]
+__all__ = ["nastran_float", "nastran_real", "bulk_start", "grid_cards", "grid_rounding", "GridCard",
+           "read_nastran", "write_nastran", "NASTRAN_TYPES"]
 
 _REAL = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))(?:[eEdD]([+-]?\d+)|([+-]\d+))?$")
 
@@ -122,8 +130,31 @@ def _free_spans(line: bytes, k: int, first: int, count: int) -> list[tuple[int, 
     return [(k, cuts[j] + 1, cuts[j + 1]) for j in range(first, first + count) if j + 1 < len(cuts)]
 
 
+def bulk_start(lines: list[bytes]) -> int:
+    r"""The index of a deck's first bulk data line.
+
+    The line after ``BEGIN BULK``; without that line, 0 for a deck of bulk data
+    alone (no ``CEND`` either: an OptiStruct ``.fem`` file, an include file), and
+    ``len(lines)`` for a deck with executive and case control but no bulk data.
+
+    Examples
+    --------
+    >>> bulk_start([b"SOL 101\n", b"CEND\n", b"BEGIN BULK\n", b"GRID,1,,0.,0.,0.\n"])
+    3
+    >>> bulk_start([b"$$ HyperMesh\n", b"GRID,1,,0.,0.,0.\n"]), bulk_start([b"SOL 101\n", b"CEND\n"])
+    (0, 2)
+    """
+    control = False
+    for k, line in enumerate(lines):
+        word = line.strip().upper()
+        if word.startswith(b"BEGIN BULK"):
+            return k + 1
+        control = control or word == b"CEND"
+    return len(lines) if control else 0
+
+
 def grid_cards(lines: list[bytes]) -> list[GridCard]:
-    """The GRID cards of a deck's bulk data (after ``BEGIN BULK``, up to ``ENDDATA``), in order.
+    """The GRID cards of a deck's bulk data (from :func:`bulk_start` up to ``ENDDATA``), in order.
 
     Parameters
     ----------
@@ -142,14 +173,9 @@ def grid_cards(lines: list[bytes]) -> list[GridCard]:
         card without its continuation line.
     """
     out: list[GridCard] = []
-    bulk = False
-    k = 0
+    k = bulk_start(lines)
     while k < len(lines):
         line = lines[k]
-        if not bulk:
-            bulk = line.strip().upper().startswith(b"BEGIN BULK")
-            k += 1
-            continue
         if line.startswith(b"ENDDATA"):
             break
         if not line.startswith(b"GRID"):
@@ -203,7 +229,8 @@ def grid_rounding(data: bytes, V: np.ndarray) -> float:
     float
         ``max |written - V|`` over every coordinate of every GRID card (length
         units): what the fields' widths rounded away. 0 when every value is
-        written exactly.
+        written exactly. A card in a local coordinate system (CP field) is
+        compared in the basic system, where ``V`` is.
 
     Raises
     ------
@@ -223,8 +250,17 @@ def grid_rounding(data: bytes, V: np.ndarray) -> float:
         raise ValueError(f"the deck has {len(cards)} GRID cards, the positions {V.shape[0]} rows")
     worst = 0.0
     for card, x in zip(cards, V, strict=True):
+        if card.cp:
+            continue
         for (k, a, b), v in zip(card.spans, x, strict=True):
             worst = max(worst, abs(nastran_float(lines[k].rstrip(b"\r\n")[a:b]) - float(v)))
+    if any(card.cp for card in cards):
+        from .nastran_coords import GridPositions  # imported here: it imports this module
+
+        grids = GridPositions.of(lines, cards)
+        local = grids.cp != 0
+        if local.any():
+            worst = max(worst, float(np.abs(grids.basic[local] - V[local]).max()))
     return worst
 
 
@@ -233,6 +269,64 @@ def _next_data_line(lines: list[bytes], k: int) -> int | None:
         if lines[j].strip() and not lines[j].startswith((b"$", b"//", b"#")):
             return j
     return None
+
+
+class _BulkOnly:
+    """A deck of bulk data alone as meshio's reader wants it: a ``BEGIN BULK`` line first, ``ENDDATA`` at its end."""
+
+    def __init__(self, fh: IO[str]) -> None:
+        self._fh = fh
+        self._started = False
+
+    def readline(self) -> str:
+        if not self._started:
+            self._started = True
+            return "BEGIN BULK\n"
+        line = self._fh.readline()
+        if not line:
+            return "ENDDATA\n"  # meshio reads on to ENDDATA, which an include file need not have
+        return line if line.endswith("\n") else line + "\n"
+
+
+def _bulk_only(path: str) -> bool:
+    """Whether a deck has neither ``BEGIN BULK`` nor ``CEND`` (read line by line: a deck may be large)."""
+    with open(path, "rb") as fh:
+        for line in fh:
+            word = line.strip().upper()
+            if word.startswith(b"BEGIN BULK") or word == b"CEND":
+                return False
+    return True
+
+
+def read_nastran(filename: str | os.PathLike[str]) -> meshio.Mesh:
+    """Read a Nastran deck with meshio's reader, a deck of bulk data alone included.
+
+    Parameters
+    ----------
+    filename : str or path
+
+    Returns
+    -------
+    meshio.Mesh
+        As meshio reads it: GRID fields as they are written (see
+        :mod:`solver.io.nastran_coords` for local coordinate systems), the
+        CP field as point data ``nastran:ref``.
+
+    Notes
+    -----
+    A deck with neither ``BEGIN BULK`` nor ``CEND`` is bulk data (an OptiStruct
+    ``.fem`` file, an include file): it is read as if it began with
+    ``BEGIN BULK`` and ended with ``ENDDATA``. Other decks go to meshio's reader
+    as they are.
+    """
+    path = os.fspath(filename)
+    if not _bulk_only(path):
+        return _meshio_read(path)
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        return _meshio_read_buffer(_BulkOnly(fh))
+
+
+meshio.register_format("nastran", [], read_nastran, {})
 
 
 #: meshio cell type -> (Nastran card, nodes).

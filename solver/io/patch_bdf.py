@@ -5,7 +5,15 @@ properties, loads, constraints and parameters are copied byte for byte. Each
 GRID card whose node moved gets its X1, X2, X3 fields rewritten in the card's
 own field format: 8 columns (small field), 16 columns (large field ``GRID*``)
 or free field, with the field's own justification; fields whose value did not
-change, and so every card of an unmoved node, keep their text.
+change (or whose new value the field writes as the old one), and so every card
+of an unmoved node, keep their text.
+
+A GRID card given in a local coordinate system (CP field naming a ``CORD2R``,
+``CORD2C`` or ``CORD2S`` card, :mod:`solver.io.nastran_coords`) is written back
+in that system: the node's new basic position is turned into the system's
+coordinates (r, theta, z; r, theta, phi), which go into the card's own fields.
+CP and CD stay as written, and an unmoved node, one whose new position is the
+one read from its fields, keeps its card's text.
 
 An 8-column field holds about seven significant digits (a rounding of up to
 5e-5 on a 100 mm part). With ``large=True``, a small-field card of a moved
@@ -19,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from .nastran import GridCard, grid_cards, nastran_float, nastran_real
+from .nastran_coords import GridPositions
 
 __all__ = ["patch_bdf", "grid_count"]
 
@@ -39,7 +48,8 @@ def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
     data : bytes
         The original deck.
     V : (n, 3) float array
-        New positions, one row per GRID card in order of appearance.
+        New positions in the basic system, one row per GRID card in order of
+        appearance.
     large : bool
         Write a small-field card whose new coordinates do not fit its 8-column
         fields exactly as a large-field ``GRID*`` card (two lines, 16-column
@@ -54,7 +64,8 @@ def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
     Raises
     ------
     ValueError
-        The deck's GRID cards do not match ``V`` in number, or a card cannot be parsed.
+        The deck's GRID cards do not match ``V`` in number, or a card cannot be parsed
+        (:class:`~solver.errors.UnreadableFileError` for a CP system that cannot be placed).
 
     Examples
     --------
@@ -71,7 +82,8 @@ def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
     cards = grid_cards(lines)
     if len(cards) != V.shape[0]:
         raise ValueError(f"the deck has {len(cards)} GRID cards, the positions {V.shape[0]} rows")
-    for card, x in zip(cards, np.asarray(V, dtype=np.float64), strict=True):
+    X = _field_values(lines, cards, np.asarray(V, dtype=np.float64))
+    for card, x in zip(cards, X, strict=True):
         if large and card.style == "small" and not _continued(lines[card.spans[0][0]]) and \
                 _needs_large(lines, card, x):
             k = card.spans[0][0]
@@ -86,16 +98,39 @@ def patch_bdf(data: bytes, V: np.ndarray, large: bool = False) -> bytes:
             old = body[a:b]
             if nastran_float(old) == v:
                 continue  # unchanged coordinate: its field keeps its text
+            s = nastran_real(v, None if card.style == "free" else b - a)
+            if nastran_float(s) == nastran_float(old):
+                continue  # a change the field cannot hold (a round trip through a local system): its text kept
             if card.style == "free":
-                text = nastran_real(v, None).encode()
+                text = s.encode()
             else:
                 w = b - a
                 left = old[:1] not in (b"", b" ")  # keep the field's justification
-                s = nastran_real(v, w)
                 text = (s.ljust(w) if left else s.rjust(w)).encode()
                 body = body.ljust(b)  # a short line: its blank fields are there
             lines[k] = body[:a] + text + body[b:] + end
     return b"".join(lines)
+
+
+def _field_values(lines: list[bytes], cards: list[GridCard], V: np.ndarray) -> np.ndarray:
+    """The X1, X2, X3 each card is to hold for the basic positions ``V``: in its own CP system.
+
+    A card in a local system whose node did not move gets the values it holds;
+    a moved one, its new position in its system, azimuths kept within 180
+    degrees of the values written.
+    """
+    cp = np.array([c.cp for c in cards], dtype=np.int64)
+    if not cp.any():
+        return V
+    grids = GridPositions.of(lines, cards)  # as the deck was read: an unmoved node is found by its position
+    X = V.copy()
+    local = cp != 0
+    moved = local & (V != grids.basic).any(axis=1)
+    X[local & ~moved] = grids.local[local & ~moved]
+    for c in np.unique(cp[moved]):
+        rows = np.flatnonzero(moved & (cp == c))
+        X[rows] = grids.systems[int(c)].from_basic(V[rows], near=grids.local[rows])
+    return X
 
 
 def _continued(line: bytes) -> bool:

@@ -170,7 +170,7 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
         raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",
                                   code="no_nodes", file=name)
     if fmt == "nastran":
-        _check_basic_coordinates(m, name)
+        _basic_coordinates(m, path, name)
     if volume and fmt in SURFACE_FORMATS | {"obj"}:
         raise _surface_error(name, m)
     try:
@@ -348,19 +348,41 @@ def _surface_error(name: str, m: meshio.Mesh) -> UnreadableFileError:
         code="surface_not_volume", file=name, cells=counts)
 
 
-def _check_basic_coordinates(m: meshio.Mesh, name: str) -> None:
-    """Refuse GRID cards in a local coordinate system: meshio reads their fields as basic coordinates."""
-    cp = m.point_data.pop("nastran:ref", None)  # meshio's name for the GRID CP field
-    if cp is None:
+def _basic_coordinates(m: meshio.Mesh, path: str, name: str) -> None:
+    """Place GRID cards given in local coordinate systems (CP field) in the basic system, in ``m``.
+
+    meshio reads each GRID's fields as written; :class:`~solver.io.nastran_coords.GridPositions`
+    turns those of a CORD2R, CORD2C or CORD2S system into basic positions. A system that cannot be
+    placed (undefined, a loop of RIDs, a CORD1x card, points in a line) is refused, naming the GRID.
+    """
+    from .nastran import grid_cards
+    from .nastran_coords import GridPositions
+
+    cp = m.point_data.pop("nastran:ref", None)  # meshio's name for the CP field (it leaves blank fields out)
+    if cp is None or not np.any(np.asarray(cp) != 0):
         return
-    bad = np.flatnonzero(np.asarray(cp) != 0)
-    if bad.size:
-        gid = getattr(m, "points_id", np.arange(1, len(m.points) + 1))
-        raise UnreadableFileError(
-            f"{name!r}: {bad.size} GRID cards give their position in a local coordinate system (CP field), "
-            f"e.g. GRID {int(gid[bad[0]])} in system {int(cp[bad[0]])}; tetmorph reads positions in the basic "
-            "system only. Export the deck with positions in the basic system.",
-            code="unsupported_coordinate_system", grids=[int(g) for g in gid[bad[:MAX_IDS]]], count=int(bad.size))
+    with open(path, "rb") as fh:
+        lines = fh.read().splitlines(keepends=True)
+    try:
+        cards = grid_cards(lines)
+    except ValueError as e:
+        raise UnreadableFileError(f"{name!r}: {e}", code="unreadable_file", file=name) from None
+    try:
+        grids = GridPositions.of(lines, cards)
+    except UnreadableFileError as e:  # named here with the file, and every GRID given in the same system
+        cid = e.details.get("chain", [e.details.get("system")])[0]
+        ids = [c.id for c in cards if c.cp == cid]
+        more = f"; {len(ids)} GRID cards are given in system {cid}" if len(ids) > 1 else ""
+        raise UnreadableFileError(f"{name!r}: {e.message}{more}", code=e.code, file=name, grids=ids[:MAX_IDS],
+                                  count=len(ids), **e.details) from None
+    if len(cards) != len(m.points):
+        raise UnreadableFileError(f"{name!r}: {len(cards)} GRID cards where meshio read {len(m.points)} nodes; "
+                                  "their positions in local coordinate systems cannot be placed",
+                                  code="unreadable_file", file=name)
+    points = np.array(m.points, dtype=np.float64)
+    local = grids.cp != 0
+    points[local] = grids.basic[local]
+    m.points = points
 
 
 def mesh_from_meshio(m: meshio.Mesh) -> Mesh:

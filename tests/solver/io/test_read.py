@@ -181,13 +181,20 @@ def test_unmerged_surface_seam_is_duplicate_nodes(tmp_path):
     assert (pairs[:, 1] - pairs[:, 0] == len(P)).all()  # each pair is a node and its copy
 
 
-def test_nastran_grids_in_a_local_system_are_refused(tmp_path):
+def test_nastran_grids_in_a_local_system_are_read_in_basic_and_an_undefined_one_is_refused(tmp_path):
+    """GRID 1 at (0, 0, 10) given in system 3, a CORD2R system moved by (1, 2, 3): read at (0, 0, 10)."""
     bdf = (DATA / "bar_small.bdf").read_text().splitlines(keepends=True)
     k = next(i for i, ln in enumerate(bdf) if ln.startswith("GRID"))
-    bdf[k] = bdf[k][:16] + f"{3:<8d}" + bdf[k][24:]
+    assert bdf[k] == "GRID    1                     0.      0.     10.\n"
+    bdf[k] = "GRID    1       3       -1.     -2.     7.\n"
     p = tmp_path / "local.bdf"
     p.write_text("".join(bdf))
-    _refused(p, "unsupported_coordinate_system", "GRID 1 in system 3", "basic")
+    _refused(p, "undefined_coordinate_system", "GRID 1 is given in coordinate system 3", "CORD2R")
+    bdf.insert(k, "CORD2R  3               1.      2.      3.      1.      2.      4.\n+       2.      2.      3.\n")
+    p.write_text("".join(bdf))
+    mesh = read_mesh(p)
+    np.testing.assert_array_equal(mesh.V[0], [0.0, 0.0, 10.0])
+    np.testing.assert_array_equal(mesh.V, read_mesh(DATA / "bar_small.bdf").V)
 
 
 def test_unknown_extension_names_the_detected_format(tmp_path):

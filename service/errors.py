@@ -52,11 +52,14 @@ CODE_STATUS: dict[str, int] = {
     "out_of_range": 422, "index_out_of_range": 422, "job_time_limit": 422, "solve_option_not_allowed": 422,
     "surface_not_found": 422, "not_a_surface": 422, "too_many_rows": 422, "engine_unavailable": 422,
     "result_too_large": 422, "bounds_time_limit": 422, "solver_unavailable": 422, "duplicate_file_name": 422,
+    "parse_time_limit": 422, "parse_cpu_limit": 422,  # a file's read stopped (service/state/parse_pool.py)
+    "parse_memory_limit": 413,
     # 429: limits per key
-    "rate_limited": 429, "session_limit": 429, "connection_limit": 429,
+    "rate_limited": 429, "session_limit": 429, "connection_limit": 429, "parse_queue_full": 429,
     # 5xx: faults of the server, never of the request
     "internal_error": 500, "build_failed": 500, "worker_failed": 500,
     "unknown_backend": 500,  # TETMORPH_SOLVER names a backend this installation lacks
+    "unavailable": 503,  # the service is stopping
 }
 
 #: The HTTP status by exception type, for codes not in :data:`CODE_STATUS` (first match wins).

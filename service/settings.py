@@ -105,6 +105,18 @@ class Settings(BaseSettings):
     max_frame_kb: float = Field(1024.0, gt=0, description="Largest WebSocket frame (close 1009 above).")
     max_connections_per_key: int = Field(16, gt=0,
                                          description="Open WebSocket streams per API key (4429 above).")
+    parse_workers: int = Field(2, gt=0, description="Processes that read uploaded files (meshes, target "
+                               "surfaces, stored meshes read back); the server process never parses one. One "
+                               "API key uses at most all but one of them at once.")
+    parse_time_limit_s: float = Field(120.0, gt=0, description="Longest one file may take to be read; its "
+                                      "worker is then killed and replaced (422 parse_time_limit).")
+    parse_cpu_limit_s: float = Field(120.0, gt=0, description="Most CPU seconds one file's read may use "
+                                     "(RLIMIT_CPU of the worker; 422 parse_cpu_limit).")
+    parse_memory_mb: float = Field(0.0, ge=0, description="Address space a parse worker may add to what it "
+                                   "uses once started (RLIMIT_AS; 413 parse_memory_limit). 0: derived, twice "
+                                   "max_file_expanded_mb plus max_upload_mb.")
+    parse_queue_depth: int = Field(8, gt=0, description="Files one API key may have waiting to be read "
+                                   "(429 parse_queue_full above).")
     tetra_workers: int = Field(1, gt=0, description="Processes that run fTetWild (one job each).")
     tetra_time_limit_s: float = Field(600.0, gt=0,
                                       description="A tetrahedralization running longer is stopped (422).")
@@ -162,6 +174,12 @@ class Settings(BaseSettings):
         """What an uploaded mesh or surface file may declare or expand to, with the settings' names."""
         return ReadBounds(self.max_file_points, self.max_file_cells, int(self.max_file_expanded_mb * 2**20),
                           "TETMORPH_MAX_FILE_POINTS", "TETMORPH_MAX_FILE_CELLS", "TETMORPH_MAX_FILE_EXPANDED_MB")
+
+    @property
+    def parse_memory_bytes(self) -> int:
+        """The address space a parse worker may add (``parse_memory_mb``, or derived from the upload bounds)."""
+        mb = self.parse_memory_mb or 2 * self.max_file_expanded_mb + self.max_upload_mb
+        return int(mb * 2**20)
 
     @property
     def max_frame_bytes(self) -> int:

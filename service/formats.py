@@ -1,9 +1,17 @@
-"""File formats the service reads and writes, by extension or meshio name, and what each keeps.
+"""File formats the service reads and writes, by extension or name, and what each keeps.
 
-A format is offered only when the libraries its meshio reader and writer
-import are installed (:data:`NEEDS`); :func:`capabilities` measures what each
-offered format really round-trips (node sets, quadratic tetrahedra, mixed
-elements) by writing and reading small meshes.
+Two kinds of formats are offered. The formats of :mod:`solver.io.registry`,
+read by tetmorph's own readers (Abaqus/CAE decks with their includes, and the
+CAE decks registered beside them), are looked up there first: their names,
+aliases and extensions, their titles, what they read and refuse, and whether
+a mesh of another format may be converted to them (``writes``); a format
+that is written back in place only is offered for uploads and for the
+download of a mesh read from it, never as the target of a conversion. The
+meshio formats are offered when the libraries their reader and writer import
+are installed (:data:`NEEDS`); :func:`measure` finds what each really
+round-trips (node sets, quadratic tetrahedra, mixed elements) by writing and
+reading small meshes, and :func:`capabilities` answers that table with the
+registered formats' rows.
 
 Examples
 --------
@@ -30,14 +38,17 @@ from typing import Any
 import meshio
 import numpy as np
 
-from solver.errors import SolverError
-from solver.io import read_mesh, write_mesh
+from solver.errors import InvalidMeshError, SolverError
+from solver.io import PATCHERS, read_mesh, write_mesh
+from solver.io.formats import a_format, describe
+from solver.io.registry import FORMATS as REGISTERED
+from solver.io.registry import FileFormat, by_extension, own_format
 from solver.mesh import Mesh
 
 from .errors import ServiceError
 
 __all__ = ["resolve_format", "export_mesh", "check_export", "MESH_FORMATS", "SURFACE_FORMATS", "NEEDS", "available",
-           "capabilities", "scrubbed", "offered"]
+           "capabilities", "scrubbed", "offered", "registered", "in_place_only", "format_keys"]
 
 #: Preferred extension of each meshio format the service knows.
 MESH_FORMATS = {
@@ -56,7 +67,7 @@ SURFACE_FORMATS = {"stl": ".stl", "obj": ".obj", "ply": ".ply", "off": ".off"}
 FAIL_WITH_FACES = {"flac3d", "med", "su2", "h5m"}
 #: Formats written under one name and read under another.
 _READ_AS = {"gmsh22": "gmsh"}
-#: Preferred format of an ambiguous extension.
+#: Preferred format of an ambiguous extension (after the registered formats' extensions).
 _PREFERRED = {".msh": "gmsh"}
 
 
@@ -67,10 +78,54 @@ def available(name: str) -> bool:
     return need is None or importlib.util.find_spec(need) is not None
 
 
+def registered() -> dict[str, FileFormat]:
+    """The formats of :mod:`solver.io.registry` that the service reads: a reader of their own, or meshio's."""
+    return {n: f for n, f in REGISTERED.items()
+            if f.read is not None or n in meshio._helpers.reader_map}
+
+
+def in_place_only(name: str | None) -> bool:
+    """True for a registered format that is written back in place only (``writes=False``), never converted to.
+
+    Examples
+    --------
+    >>> in_place_only("abaqus"), in_place_only("vtu")
+    (False, False)
+    """
+    f = REGISTERED.get(name or "")
+    return f is not None and not f.writes
+
+
 def offered() -> dict[str, str]:
-    """The mesh formats this installation can read and write (measured, libraries present)."""
-    ok = {r["name"] for r in capabilities() if r["available"]}
-    return {k: v for k, v in MESH_FORMATS.items() if k in ok}
+    """The mesh formats this installation reads and writes: format name to its extension.
+
+    The measured meshio formats whose libraries are present, and the registered
+    formats (those written back in place only included: a mesh read from one
+    downloads in it).
+    """
+    return {r["name"]: r["extension"] for r in capabilities() if r["available"]}
+
+
+def format_keys(allowed: dict[str, str]) -> set[str]:
+    """Every name, alias and extension (lower case, without the dot) that means a format of ``allowed``.
+
+    Examples
+    --------
+    >>> sorted(format_keys({"abaqus": ".inp", "stl": ".stl"}))
+    ['abaqus', 'inp', 'stl']
+    """
+    keys = set(allowed) | {e.lstrip(".") for e in allowed.values()}
+    for name in allowed:
+        f = REGISTERED.get(name)
+        if f is not None:
+            keys |= set(f.aliases) | {e.lstrip(".") for e in f.extensions}
+    return keys
+
+
+def _own_extension(f: FileFormat, key: str, allowed: dict[str, str]) -> str:
+    """The extension a registered format is written with when asked for by ``key`` (its own when an extension)."""
+    ext = key if key.startswith(".") else "." + key
+    return ext if ext in f.extensions else allowed[f.name]
 
 
 def resolve_format(fmt: str | None, filename: str | None = None,
@@ -97,7 +152,7 @@ def resolve_format(fmt: str | None, filename: str | None = None,
         library of a known format this installation cannot handle).
     """
     allowed = allowed or offered()
-    known = ", ".join(sorted(set(allowed) | {e.lstrip(".") for e in allowed.values()}))
+    known = ", ".join(sorted(format_keys(allowed)))
 
     def missing(name: str) -> ServiceError:
         return ServiceError("unknown_format", f"format {name!r} needs the Python package {NEEDS[name]!r}, "
@@ -106,6 +161,9 @@ def resolve_format(fmt: str | None, filename: str | None = None,
 
     if fmt:
         key = fmt.strip().lower()
+        own = own_format(key)  # the registry first, as solver.io.formats.format_of reads it
+        if own is not None and own.name in allowed:
+            return own.name, _own_extension(own, key, allowed)
         if key in allowed:
             return key, allowed[key]
         if key in MESH_FORMATS and allowed is not SURFACE_FORMATS and not available(key):
@@ -117,6 +175,9 @@ def resolve_format(fmt: str | None, filename: str | None = None,
         raise ServiceError("unknown_format", f"unknown format {fmt!r}; accepted: {known}", format=fmt[:40])
     if filename:
         name_l = filename.lower()
+        own = by_extension(name_l)
+        if own is not None and own.name in allowed:
+            return own.name, max((e for e in own.extensions if name_l.endswith(e)), key=len)
         for ext in sorted(meshio.extension_to_filetypes, key=len, reverse=True):
             if name_l.endswith(ext):
                 names = [n for n in meshio.extension_to_filetypes[ext] if n in allowed]
@@ -162,6 +223,10 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = 
     something the mesh carries (sets, an element type) is refused unless
     ``lossy``; then the losses come back as the fourth value.
 
+    A deck written back to its own format with the files it includes comes
+    back as a zip too, each included file under its path relative to the deck
+    (``include/nodes.inp``).
+
     Returns
     -------
     (body, filename, media_type, dropped)
@@ -169,9 +234,13 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = 
     Raises
     ------
     InvalidMeshError
-        meshio cannot write the mesh in that format, or ``lossy_write`` (no server path in the message).
+        meshio cannot write the mesh in that format, ``lossy_write`` (no server path in the message), or
+        ``unwritable_format`` for a format written back in place only and a mesh read from another.
     """
     name, ext = resolve_format(fmt)
+    refuse_conversion(mesh, name)
+    while f"{stem}{ext}" in mesh.companions:  # the deck would be written over a file it includes
+        stem += "_deck"
     with tempfile.TemporaryDirectory(prefix="tetmorph-export-") as tmp:
         path = Path(tmp) / f"{stem}{ext}"
         try:
@@ -179,14 +248,35 @@ def export_mesh(mesh: Mesh, V: np.ndarray, fmt: str, stem: str, quality: bool = 
         except SolverError as e:
             raise scrubbed(e, tmp) from None
         dropped = list(written.dropped) if written is not None else []
-        files = sorted(p for p in Path(tmp).iterdir() if p.is_file())
+        files = sorted(p for p in Path(tmp).rglob("*") if p.is_file())
         if len(files) == 1:
             return files[0].read_bytes(), files[0].name, "application/octet-stream", dropped
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
             for p in files:
-                z.write(p, arcname=os.path.basename(p))
+                z.write(p, arcname=p.relative_to(tmp).as_posix())
         return buf.getvalue(), f"{stem}.{name}.zip", "application/zip", dropped
+
+
+def refuse_conversion(mesh: Mesh, name: str) -> None:
+    """Refuse to write ``mesh`` in a format that is written back in place only, unless it was read from it.
+
+    Raises
+    ------
+    InvalidMeshError
+        422 ``unwritable_format`` (details ``format``, ``mesh_format``, ``in_place_only``).
+    """
+    if not in_place_only(name) or mesh.file_format == name:
+        return
+    own = REGISTERED[name]
+    source = mesh.file_format if mesh.file_format not in (None, "arrays") else None
+    was = f"was read from {a_format(source)}" if source else "was given as arrays"
+    converts = sorted(n for n, f in REGISTERED.items() if f.writes) + ["vtu", "gmsh"]
+    raise InvalidMeshError(
+        f"{describe(name)} is written back only to decks read from it (the deck patched in place); this mesh "
+        f"{was}. Download it in its own format, or convert it to a format that takes other meshes "
+        f"({', '.join(dict.fromkeys(converts))}, ...: GET /v1/formats, converts_to)",
+        code="unwritable_format", format=name, title=own.title, mesh_format=mesh.file_format, in_place_only=True)
 
 
 #: Per mesh, the ``(format, quality, lossy)`` answers :func:`check_export` found writable.
@@ -212,10 +302,11 @@ def check_export(mesh: Mesh, fmt: str, quality: bool = False, lossy: bool = Fals
     ServiceError
         ``unknown_format``.
     LossyWriteError, InvalidMeshError
-        ``lossy_write`` (unless ``lossy``), ``unwritable_format``: the errors
-        :func:`export_mesh` would raise after the solve.
+        ``lossy_write`` (unless ``lossy``), ``unwritable_format`` (a format written back in place only, and
+        a mesh read from another): the errors :func:`export_mesh` would raise after the solve.
     """
     name, ext = resolve_format(fmt)
+    refuse_conversion(mesh, name)
     key = (name, quality, lossy)
     with _WRITABLE_LOCK:
         known = key in _WRITABLE.get(mesh, ())
@@ -302,21 +393,50 @@ MEASURED = Path(__file__).with_name("format_table.py")
 
 @functools.cache
 def capabilities() -> tuple[dict[str, Any], ...]:
-    """The formats table of GET /v1/formats: :data:`MEASURED`, with this installation's libraries.
+    """The formats table of GET /v1/formats: :data:`MEASURED` and the registered formats, as offered here.
 
-    A format whose library is missing here is listed with ``available``
-    false and is not offered.
+    A meshio format whose library is missing here is listed with ``available``
+    false and is not offered. A registered format comes from
+    :mod:`solver.io.registry`: its measured row where it has one (``abaqus``),
+    else a row of what the registry says, with ``sets``, ``quadratic`` and
+    ``mixed`` None (not measured: written back in place, the file keeps
+    everything but the coordinates of the nodes that moved).
+
+    Every row says whether a morph is written back ``in_place`` (the file
+    patched, nothing else changed) and whether a mesh of another format
+    ``converts_to`` it; ``write`` is ``converts_to``. A format with
+    ``in_place`` and not ``converts_to`` is written back only to decks read
+    from it.
     """
     from .format_table import TABLE
 
     rows: list[dict[str, Any]] = TABLE["formats"]  # type: ignore[assignment]
+    own = registered()
     out = []
     for r in rows:
         ok = available(r["name"])
         ok = ok and r["name"] not in FAIL_WITH_FACES
-        out.append({**r, "available": ok and r["read"] and r["write"],
-                    "read": ok and r["read"], "write": ok and r["write"]})
+        write = ok and r["write"] and not in_place_only(r["name"])
+        out.append({**r, "available": ok and r["read"] and (write or r["name"] in PATCHERS),
+                    "read": ok and r["read"], "write": write, **_row_extras(r["name"], ok and r["read"], write)})
+    measured = {r["name"] for r in rows}
+    for name, f in own.items():
+        if name in measured:
+            continue
+        out.append({"name": name, "extension": f.extensions[0], "needs": None, "available": True, "read": True,
+                    "write": f.writes, "sets": None, "quadratic": None, "mixed": None,
+                    **_row_extras(name, True, f.writes)})
     return tuple(out)
+
+
+def _row_extras(name: str, read: bool, write: bool) -> dict[str, Any]:
+    """The fields of a format's row beyond the measured ones: its title, extensions, and how it is written."""
+    f = REGISTERED.get(name)
+    return {"title": describe(name),
+            "extensions": list(f.extensions) if f is not None else [MESH_FORMATS.get(name, "")],
+            "in_place": read and name in PATCHERS, "converts_to": write,
+            "reads": (f.reads or None) if f is not None else None,
+            "refuses": (f.refuses or None) if f is not None else None}
 
 
 def measure() -> tuple[dict[str, Any], ...]:

@@ -104,6 +104,12 @@ class UnreadableFileError(InvalidMeshError):
     ``setting``: :mod:`solver.io.bounds`), ``too_large_to_read`` (the reader ran out of memory),
     ``external_reference`` (an XDMF file naming data outside its folder, an HDF5 file with external
     links, virtual datasets or external storage),
+    ``include_outside``, ``include_missing``, ``bad_include`` (a deck's ``*INCLUDE`` of a file outside
+    its folder, one not beside it, or one with no file name, that includes itself or nests too deep;
+    details ``include``), ``bad_deck``, ``bad_node_line``, ``bad_element_line``, ``bad_set``,
+    ``bad_instance``, ``duplicate_node``, ``duplicate_part``, ``unsupported_keyword`` (an Abaqus deck
+    Abaqus itself would refuse, or that tetmorph does not read; details ``line``, and ``in``, the
+    included file),
     ``unreadable_file`` (anything else; the reader's own words are in the message).
     """
 

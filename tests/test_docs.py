@@ -284,8 +284,15 @@ def test_every_format_is_on_the_formats_page_with_what_it_keeps(site):
     for f in capabilities():
         cells = re.findall(r"<td>(.*?)</td>", _row(page, f"<code>{f['name']}</code>"))
         assert f"<code>{f['extension']}</code>" in cells[1], f["name"]
-        marks = ["yes" if f[k] else "no" for k in ("read", "write", "sets", "quadratic", "mixed")]
-        assert cells[2:7] == marks, (f["name"], cells)
+        marks = ["—" if f[k] is None else "yes" if f[k] else "no"  # None: not measured (written back in place)
+                 for k in ("read", "write", "sets", "quadratic", "mixed", "needs", "available", "in_place")]
+        assert cells[2:7] == marks[:5] and cells[9] == marks[7], (f["name"], cells)
+        if f["reads"]:  # a format of tetmorph's own readers: what it reads and refuses, as registered
+            import html
+
+            section = page.split(f">{html.escape(f['title'], quote=False)}<", 1)[1][:4000]
+            assert "Reads:" in section and "Refuses:" in section, f["name"]
+            assert html.escape(f["reads"], quote=False).split(",")[0] in section, f["name"]
 
 
 def _section(html_text: str, anchor: str) -> str:

@@ -322,22 +322,48 @@ def rest_page() -> str:
 
 # ---------------------------------------------------------------------------------------------- formats
 
+def plain(words: str) -> str:
+    r"""Text shown as written: ``*NODE`` and ``SET_NODE`` escaped, not read as Markdown emphasis.
+
+    Examples
+    --------
+    >>> plain("*NODE/*ELEMENT, *SET_NODE")
+    '\\*NODE/\\*ELEMENT, \\*SET\\_NODE'
+    """
+    return re.sub(r"([\\`*_\[\]])", r"\\\1", words)
+
+
 def formats_page() -> str:
-    """Every mesh format: what is read, written and kept, as measured by round trips."""
+    """Every mesh format: what is read, written and kept, as measured by round trips or said by its reader."""
     from service.format_table import TABLE
-    from service.formats import SURFACE_FORMATS, capabilities
+    from service.formats import SURFACE_FORMATS, capabilities, registered
 
     def mark(v: Any) -> str:
-        return "yes" if v else "no"
+        return "—" if v is None else "yes" if v else "no"
 
+    formats = capabilities()
     rows = [[code(f["name"]), code(f["extension"]), mark(f["read"]), mark(f["write"]), mark(f["sets"]),
              mark(f["quadratic"]), mark(f["mixed"]), code(f["needs"]) if f["needs"] else "",
-             mark(f["available"])] for f in capabilities()]
+             mark(f["available"]), mark(f["in_place"])] for f in formats]
+    own = registered()
+    readers = []
+    for f in formats:
+        if f["name"] not in own:
+            continue
+        exts = ", ".join(code(e) for e in f["extensions"])
+        aliases = ", ".join(code(a) for a in own[f["name"]].aliases)
+        written = ("written back in place, and converted to from other formats" if f["converts_to"] else
+                   "written back in place only, to decks read from it: a mesh of another format is not converted "
+                   "to it (422 `unwritable_format`)")
+        readers.append(f"\n### {f['title']}\n\n`format`: {code(f['name'])}"
+                       + (f" (or {aliases})" if aliases else "") + f"; extensions {exts}; {written}.\n\n"
+                       + f"- **Reads:** {plain(f['reads'] or '—')}\n- **Refuses:** {plain(f['refuses'] or '—')}\n")
     surfaces = ", ".join(f"{code(ext)} ({name})" for name, ext in SURFACE_FORMATS.items())
     return (text.FORMATS_INTRO.format(meshio=TABLE.get("meshio", ""))
             + table(["format", "extension", "read", "write", "keeps node sets", "keeps tetra10",
-                     "keeps mixed elements", "needs", "offered here"], rows)
-            + f"\nTriangle surfaces (targets of `SPEC.targets`, inputs of `tetrahedralize`): {surfaces}.\n")
+                     "keeps mixed elements", "needs", "offered here", "written back in place"], rows)
+            + f"\nTriangle surfaces (targets of `SPEC.targets`, inputs of `tetrahedralize`): {surfaces}.\n"
+            + text.FORMATS_READERS + "".join(readers))
 
 
 # -------------------------------------------------------------------------------------------- documents

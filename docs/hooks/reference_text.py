@@ -240,6 +240,54 @@ ERRORS: dict[str, tuple[str, str]] = {
     "duplicate_node_number": ("A TetGen node number is defined twice.", _REEXPORT),
     "missing_companion": ("A TetGen `.node` without its `.ele` (or the other way round).",
                           "Upload both files (the `.ele` as a companion)."),
+    "include_outside": ("A deck's `*INCLUDE` names a file outside the deck's folder (an absolute path, or `..` "
+                        "out of it), or a zip upload holds such a path (`details.include`); nothing is read "
+                        "from there.",
+                        "Put the file in the deck's folder or below it and name it relative to the deck; upload "
+                        "it as a companion under that path (`include/nodes.inp`), or zip the folder."),
+    "include_missing": ("A deck includes a file that is not beside it (`details.include`, relative to the "
+                        "deck's folder): not uploaded, or uploaded under another name.",
+                        "Upload the file as a companion under the path the deck names (or in the same zip)."),
+    "bad_include": ("An `*INCLUDE` line names no `INPUT=` file, includes itself, or nests deeper than 8 files.",
+                    "Correct the line the message names."),
+    "bad_deck": ("A keyword line of an Abaqus deck that Abaqus itself would refuse, such as a `*PART` without "
+                 "`NAME=` (`details.line`; `details.in`, the included file it is in).",
+                 "Correct the line named; check that the deck runs in Abaqus or CalculiX."),
+    "bad_node_line": ("A `*NODE` data line without a node number and three coordinates, or with coordinates "
+                      "that are not finite numbers (`details.line`).", "Correct the line named."),
+    "bad_element_line": ("An `*ELEMENT` block without `TYPE=`, or an element line with a field that is not a "
+                         "number or another node count than its type has (`details.line`, `details.element`).",
+                         "Correct the line named, or the block's `TYPE=`."),
+    "bad_set": ("An `*NSET`/`*ELSET` without its name, a `GENERATE` line that is not first, last[, step] "
+                "increasing, or a member that is neither a number nor a set defined before it.",
+                "Correct the line named; define a set before the sets that list it."),
+    "bad_instance": ("An `*INSTANCE` without `NAME=` or `PART=`, of a part no `*PART` defines, defined twice, "
+                     "imported from another analysis (`INSTANCE=`, `LIBRARY=`), an `*END INSTANCE` without it, "
+                     "or a placement line that is not numbers (or a rotation axis of two equal points).",
+                     "Define the part in the deck and place it by translation and rotation lines."),
+    "duplicate_node": ("Node numbers defined more than once in one scope (the model, a part or an instance): "
+                       "`details.node`, `details.count`.",
+                       "Number the nodes once; put the copies of a body in parts placed by instances."),
+    "duplicate_part": ("A `*PART` name defined twice.", "Rename one of the parts (and its instances)."),
+    "unsupported_keyword": ("A keyword tetmorph does not read in a deck (`*NODE, INPUT=` reading nodes from "
+                            "another file).",
+                            "Use `*INCLUDE, INPUT=` for the file instead."),
+    "parse_time_limit": ("Reading the uploaded file took longer than `TETMORPH_PARSE_TIME_LIMIT_S` (120 s by "
+                         "default): the worker process reading it was stopped and replaced. A damaged file "
+                         "some reader never finishes, or a mesh far larger than usual.",
+                         "Check the file (export it again); for a very large mesh, raise the setting."),
+    "parse_cpu_limit": ("Reading the uploaded file used more CPU seconds than `TETMORPH_PARSE_CPU_LIMIT_S`; the "
+                        "worker process reading it was stopped and replaced.",
+                        "Check the file (export it again); for a very large mesh, raise the setting."),
+    "parse_memory_limit": ("Reading the uploaded file needed more memory than a reader may use "
+                           "(`TETMORPH_PARSE_MEMORY_MB`, by default twice `TETMORPH_MAX_FILE_EXPANDED_MB` plus "
+                           "`TETMORPH_MAX_UPLOAD_MB`); the worker process reading it was stopped and replaced.",
+                           "Upload the mesh uncompressed or in parts, or raise the settings."),
+    "parse_queue_full": ("This API key already has `TETMORPH_PARSE_QUEUE_DEPTH` files waiting to be read "
+                         "(`details.queued`, `details.limit`).",
+                         "Wait for the answers to the uploads already sent, then retry."),
+    "too_many_files": ("A zip upload holds more files than the service takes (512): `details.declared`, "
+                       "`details.bound`.", "Zip the deck and the files it includes only."),
     "too_many_points": ("The file declares more nodes than tetmorph reads (50M by default; `details.bound`, "
                         "set by `details.setting`): refused before reading where the format declares its "
                         "counts, once read where it does not (Abaqus, Nastran, HDF5 formats).",
@@ -400,12 +448,26 @@ FORMATS_INTRO = """# Mesh formats
 
 Generated when the site is built from `service/format_table.py`, the table that
 `python -m service.formats` measures by round trips of tiny meshes through meshio
-{meshio} (a node set, a tetra10 element, a pyramid on a hexahedron) and that
-`GET /v1/formats` answers. "Offered here" is this installation: a format whose
-Python package is missing is listed but not offered. Files written back to the
-format they were read from are patched in place instead; what each conversion
-keeps, and what it refuses, is in the guide's [formats](../guide/formats.md) page.
+{meshio} (a node set, a tetra10 element, a pyramid on a hexahedron), and from the
+formats tetmorph reads with readers of its own (`solver/io/registry.py`); `GET
+/v1/formats` answers the same rows. "Offered here" is this installation: a format
+whose Python package is missing is listed but not offered. "Write" is a
+conversion: a mesh of another format written in it. Files written back to the
+format they were read from are patched in place instead ("written back in
+place"); a format read by a reader of tetmorph's own and not measured shows "—"
+for what a conversion keeps, since none is made to it. What each conversion keeps,
+and what it refuses, is in the guide's [formats](../guide/formats.md) page.
 
+"""
+
+FORMATS_READERS = """
+## Formats read by tetmorph's own readers
+
+These formats are read by the modules of `solver/io/` that register them, not by
+meshio: what each reads and what it refuses, with a typed error naming the line
+or the element kind. A deck with `*INCLUDE` is uploaded with its included files
+(companions under their paths relative to the deck, or one zip) and written back
+as the same tree.
 """
 
 # ---------------------------------------------------------------------------------------------- documents

@@ -35,7 +35,8 @@ def ready(request: Request, reg: RegistryDep) -> JSONResponse:
     state = request.app.state
     checks = {"store_writable": reg.store.writable(),
               "workers": not reg.builder.closed and state.jobs.alive,
-              "sweeper": state.sweeper.alive}
+              "sweeper": state.sweeper.alive,
+              "parse_workers": not reg.parse.health()["stuck"]}
     ok = all(checks.values())
     return JSONResponse({"ready": ok, "checks": checks}, status_code=200 if ok else 503)
 

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import zipfile
+import zlib
 from typing import Annotated, Any
 
 import numpy as np
@@ -15,8 +17,9 @@ from solver.constraints.features import feature_candidates, feature_region
 from solver.constraints.selection import select
 from solver.constraints.spec import parse_spec
 from solver.constraints.symmetry_candidates import abaqus_cyclic, resolve_cyclic, symmetry_candidates
-from solver.errors import InvalidMeshError
+from solver.errors import InvalidMeshError, UnreadableFileError
 from solver.io.patch_inp import node_labels
+from solver.io.read_bounds import ReadBounds, too_many
 from solver.mesh import mesh_from_arrays
 from solver.ops.elements import check_tets
 from solver.ops.unique import unique
@@ -43,36 +46,225 @@ def public(meta: dict[str, Any]) -> dict[str, Any]:
                                  "tetrahedralization") if k in meta}
 
 
+#: Most folders deep the name of an uploaded file may reach (``include/nodes.inp`` is one).
+MAX_FOLDER_DEPTH = 8
+#: Most files a zip upload may hold (its expanded size is bounded by TETMORPH_MAX_FILE_EXPANDED_MB).
+MAX_ZIP_FILES = 512
+#: Names the service keeps beside the uploaded files in a mesh's folder.
+_RESERVED = {"meta.json"}
+
+
+def _outside(parts: list[str], text: str) -> bool:
+    return text.startswith("/") or bool(re.match(r"^[A-Za-z]:", text)) or ".." in parts
+
+
+def stored_name(name: str | None, default: str, under: str = "") -> str:
+    """The name an uploaded file is stored under, relative to the mesh's folder.
+
+    A relative folder is kept (``include/nodes.inp``: a file a deck includes
+    from there), each part cleaned as :func:`~service.api.deps.safe_name`
+    cleans a file name; the folder ``under`` (the main file's own, as
+    uploaded) is taken off. A name that is absolute, climbs out with ``..``
+    or nests deeper than :data:`MAX_FOLDER_DEPTH` keeps its base name only.
+
+    Examples
+    --------
+    >>> stored_name("include/my nodes.inp", "x"), stored_name("../x/a.inp", "x"), stored_name("/etc/passwd", "x")
+    ('include/my_nodes.inp', 'a.inp', 'passwd')
+    >>> stored_name("model/include/n.inp", "x", under="model")
+    'include/n.inp'
+    """
+    text = (name or "").replace("\\", "/")
+    parts = [p for p in text.split("/") if p not in ("", ".")]
+    if _outside(parts, text) or len(parts) > MAX_FOLDER_DEPTH + 1:
+        return safe_name(name, default)
+    clean = [safe_name(p, "_") for p in parts[:-1]] + [safe_name(parts[-1] if parts else "", default)]
+    top = [p for p in under.split("/") if p]
+    if top and clean[:len(top)] == top and len(clean) > len(top):
+        clean = clean[len(top):]
+    return "/".join(clean)
+
+
+def _folder_of(name: str | None) -> str:
+    """The folder a main file was uploaded from, cleaned as :func:`stored_name` cleans it ("" for none)."""
+    stored = stored_name(name, "mesh")
+    return stored.rsplit("/", 1)[0] if "/" in stored else ""
+
+
+def _unzip(data: bytes, bounds: ReadBounds, archive: str) -> tuple[dict[str, bytes], dict[str, str]]:
+    """The files of a zip upload by the name each is stored under, and the name each had in the zip.
+
+    Folder entries and ``__MACOSX/`` are left out, and one folder holding
+    everything is taken off. The files and the bytes they expand to are
+    counted from the zip's directory before anything is expanded, and the
+    bytes again while expanding.
+
+    Raises
+    ------
+    UnreadableFileError
+        ``unreadable_file`` (not a zip, encrypted, damaged), ``too_many_files``, ``too_many_bytes``,
+        ``include_outside`` (a member with an absolute path or ``..``).
+    """
+    try:
+        z = zipfile.ZipFile(io.BytesIO(data))
+    except (zipfile.BadZipFile, ValueError, OSError) as e:
+        raise UnreadableFileError(f"{archive!r} is not a zip archive that can be read ({e})",
+                                  code="unreadable_file", file=archive) from None
+    with z:
+        infos = [i for i in z.infolist() if not i.is_dir() and i.filename.split("/")[0] != "__MACOSX"]
+        if len(infos) > MAX_ZIP_FILES:
+            raise UnreadableFileError(f"{archive!r} holds {len(infos):,} files; an upload may hold at most "
+                                      f"{MAX_ZIP_FILES}", code="too_many_files", file=archive,
+                                      declared=len(infos), bound=MAX_ZIP_FILES)
+        declared = sum(i.file_size for i in infos)
+        if declared > bounds.expanded_bytes:
+            raise too_many(archive, "bytes", declared, bounds)
+        names = []
+        for i in infos:
+            text = i.filename.replace("\\", "/")
+            parts = [p for p in text.split("/") if p not in ("", ".")]
+            if _outside(parts, text) or not parts:
+                raise UnreadableFileError(f"{archive!r} holds {i.filename!r}, a path outside the archive's "
+                                          "folder; tetmorph stores an upload's files in its own folder only: "
+                                          "give every file a path relative to the deck", code="include_outside",
+                                          file=archive, include=i.filename[:200])
+            if len(parts) > MAX_FOLDER_DEPTH + 2:  # one more: a folder holding everything is taken off below
+                raise UnreadableFileError(f"{archive!r} holds {i.filename!r}, nested deeper than "
+                                          f"{MAX_FOLDER_DEPTH} folders", code="unreadable_file", file=archive)
+            names.append(parts)
+        if len(names) > 1 and all(len(p) > 1 for p in names) and len({p[0] for p in names}) == 1:
+            names = [p[1:] for p in names]  # the zip of one folder: its files relative to it
+        files: dict[str, bytes] = {}
+        given: dict[str, str] = {}
+        left = bounds.expanded_bytes
+        for i, parts in zip(infos, names, strict=True):
+            clean = stored_name("/".join(parts), "file")
+            if clean.count("/") + 1 != len(parts):
+                raise UnreadableFileError(f"{archive!r} holds {i.filename!r}, nested deeper than "
+                                          f"{MAX_FOLDER_DEPTH} folders", code="unreadable_file", file=archive)
+            _no_clash(files, given, clean, i.filename, "file")
+            try:
+                with z.open(i) as fh:
+                    body = fh.read(left + 1)
+            except (zipfile.BadZipFile, RuntimeError, NotImplementedError, OSError, EOFError, zlib.error) as e:
+                raise UnreadableFileError(f"{archive!r}: {i.filename!r} cannot be expanded ({e})",
+                                          code="unreadable_file", file=archive) from None
+            left -= len(body)
+            if left < 0:
+                raise too_many(archive, "bytes", bounds.expanded_bytes + 1 - left, bounds)
+            files[clean], given[clean] = body, i.filename
+    return files, given
+
+
+def _deck_of(files: dict[str, bytes], format: str | None, allowed: dict[str, str], archive: str) -> str:
+    """The file of a zip upload to read: the one file at its top level that is a mesh and no other file names."""
+    top = [n for n in files if "/" not in n]
+    want = resolve_format(format, None, allowed)[0] if format else None
+
+    def fits(n: str) -> bool:
+        try:
+            return resolve_format(None, n, allowed)[0] == want if want else bool(resolve_format(None, n, allowed))
+        except ServiceError:
+            return False
+
+    candidates = [n for n in top if fits(n)] or (top if want else [])
+    if not candidates:
+        raise ServiceError("unknown_format", f"{archive!r} holds no mesh file at its top level that its extension "
+                           f"names (it holds {', '.join(sorted(files)[:20])}); pass format= or put the deck at "
+                           "the top of the zip", filename=archive, files=sorted(files)[:50])
+    lines = {m: _include_lines(files[m]) for m in candidates} if len(candidates) > 1 else {}
+    named = {n for n in candidates for m in lines if m != n and n.lower().encode() in lines[m]}
+    roots = [n for n in candidates if n not in named]
+    if len(roots) > 1:  # TetGen's .node beside its .ele: the file of the format's own extension
+        roots = [n for n in roots if n.lower().endswith(allowed[resolve_format(format, n, allowed)[0]])] or roots
+    if len(roots) != 1:
+        raise ServiceError("unknown_format", f"{archive!r} holds {len(roots or candidates)} files that could be the "
+                           f"mesh ({', '.join(sorted(roots or candidates)[:20])}); upload the one to read as file= "
+                           "and the others as companions=", filename=archive,
+                           candidates=sorted(roots or candidates)[:50])
+    return roots[0]
+
+
+def _include_lines(body: bytes, most: int = 10_000) -> bytes:
+    """The lines of a file that may name files it includes, lower case: each line with ``include`` and the next."""
+    low = body.lower()
+    out: list[bytes] = []
+    pos = low.find(b"include")
+    while pos >= 0 and len(out) < most:
+        start = low.rfind(b"\n", 0, pos) + 1
+        end = low.find(b"\n", pos)
+        end = -1 if end < 0 else low.find(b"\n", end + 1)
+        end = len(low) if end < 0 else end
+        out.append(low[start:end])
+        pos = low.find(b"include", end)
+    return b"\n".join(out)
+
+
+def _no_clash(files: dict[str, Any], given: dict[str, str], clean: str, original: str | None, field: str) -> None:
+    """Refuse a file stored under a name another file, a folder of another file or the service's record takes."""
+    other = given.get(clean)
+    if other is None:
+        other = next((given[n] for n in files if n.startswith(clean + "/") or clean.startswith(n + "/")), None)
+    if other is not None:  # two uploads that store under one name: one would silently replace the other
+        raise ServiceError("duplicate_file_name", f"the uploads {other!r} and {original!r} are both stored as "
+                           f"{clean!r} (or one as a folder of the other); rename one", field=field, stored=clean,
+                           files=[other, original])
+    if clean in _RESERVED:
+        raise ServiceError("duplicate_file_name", f"the upload {original!r} would be stored as {clean!r}, the "
+                           "name of the service's own record of the mesh; rename it", field=field, stored=clean,
+                           files=[original, clean])
+
+
 @router.post("/meshes", status_code=201, summary="Upload a mesh file", response_model=MeshDoc,
              responses=error_responses(*_AUTH, 413, 422, s422="unreadable or invalid mesh (the "
                                        "solver's typed code: inverted_input, non_finite_coordinates, "
-                                       "unsupported_element, unknown_format, too_many_elements, ...)"))
+                                       "unsupported_element, unknown_format, too_many_elements, "
+                                       "include_missing, include_outside, ...)"))
 async def upload_mesh(
     file: Annotated[UploadFile, File(description="The mesh: .inp, .msh, .vtu, .vtk, .mesh, "
-                                                 ".node (with its .ele), .bdf, ...; or a triangle surface "
-                                                 "(.stl, .obj, .ply, .off) for SPEC targets")],
+                                                 ".node (with its .ele), .bdf, .cdb, .k, ...; or a triangle surface "
+                                                 "(.stl, .obj, .ply, .off) for SPEC targets; or a .zip of a deck "
+                                                 "and the files it includes")],
     owner: OwnerDep, reg: RegistryDep,
     companions: Annotated[list[UploadFile] | SkipJsonSchema[None], File(
-        description="Files read together with the main one (TetGen's .ele)")] = None,
+        description="Files read together with the main one: TetGen's .ele, the files a deck includes (under "
+                    "their names relative to the deck's folder, folders kept: include/nodes.inp)")] = None,
     format: Annotated[str | SkipJsonSchema[None], Form(
         max_length=40, description="format name or extension, when the file name does not tell",
         json_schema_extra={"enum": UPLOAD_FORMAT_VALUES})] = None,
     name: Annotated[str | None, Form(max_length=200)] = None,
 ) -> dict[str, Any]:
-    """Store and validate a mesh file; answer its counts, element types, sets and quality."""
-    main = safe_name(file.filename, "mesh")
-    fmt, ext = resolve_format(format, main, {**offered(), **SURFACE_FORMATS})  # triangle surfaces: targets
+    """Store and validate a mesh file; answer its counts, element types, sets and quality.
+
+    A deck that includes other files (``*INCLUDE``) comes with them: as
+    ``companions`` under their paths relative to the deck, or all in one
+    ``.zip``. They are stored in the mesh's own folder, and the deck reads
+    nothing outside it.
+    """
+    allowed = {**offered(), **SURFACE_FORMATS}  # triangle surfaces: targets
+    data = await file.read()  # body size already bounded by the BodyLimit middleware
+    files: dict[str, bytes]
+    given: dict[str, str]
+    under = ""
+    if (file.filename or "").lower().endswith(".zip"):
+        archive = safe_name(file.filename, "upload.zip")
+        files, given = await reg.run(_unzip, data, reg.settings.read_bounds(), archive)
+        main = _deck_of(files, format, allowed, archive)
+        fmt, ext = resolve_format(format, main, allowed)
+    else:
+        main = safe_name(file.filename, "mesh")
+        under = _folder_of(file.filename)
+        fmt, ext = resolve_format(format, main, allowed)
+        files, given = {main: data}, {main: file.filename or main}
     if not main.lower().endswith(ext):
+        body, original = files.pop(main), given.pop(main)
         main = f"{main}{ext}"
-    files = {main: await file.read()}  # body size already bounded by the BodyLimit middleware
-    given = {main: file.filename}
+        _no_clash(files, given, main, original, "file")
+        files[main], given[main] = body, original
     for c in companions or []:
         if c.filename:
-            clean = safe_name(c.filename, "companion")
-            if clean in files:  # two uploads that store under one name: one would silently replace the other
-                raise ServiceError("duplicate_file_name", f"the uploads {given[clean]!r} and {c.filename!r} are "
-                                   f"both stored as {clean!r}; rename one", field="companions", stored=clean,
-                                   files=[given[clean], c.filename])
+            clean = stored_name(c.filename, "companion", under)
+            _no_clash(files, given, clean, c.filename, "companions")
             files[clean], given[clean] = await c.read(), c.filename
     if fmt == "tetgen" and main.endswith(".node"):
         ele = main[:-5] + ".ele"
@@ -127,7 +319,10 @@ def get_mesh(meta: MeshDep) -> dict[str, Any]:
 
 
 def _originals(reg: Any, meta: dict[str, Any]) -> tuple[bytes, str, str]:
-    """The uploaded file(s) unchanged: one file as is, several (TetGen) as a zip of the originals."""
+    """The uploaded file(s) unchanged: one file as is, several (TetGen, a deck and its includes) as a zip.
+
+    Each file is under its stored name: an included file under its path relative to the deck.
+    """
     d = reg.store.mesh_dir(meta["id"])
     if len(meta["files"]) == 1:
         return (d / meta["file"]).read_bytes(), meta["file"], "application/octet-stream"
@@ -140,14 +335,15 @@ def _originals(reg: Any, meta: dict[str, Any]) -> tuple[bytes, str, str]:
 
 @router.get("/meshes/{mesh_id}/file", summary="Download a mesh",
             responses={200: {"content": {"application/octet-stream": {}, "application/zip": {}},
-                             "description": "the file (a zip when the format has several files)"},
+                             "description": "the file (a zip when the format has several files, or the deck "
+                                            "includes files: each under its path relative to the deck)"},
                        **error_responses(*_AUTH, 404, 422)})
 async def download_mesh(
     meta: MeshDep, reg: RegistryDep,
     format: Annotated[str | None, Query(max_length=40, json_schema_extra={"enum": MESH_FORMAT_VALUES},
                                         description="format name or extension (GET "
-                                        "/v1/formats); omit for the upload byte for byte (TetGen: a zip "
-                                        "of its two files; JSON arrays: VTU)")] = None,
+                                        "/v1/formats); omit for the upload byte for byte (TetGen, a deck "
+                                        "with its includes: a zip of the files; JSON arrays: VTU)")] = None,
     lossy: Annotated[bool, Query(description="write what the format can hold when it cannot hold everything "
                                  "(sets, element types); X-Tetmorph-Dropped lists the rest. Without it such a "
                                  "conversion answers 422 lossy_write")] = False,

@@ -131,8 +131,10 @@ def result_response(V: np.ndarray, V0: np.ndarray, report: dict[str, Any], resul
     return JSONResponse(body)
 
 
-_DEFORM_200 = {"model": DeformJSON, "content": {MEDIA_TYPE: {"schema": {"type": "string", "format": "binary"}}},
-               "description": "the REPORT and the result (JSON, the binary frame of the service guide, or a mesh)"}
+_DEFORM_200 = {"model": DeformJSON, "content": {MEDIA_TYPE: {"schema": {"type": "string", "format": "binary"}},
+                                                "application/zip": {"schema": {"type": "string", "format": "binary"}}},
+               "description": "the REPORT and the result (JSON, the binary frame of the service guide, or a mesh: "
+                              "a zip when the format has several files, or the deck includes files)"}
 
 
 @router.post("/sessions/{session_id}/deform", summary="Apply a MOVE",
@@ -196,7 +198,9 @@ async def _mesh_response(reg: Registry, s: Session, V: np.ndarray, fmt: str,
 
 
 @router.get("/sessions/{session_id}/mesh", summary="Download the current deformed mesh",
-            responses={200: {"content": {"application/octet-stream": {}, "application/zip": {}}},
+            responses={200: {"content": {"application/octet-stream": {}, "application/zip": {}},
+                             "description": "the file (a zip when the format has several files, or the deck "
+                                            "includes files: each under its path relative to the deck)"},
                        **error_responses(*_AUTH, 404, 410, 422)})
 async def download_current(
     s: SessionDep, reg: RegistryDep,

@@ -10,24 +10,19 @@ limit. POST answers 201 with the mesh when the job ends within
 from __future__ import annotations
 
 import asyncio
-import os
-import tempfile
 from typing import Annotated, Any
 
-import numpy as np
 from fastapi import APIRouter, File, Form, Path, Request, UploadFile
 from pydantic import Field
 from pydantic.json_schema import SkipJsonSchema
 
-from solver.errors import MAX_IDS, InvalidMeshError, SolverError, format_ids
-from solver.io.bounds import ReadBounds
-from solver.io.read import read_surface
+from solver.errors import InvalidMeshError
 from solver.io.tetrahedralize import open_edges
 from solver.limits import COORD_MAX
 from solver.mesh import mesh_from_arrays
 
-from ..errors import ServiceError, error_from_dict
-from ..formats import SURFACE_FORMATS, resolve_format, scrubbed
+from ..errors import error_from_dict
+from ..formats import SURFACE_FORMATS, resolve_format
 from ..models.error import error_responses
 from ..models.formats import SURFACE_FORMAT_VALUES
 from ..models.mesh import MeshDoc
@@ -39,36 +34,6 @@ from .meshes import public
 from .responses import JSONResponse
 
 router = APIRouter(tags=["meshes"])
-
-
-def _read_surface(data: bytes, fmt: str, ext: str, max_triangles: int, bounds: ReadBounds
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """The surface's points and triangles, read with the same checks and bounds as an uploaded mesh."""
-    with tempfile.TemporaryDirectory(prefix="tetmorph-surface-") as tmp:
-        path = os.path.join(tmp, "surface" + ext)
-        with open(path, "wb") as f:
-            f.write(data)
-        try:
-            V, F = read_surface(path, fmt, bounds=bounds)
-        except SolverError as e:
-            raise scrubbed(e, tmp) from None
-    if V.ndim != 2 or V.shape[1] != 3:
-        raise InvalidMeshError(f"surface points have shape {V.shape}; need (n, 3)", code="bad_shape")
-    if len(F) > max_triangles:
-        raise ServiceError("too_many_triangles", f"the surface has {len(F)} triangles; this service "
-                           f"tetrahedralizes at most {max_triangles}", triangles=int(len(F)), limit=max_triangles)
-    if not np.isfinite(V).all():
-        raise InvalidMeshError("surface has non-finite coordinates", code="non_finite")
-    if F.size and (F.min() < 0 or F.max() >= len(V)):
-        raise InvalidMeshError(f"triangle indices span [{F.min()}, {F.max()}] but there are {len(V)} vertices",
-                               code="index_out_of_range")
-    used = np.unique(F)
-    huge = used[(np.abs(V[used]) > COORD_MAX).any(1)]
-    if huge.size:  # the bound of meshes and documents; fTetWild's envelope would overflow long before
-        raise InvalidMeshError(f"{huge.size} surface vertices have a coordinate beyond +-{COORD_MAX:g}; first "
-                               f"vertices {format_ids(huge)}, e.g. vertex {huge[0]} = {V[huge[0]].tolist()}",
-                               code="coordinates_out_of_range", vertices=huge[:MAX_IDS].tolist(), bound=COORD_MAX)
-    return V, F
 
 
 def _job_error(job: Job) -> Exception:
@@ -103,7 +68,8 @@ async def tetrahedralize(
     fname = safe_name(file.filename, "surface")
     fmt, ext = resolve_format(format, fname, allowed=SURFACE_FORMATS)
     data = await file.read()  # bounded by the BodyLimit middleware
-    V, F = await reg.run(_read_surface, data, fmt, ext, settings.tetra_max_triangles, settings.read_bounds())
+    V, F = await reg.parse.call(owner, "service.state.reads.read_surface_upload", data, fmt, ext,
+                                settings.tetra_max_triangles, settings.read_bounds(), what=repr(fname))
     opened = await reg.run(open_edges, F)
     if opened.size and not allow_open:
         raise InvalidMeshError(

@@ -26,21 +26,35 @@ class Ready(BaseModel):
     """Readiness: the data directory is writable and the workers are alive."""
 
     ready: bool
-    checks: dict[str, bool] = Field(description="store_writable, workers, sweeper")
+    checks: dict[str, bool] = Field(description="store_writable, workers, sweeper, parse_workers (the "
+                                    "processes that read uploaded files: false when a read is past its "
+                                    "limits unstopped, or no worker can be started)")
 
 
 class FormatInfo(BaseModel):
-    """One mesh format and what it keeps, measured by round trips of small meshes."""
+    """One mesh format and what it keeps: measured by round trips of small meshes, or said by its reader."""
 
     name: str = Field(description="format name for format= parameters")
-    extension: str
-    available: bool = Field(description="offered here (its libraries are installed and it round-trips)")
+    extension: str = Field(description="the extension it is written with")
+    available: bool = Field(description="offered here (its libraries are installed, and it round-trips or is "
+                                        "written back in place)")
     needs: str | None = Field(description="the Python package it needs beyond meshio")
-    read: bool
-    write: bool
-    sets: bool = Field(description="a node set survives writing and reading")
-    quadratic: bool = Field(description="tetra10 elements survive")
-    mixed: bool = Field(description="hexahedra next to pyramids survive")
+    read: bool = Field(description="meshes are uploaded in it")
+    write: bool = Field(description="meshes of other formats are written in it (as converts_to)")
+    sets: bool | None = Field(description="a node set survives writing and reading (null: not measured, the "
+                                          "format is written back in place only)")
+    quadratic: bool | None = Field(description="tetra10 elements survive (null: not measured)")
+    mixed: bool | None = Field(description="hexahedra next to pyramids survive (null: not measured)")
+    title: str = Field("", description="its name in words")
+    extensions: list[str] = Field(default_factory=list, description="every extension that means it")
+    in_place: bool = Field(False, description="a mesh read from it is written back to it in place: its file "
+                                              "(and the files it includes) patched, only the coordinates of the "
+                                              "nodes that moved changed")
+    converts_to: bool = Field(False, description="a mesh read from another format is written in it; false for "
+                                                 "a format written back only to decks read from it "
+                                                 "(422 unwritable_format)")
+    reads: str | None = Field(None, description="what its reader reads (formats with a reader of tetmorph's own)")
+    refuses: str | None = Field(None, description="what its reader refuses, and how")
 
 
 class JobDoc(BaseModel):

@@ -3,7 +3,8 @@
 :class:`Catalogue` owns the meshes' side of the persistent
 :class:`~service.state.store.Store` and the in-memory
 :class:`~service.state.mesh_cache.MeshCache` of parsed meshes. Parsing runs in
-the builder's worker threads, so the event loop never reads a file. A mesh is
+worker processes (:mod:`service.state.parse_pool`): neither the event loop nor
+any thread of the server reads an uploaded file. A mesh is
 stored whole or not at all: a file that does not parse, or a mesh over the
 service's element limit, leaves nothing behind.
 
@@ -23,6 +24,7 @@ from solver.mesh import Mesh
 from ..errors import NotFound, ServiceError
 from .builder import Builder
 from .mesh_cache import MeshCache
+from .parse_pool import ParsePool
 from .store import Store, new_id
 
 __all__ = ["Catalogue"]
@@ -35,16 +37,27 @@ class Catalogue:
     ----------
     store : Store
     builder : Builder
-        Whose worker threads read and summarise the files.
+        Whose worker threads summarise the meshes.
     max_elements : int
         The most volume elements a stored mesh may have (422 ``too_many_elements`` beyond).
+    parse : ParsePool, optional
+        The worker processes that read the stored files (default: the builder's threads).
     """
 
-    def __init__(self, store: Store, builder: Builder, max_elements: int) -> None:
+    def __init__(self, store: Store, builder: Builder, max_elements: int, parse: ParsePool | None = None) -> None:
         self.store = store
         self.builder = builder
         self.max_elements = max_elements
+        self.parse = parse
         self.cache = MeshCache()
+
+    async def _load(self, meta: dict[str, Any]) -> Mesh:
+        """Read a stored mesh's files in a parse worker (arrays stored by the service itself: here)."""
+        if self.parse is None or meta.get("format") == "arrays":
+            return await self.builder.run(self.store.load_mesh, meta)
+        return await self.parse.call(str(meta.get("owner", "")), "service.state.reads.read_stored",
+                                     str(self.store.root), meta, self.store.bounds,
+                                     what=repr(str(meta.get("file", "the file"))))
 
     def meta(self, owner: str, mesh_id: str) -> dict[str, Any]:
         """Meta of a mesh owned by ``owner``; 404 otherwise (also for other keys' meshes)."""
@@ -61,7 +74,7 @@ class Catalogue:
         """The parsed mesh of a stored meta (read in a worker thread on a miss)."""
         m = self.cache.get(meta["id"])
         if m is None:
-            m = await self.builder.solve(self.store.load_mesh, meta)
+            m = await self._load(meta)
             self.cache.put(meta["id"], m)
         return m
 
@@ -87,7 +100,9 @@ class Catalogue:
             meshio format name.
         files : dict of str to bytes
             File name (sanitized) to content; ``main`` is the one to read
-            (TetGen's ``.node`` next to its ``.ele``).
+            (TetGen's ``.node`` next to its ``.ele``). A name may hold folders
+            (``include/nodes.inp``, a file a deck includes): it is stored under
+            them in the mesh's folder, and read from there after a restart.
         main : str
         mesh_id : str, optional
             A fixed id (the demo); random by default.
@@ -102,9 +117,15 @@ class Catalogue:
                 "files": sorted(files), "created": time.time()}
 
         async def write_and_read(d: Path) -> Mesh:
+            root = d.resolve()
             for fname, data in files.items():
-                (d / fname).write_bytes(data)
-            return await self.builder.run(self.store.load_mesh, meta)
+                target = (d / fname).resolve()
+                if root not in target.parents:  # names are cleaned by the route: never outside the folder
+                    raise ServiceError("invalid_request", f"file name {fname!r} leaves the mesh's folder",
+                                       field="companions")
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_bytes(data)
+            return await self._load(meta)
 
         return await self._store(meta, write_and_read)
 

@@ -117,9 +117,16 @@ def _serve(conn: Connection, memory_bytes: int, warm: tuple[str, ...]) -> None:
             reply = ("memory",)
         except Exception as e:  # noqa: BLE001 - every failure goes back to the server as data
             to_dict = getattr(e, "to_dict", None)
-            reply = ("error", to_dict()) if callable(to_dict) else \
-                ("error", {"type": "UnreadableFileError", "code": "unreadable_file",
-                           "message": f"the reader failed ({type(e).__name__}: {str(e)[:300]})", "details": {}})
+            if callable(to_dict):  # a solver error: its type, code and details
+                reply = ("error", to_dict())
+            elif isinstance(getattr(e, "code", None), str) and hasattr(e, "details"):  # a service error
+                err: Any = e
+                reply = ("error", {"type": type(e).__name__, "code": err.code, "message": str(e),
+                                   "details": dict(err.details)})
+            else:
+                reply = ("error", {"type": "UnreadableFileError", "code": "unreadable_file",
+                                   "message": f"the reader failed ({type(e).__name__}: {str(e)[:300]})",
+                                   "details": {}})
         try:
             conn.send(reply)
         except MemoryError:
@@ -207,6 +214,19 @@ class ParsePool:
                 return
             self._idle.append(w)
         self._dispatch()
+
+    def _drop_dead(self) -> None:
+        """Replace idle workers that were killed while they waited (by hand, by the system)."""
+        dead = [w for w in self._idle if not w.process.is_alive()]
+        for w in dead:
+            self._idle.remove(w)
+            self.replaced += 1
+            threading.Thread(target=self._replace, args=(w,), name="tm-parse-start", daemon=True).start()
+
+    def _replace(self, w: _Worker) -> None:
+        """Stop a dead worker and start another."""
+        self._stop(w)
+        self._grow()
 
     def _grow(self) -> None:
         """Start workers in the background until there are ``n`` (alive or starting)."""
@@ -303,6 +323,7 @@ class ParsePool:
     def _dispatch(self) -> None:
         while True:
             with self._lock:
+                self._drop_dead()
                 if not self._idle or not self._turn:
                     return
                 owner = next((o for o in self._turn if self._pending.get(o) and self._running[o] < self._cap()),
@@ -369,9 +390,10 @@ class ParsePool:
     def _death(w: _Worker) -> str:
         w.process.join(5)
         code = w.process.exitcode
-        if code in (-signal.SIGXCPU, -signal.SIGKILL):
+        if code == -signal.SIGXCPU:
             return "cpu"
-        return "memory" if code in (-signal.SIGSEGV, -signal.SIGABRT, -signal.SIGBUS, 1) else "crash"
+        # an allocation refused under RLIMIT_AS ends C code in an abort or a fault; the system's OOM killer kills
+        return "memory" if code in (-signal.SIGSEGV, -signal.SIGABRT, -signal.SIGBUS, -signal.SIGKILL, 1) else "crash"
     def _limit(self, kind: str, call: _Call) -> ServiceError:
         lim = self.limits
         setting = lim.names()
@@ -394,6 +416,11 @@ class ParsePool:
                             "replaced")
 
     # ------------------------------------------------------------------ state
+
+    def pids(self) -> list[int]:
+        """The workers' process ids."""
+        with self._lock:
+            return [w.process.pid for w in [*self._idle, *self._busy]]
 
     def health(self) -> dict[str, Any]:
         """Workers idle, busy and starting, calls waiting, the oldest call's age, and whether it is stuck.

@@ -103,6 +103,7 @@ class PgStore:
         self.url = url
         self.root = Path(root)
         self.files = FileStore(root, bounds)  # mesh folders (and the data directory's layout)
+        self.bounds = self.files.bounds
         self.sessions_dir = self.files.sessions_dir
         self._db = PgConnection(url)
 

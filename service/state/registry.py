@@ -26,6 +26,7 @@ from .builder import Builder
 from .catalogue import Catalogue
 from .factor_cache import FactorCache
 from .moves import MovePath
+from .parse_pool import ParseLimits, shared_pool
 from .sessions import Sessions
 from .store import Store
 from .stores import open_store
@@ -49,7 +50,11 @@ class Registry:
             settings.data_dir, settings.database_url, settings.read_bounds())
         self.factors = FactorCache(settings.cache_budget_bytes)
         self.builder = Builder(settings.build_workers, settings.solve_pool_size, settings.solve_options())
-        self.catalogue = Catalogue(self.store, self.builder, settings.max_elements)
+        self.parse = shared_pool(settings.parse_workers, ParseLimits(settings.parse_time_limit_s,
+                                                                     settings.parse_cpu_limit_s,
+                                                                     settings.parse_memory_bytes),
+                                 settings.parse_queue_depth)
+        self.catalogue = Catalogue(self.store, self.builder, settings.max_elements, self.parse)
         self.sessions = Sessions(settings, self.store, self.builder, self.factors, self.catalogue)
         self.moves = MovePath(self.sessions, self.store, self.builder)
 
@@ -57,6 +62,7 @@ class Registry:
         """Start the worker threads (again, after :meth:`close`)."""
         if self.builder.closed:
             self.builder.start()
+        self.parse.start()
 
     def close(self) -> None:
         """Stop the worker threads."""

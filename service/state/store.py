@@ -92,6 +92,8 @@ class Store(Protocol):
     #: True when other processes write the same records (replicas): the registry re-reads them.
     shared: bool
     root: Path
+    #: What a stored file may declare or expand to when it is read back.
+    bounds: ReadBounds
 
     def mesh_dir(self, mesh_id: str) -> Path:
         """Directory of one mesh's files."""

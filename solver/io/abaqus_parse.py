@@ -423,9 +423,11 @@ class _Parser:
             except (ValueError, IndexError):
                 raise self.error(ln, f"a node line needs a node number and coordinates: {ln.text[:80]!r}",
                                  code="bad_node_line") from None
-            if not x or len(x) > 3 or not all(np.isfinite(x)):
-                raise self.error(ln, f"node {label} has {'non-finite ' if x else 'no '}coordinates: "
-                                 f"{ln.text[:80]!r}", code="bad_node_line")
+            if not x:
+                raise self.error(ln, f"node {label} has no coordinates: {ln.text[:80]!r}", code="bad_node_line")
+            if not all(np.isfinite(x)):
+                raise self.error(ln, f"node {label} has a coordinate that is not a finite number: "
+                                 f"{ln.text[:80]!r}", code="non_finite_coordinates", node=label)
             sc.labels.append(label)
             sc.xyz.append((x + [0.0, 0.0])[:3])  # type: ignore[arg-type]
             sc.lines.append(ln)

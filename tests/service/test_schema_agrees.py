@@ -72,6 +72,9 @@ BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {
                            "of the same request)", _always),
     "empty_selection": ("the selection selects no vertex of this mesh", _always),
     "empty_band": ("the band holds no boundary face of this mesh", _always),
+    "unwritable_format": ("a format written back in place only (GET /v1/formats: converts_to false) takes the "
+                          "meshes read from it, not this one, read from another format",
+                          lambda e, c: e["details"].get("in_place_only") is True),
     "band_not_separating": ("the band does not cut this mesh's surface in two", _always),
     "repeated_index": ("an element repeats a vertex (a relation between the numbers of one row)", _always),
     "unknown_shape": ("a plan column names no shape of the same request (keys of another field)", _always),

@@ -105,3 +105,27 @@ def test_one_key_never_holds_every_worker_and_its_queue_is_bounded():
         finally:
             pool.close()
     run(go())
+
+
+def test_a_worker_killed_while_idle_is_replaced_and_the_next_call_is_answered():
+    async def go():
+        pool = await _pool(workers=1)
+        try:
+            (pid,) = pool.pids()
+            os.kill(pid, 9)
+            await asyncio.sleep(0.2)
+            value, new = await pool.call("a", T + "echo", 3)
+            assert value == 3 and new != pid and pool.health()["replaced"] == 1
+        finally:
+            pool.close()
+    run(go())
+
+
+def test_a_closed_pool_answers_unavailable():
+    async def go():
+        pool = await _pool(workers=1)
+        pool.close()
+        with pytest.raises(ServiceError) as e:
+            await pool.call("a", T + "echo", 1)
+        assert e.value.code == "unavailable" and status_of(e.value) == 503
+    run(go())

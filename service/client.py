@@ -139,13 +139,31 @@ class Client:
     def upload_mesh(self, path: str | os.PathLike[str], file_format: str | None = None,
                     companions: list[str | os.PathLike[str]] | None = None,
                     name: str | None = None) -> dict[str, Any]:
-        """Upload a mesh file; TetGen ``.node`` files bring their ``.ele`` automatically."""
+        """Upload a mesh file with the files read with it.
+
+        TetGen ``.node`` files bring their ``.ele``, and Abaqus and LS-DYNA decks
+        the files they ``*INCLUDE`` (under their paths relative to the deck), unless
+        ``companions`` names the files.
+        """
         path = Path(path)
         extra = [Path(c) for c in companions or []]
         if path.suffix == ".node" and not extra and path.with_suffix(".ele").exists():
             extra = [path.with_suffix(".ele")]
+        if not extra:
+            from solver.io.patchers import patcher_for
+
+            p = patcher_for(str(path), file_format)
+            if p is not None and p.includes is not None:
+                extra = [path.parent / rel for rel in p.includes(str(path))]
+
+        def relative(c: Path) -> str:
+            try:
+                return c.resolve().relative_to(path.parent.resolve()).as_posix()
+            except ValueError:
+                return c.name
+
         files = [("file", (path.name, path.read_bytes()))]
-        files += [("companions", (c.name, c.read_bytes())) for c in extra]
+        files += [("companions", (relative(c), c.read_bytes())) for c in extra]
         data = {k: v for k, v in (("format", file_format), ("name", name)) if v}
         return self._request("POST", "/v1/meshes", files=files, data=data).json()
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import os
+import re
 import shutil
 import tempfile
 import threading
@@ -39,7 +40,8 @@ from solver.workflows.shapes import Shapes, parse_shapes, variant_move
 from ..errors import ServiceError
 from .jobs import Job
 
-__all__ = ["plan_of", "check_plan", "DeckZip", "sub_plan", "renumber", "summary_counts"]
+__all__ = ["plan_of", "check_plan", "DeckZip", "sub_plan", "renumber", "summary_counts", "job_folder",
+           "clear_jobs", "sweep_job_files", "sweep_dead_servers", "process_started"]
 
 
 def plan_of(plan: Any, max_rows: int) -> Plan:
@@ -140,9 +142,17 @@ class DeckZip:
                 if self._discarded:  # cancelled meanwhile: nothing more is written
                     return name
                 f = self.tmp / name
-                write_mesh(self.mesh, res.V, f, self.format)
-                self.add_file(f, name)
-            return name
+                written = write_mesh(self.mesh, res.V, f, self.format)
+                included = [Path(x) for x in written.files if Path(x) != f]
+                if not included:
+                    self.add_file(f, name)
+                    return name
+                # a deck with the files it includes: each row in a folder of its own, the tree kept
+                folder = f"{self.stem}_{row}"
+                for x in included:
+                    self.add_file(x, f"{folder}/{x.relative_to(self.tmp).as_posix()}")
+                self.add_file(f, f"{folder}/{name}")
+            return f"{folder}/{name}"
 
         return out
 
@@ -255,6 +265,90 @@ def sweep_job_files(data_dir: Path, older_than_s: float, now: float | None = Non
                 removed.append(f"{folder.name}/{entry.name}")
         with contextlib.suppress(OSError):
             folder.rmdir()  # only when empty
+    return removed
+
+
+#: Seconds by which a process must have started after its folder was last written to be another process
+#: that reuses the folder's PID (the boot time the start is counted from is known to the second).
+PID_REUSE_MARGIN_S = 2.0
+
+
+def _folder_name(replica: str) -> str:
+    return "".join(c if c.isalnum() or c in "._-" else "_" for c in replica)
+
+
+def process_started(pid: int) -> float | None:
+    """When process ``pid`` started (seconds since the epoch), or None when it is gone or that cannot be read.
+
+    A zombie (a process that ended and was not reaped) counts as gone.
+    """
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+        if stat[0] in ("Z", "X"):
+            return None
+        boot = next(float(line.split()[1]) for line in Path("/proc/stat").read_text().splitlines()
+                    if line.startswith("btime "))
+        return boot + int(stat[19]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, StopIteration):
+        pass
+    try:  # no /proc (macOS): psutil where it is installed
+        import psutil
+
+        p = psutil.Process(pid)
+        return None if p.status() == psutil.STATUS_ZOMBIE else float(p.create_time())
+    except Exception:  # noqa: BLE001 - not installed, gone, or not ours to read: unknown
+        return None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: alive
+        return True
+    return True
+
+
+def _last_written(folder: Path) -> float:
+    times = [folder.stat().st_mtime]
+    for f in folder.rglob("*"):
+        with contextlib.suppress(OSError):
+            times.append(f.lstat().st_mtime)
+    return max(times)
+
+
+def sweep_dead_servers(data_dir: Path, host: str) -> list[str]:
+    """Remove the job folders that servers of ``host`` left when they stopped, whatever their age.
+
+    A single server's replica id is ``<host>-<pid>`` (the default :attr:`~service.settings.Settings.replica_id`),
+    so a new process never clears its predecessor's folder, and :func:`sweep_job_files` would wait for the jobs'
+    keep time. A folder ``jobs/<host>-<pid>`` goes when no process ``pid`` runs, or when the process that has
+    that PID now started after the folder was last written (the PID was reused). Only for a server whose data
+    directory is its own: replicas sharing a store (and the data directory) on other hosts have PIDs this host
+    cannot judge. Returns the folders removed.
+    """
+    root = Path(data_dir) / "jobs"
+    if not root.is_dir():
+        return []
+    pattern = re.compile(re.escape(_folder_name(host)) + r"-(\d+)")
+    removed: list[str] = []
+    for folder in sorted(root.iterdir()):
+        m = pattern.fullmatch(folder.name)
+        if m is None or not folder.is_dir() or int(m.group(1)) == os.getpid():
+            continue
+        pid = int(m.group(1))
+        try:
+            written = _last_written(folder)
+        except OSError:
+            continue  # removed meanwhile
+        started = process_started(pid) if _alive(pid) else None
+        if _alive(pid) and (started is None and Path("/proc").is_dir() is False):
+            continue  # alive, and when it started cannot be told: it may be the owner
+        if started is not None and started <= written + PID_REUSE_MARGIN_S:
+            continue  # the process that may have written it runs
+        shutil.rmtree(folder, ignore_errors=True)
+        removed.append(folder.name)
     return removed
 
 

@@ -91,7 +91,7 @@ def _check_duplicates(deck: Deck) -> None:
             where = f"part {sc.name!r}" if sc.name else "the model"
             raise UnreadableFileError(
                 f"{deck.name!r}: node {int(lab[dup[0]])} of {where} is defined twice ({a.file or deck.name} line "
-                f"{a.index + 1} and {b.file or deck.name} line {b.index + 1}); {dup.size} labels are defined more "
+                f"{a.row + 1} and {b.file or deck.name} line {b.row + 1}); {dup.size} labels are defined more "
                 "than once", code="duplicate_node", file=deck.name, node=int(lab[dup[0]]), count=int(dup.size))
 
 
@@ -131,10 +131,10 @@ def to_meshio(deck: Deck) -> meshio.Mesh:
                 ln = b.lines[e]
                 where = f" of instance {inst.name!r}" if inst else (f" of part {sc.name!r}" if sc.name else "")
                 raise UnreadableFileError(
-                    f"{ln.file or deck.name!r} line {ln.index + 1}: element {b.labels[e]} ({b.abaqus}){where} refers "
+                    f"{ln.file or deck.name!r} line {ln.row + 1}: element {b.labels[e]} ({b.abaqus}){where} refers "
                     f"to node {int(conn[e, k])}, which no node definition{where} defines; "
                     f"{int(missing.any(1).sum())} element lines name undefined nodes", code="undefined_node",
-                    file=deck.name, element=int(b.labels[e]), node=int(conn[e, k]), line=ln.index + 1)
+                    file=deck.name, element=int(b.labels[e]), node=int(conn[e, k]), line=ln.row + 1)
             cells.append(meshio.CellBlock(b.kind, rows))
             cell_labels.append(np.asarray(b.labels, np.int64))
             cell_owner.append((inst.name.upper() if inst else "", sc))
@@ -408,7 +408,7 @@ def patch_deck(raw: bytes, V: np.ndarray, included: dict[str, bytes] | None = No
         old = np.asarray(sc.xyz, np.float64).reshape(-1, 3)
         for i in np.flatnonzero(~np.isnan(L[:, 0])):
             ln = sc.lines[i]
-            lines[ln.file][ln.index] = _format_line(lines[ln.file][ln.index], L[i], old[i])
+            lines[ln.file][ln.row] = _format_line(lines[ln.file][ln.row], L[i], old[i])
     return {k: b"".join(v) for k, v in lines.items()}
 
 

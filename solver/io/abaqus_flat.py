@@ -66,7 +66,7 @@ class _Flattener:
             for b in sc.blocks:
                 if b.labels and b.kind is not None:
                     self.block_labels.append(np.asarray(b.labels, np.int64) + self._off(inst))
-        self.rowmap = {(ln.file, ln.index): self.start[j] + i for j, (sc, inst) in enumerate(deck.origin)
+        self.rowmap = {(ln.file, ln.row): self.start[j] + i for j, (sc, inst) in enumerate(deck.origin)
                        if inst is None for i, ln in enumerate(sc.lines)}
         self.done_sets: set[str] = set()
 
@@ -249,8 +249,8 @@ def flatten(raw: bytes, V: np.ndarray, included: dict[str, bytes]) -> bytes:
             continue
         if state == "assembly" and kw in _SETS:
             continue
-        if kw == "NODE" and (line.file, line.index) in f.rowmap:
-            row = f.rowmap[(line.file, line.index)]
+        if kw == "NODE" and (line.file, line.row) in f.rowmap:
+            row = f.rowmap[(line.file, line.row)]
             out.append(_node_line(text, V[row]))
             continue
         out.append(f.rewrite(text))

@@ -16,7 +16,7 @@ import os
 import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from meshio._common import num_nodes_per_cell
@@ -63,12 +63,11 @@ def kind_words(abaqus: str) -> str:
 # --------------------------------------------------------------------------- lines and keywords
 
 
-@dataclass(frozen=True)
-class Line:
+class Line(NamedTuple):
     """One line of a deck or of a file it includes."""
 
     file: str  #: "" for the deck, else the include's path relative to the deck's folder
-    index: int  #: 0-based line number in that file
+    row: int  #: 0-based line number in that file
     text: bytes  #: without its line end
 
 
@@ -174,7 +173,7 @@ class _Block:
     abaqus: str
     kind: str | None
     labels: list[int] = field(default_factory=list)
-    nodes: list[list[int]] = field(default_factory=list)
+    nodes: Any = field(default_factory=list)  #: list of lists, or an (n, k) int array
     lines: list[Line] = field(default_factory=list)
 
 
@@ -274,6 +273,37 @@ def _numbers(text: bytes) -> list[str]:
     return [f.strip() for f in text.decode("latin-1").split(",")]
 
 
+def _int_table(lines: list[Line], width: int) -> np.ndarray | None:
+    """The data lines as one (n, width) int64 table, or None when they are not exactly that (then line by line)."""
+    flat = b",".join([ln.text for ln in lines]).split(b",")
+    if len(flat) != width * len(lines):
+        return None
+    try:
+        return np.array(flat).astype(np.int64).reshape(len(lines), width)
+    except ValueError:
+        return None
+
+
+def _node_table(lines: list[Line]) -> tuple[np.ndarray, np.ndarray] | None:
+    """Node labels (n,) and finite positions (n, 3) of lines that are all ``label, x, y, z``; else None."""
+    if not lines:
+        return None
+    joined = b",".join([ln.text for ln in lines])
+    if b"d" in joined or b"D" in joined:
+        joined = joined.replace(b"d", b"e").replace(b"D", b"e")  # Fortran exponents
+    flat = joined.split(b",")
+    if len(flat) != 4 * len(lines):
+        return None
+    try:
+        labels = np.array(flat[0::4]).astype(np.int64)
+        X = np.array(flat).reshape(-1, 4)[:, 1:].astype(np.float64)
+    except ValueError:
+        return None
+    if not np.isfinite(X).all():
+        return None  # line by line, to name the node
+    return labels, X
+
+
 def _float(f: str) -> float:
     return float(f.replace("d", "e").replace("D", "e")) if f else 0.0
 
@@ -293,11 +323,11 @@ class _Parser:
         self.where = "model"
 
     def where_of(self, line: Line) -> str:
-        return f"{line.file or self.name} line {line.index + 1}"
+        return f"{line.file or self.name} line {line.row + 1}"
 
     def error(self, line: Line, msg: str, code: str = "bad_deck", **details: Any) -> UnreadableFileError:
         return UnreadableFileError(f"{self.where_of(line)}: {msg}", code=code, file=self.name,
-                                   line=line.index + 1, **({"in": line.file} if line.file else {}), **details)
+                                   line=line.row + 1, **({"in": line.file} if line.file else {}), **details)
 
     def run(self, lines: Iterator[Line]) -> None:
         kw: Keyword | None = None
@@ -415,6 +445,12 @@ class _Parser:
                              code="unsupported_keyword")
         sc = self.scope
         first = len(sc.labels)
+        fast = _node_table(lines)
+        if fast is not None:
+            sc.labels.extend(fast[0].tolist())
+            sc.xyz.extend(fast[1].tolist())
+            sc.lines.extend(lines)
+            lines = []
         for ln in lines:
             f = _numbers(ln.text)
             try:
@@ -444,6 +480,10 @@ class _Parser:
         per = num_nodes_per_cell.get(kind, 0) if kind else 0
         acc: list[int] = []
         start: Line | None = None
+        table = _int_table(lines, per + 1) if per and per < 16 else None
+        if table is not None:  # one element a line, every field a number: read at once
+            block.labels, block.nodes, block.lines = table[:, 0].tolist(), table[:, 1:], list(lines)
+            lines = []
         for ln in lines:
             try:
                 vals = [int(v) for v in _numbers(ln.text) if v]
@@ -469,7 +509,7 @@ class _Parser:
         self.scope.blocks.append(block)
         elset = kw.get("ELSET")
         if elset:
-            self.add_set(self.scope.elsets, elset, list(block.labels))
+            self.add_set(self.scope.elsets, elset, np.asarray(block.labels).tolist())
 
     def set_(self, kw: Keyword, lines: list[Line], key: str) -> None:
         name = kw.get(key)

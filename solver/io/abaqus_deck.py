@@ -21,7 +21,7 @@ The mesh is in assembly coordinates. :func:`patch_deck` writes it back in
 place: each moved node's line of its part gets the part-local coordinates
 (the inverse of its instance's placement), and nothing else changes. A part
 placed by several instances that no longer agree is refused, naming the part
-and the instances; :func:`flatten_deck` then writes one flat deck instead.
+and the instances; :func:`solver.io.abaqus_flat.flatten` then writes one flat deck instead.
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ from .patchers import Patcher
 from .read_bounds import ReadBounds, check_read_sizes
 from .registry import FileFormat, register_format
 
-__all__ = ["is_assembly", "read_deck", "to_meshio", "patch_deck", "flatten_deck", "deck_includes", "AssemblyWriteError",
+__all__ = ["is_assembly", "read_deck", "to_meshio", "patch_deck", "deck_includes", "AssemblyWriteError",
            "MAX_INCLUDE_DEPTH", "parse_deck"]
 
 
@@ -422,32 +422,6 @@ def _node_count(raw: bytes, n: int) -> bool:
     except (UnreadableFileError, ValueError):
         return False
     return sum(len(sc.labels) for sc, _ in deck.origin) == n
-
-
-def flatten_deck(raw: bytes, V: np.ndarray, included: dict[str, bytes] | None = None) -> bytes:
-    """A flat deck (no parts, instances or includes) of an assembly deck with new positions.
-
-    Every instance's nodes and elements are numbered apart (offsets of a
-    power of ten per instance), sets become ``Instance_Set``, section lines
-    of a part are repeated per instance, and assembly and model lines that
-    name ``Instance.Set`` or ``Instance.label`` are rewritten to the flat names
-    and numbers. What the flat deck cannot express (an ``*INCLUDE`` of model
-    data, a surface) is kept as written.
-
-    Parameters
-    ----------
-    raw : bytes
-    V : (n, 3) float array
-        Assembly positions in the read order.
-    included : dict of str to bytes, optional
-
-    Returns
-    -------
-    bytes
-    """
-    from .abaqus_flat import flatten
-
-    return flatten(raw, V, included or {})
 
 
 register_format(FileFormat(

@@ -29,7 +29,7 @@ import numpy as np
 from meshio.nastran._nastran import read as _meshio_read
 from meshio.nastran._nastran import read_buffer as _meshio_read_buffer
 
-__all__ = ["nastran_float", "nastran_real", "bulk_start", "grid_cards", "grid_rounding", "GridCard",
+__all__ = ["nastran_float", "nastran_real", "bulk_start", "grid_cards", "GridCard",
            "read_nastran", "write_nastran", "NASTRAN_TYPES"]
 
 _REAL = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))(?:[eEdD]([+-]?\d+)|([+-]\d+))?$")
@@ -212,56 +212,6 @@ def grid_cards(lines: list[bytes]) -> list[GridCard]:
                              f"system {cp.strip()!r}") from None
         k += 1
     return out
-
-
-def grid_rounding(data: bytes, V: np.ndarray) -> float:
-    r"""The largest difference between a deck's GRID coordinates and the positions ``V``.
-
-    Parameters
-    ----------
-    data : bytes
-        A deck, as written.
-    V : (n, 3) float array
-        The positions it was written for, one row per GRID card in order.
-
-    Returns
-    -------
-    float
-        ``max |written - V|`` over every coordinate of every GRID card (length
-        units): what the fields' widths rounded away. 0 when every value is
-        written exactly. A card in a local coordinate system (CP field) is
-        compared in the basic system, where ``V`` is.
-
-    Raises
-    ------
-    ValueError
-        The deck's GRID cards do not match ``V`` in number, or a card cannot be parsed.
-
-    Examples
-    --------
-    >>> deck = b"BEGIN BULK\nGRID    1               .1      2.      0.33333\nENDDATA\n"
-    >>> round(grid_rounding(deck, np.array([[0.1, 2.0, 1 / 3]])), 12)
-    3.333333e-06
-    """
-    lines = data.splitlines(keepends=True)
-    cards = grid_cards(lines)
-    V = np.asarray(V, dtype=np.float64)
-    if len(cards) != V.shape[0]:
-        raise ValueError(f"the deck has {len(cards)} GRID cards, the positions {V.shape[0]} rows")
-    worst = 0.0
-    for card, x in zip(cards, V, strict=True):
-        if card.cp:
-            continue
-        for (k, a, b), v in zip(card.spans, x, strict=True):
-            worst = max(worst, abs(nastran_float(lines[k].rstrip(b"\r\n")[a:b]) - float(v)))
-    if any(card.cp for card in cards):
-        from .nastran_coords import GridPositions  # imported here: it imports this module
-
-        grids = GridPositions.of(lines, cards)
-        local = grids.cp != 0
-        if local.any():
-            worst = max(worst, float(np.abs(grids.basic[local] - V[local]).max()))
-    return worst
 
 
 def _next_data_line(lines: list[bytes], k: int) -> int | None:

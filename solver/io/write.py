@@ -19,7 +19,7 @@ from ..mesh import Mesh
 from .content import content
 from .conversion import CELL_DATA_FORMATS, Conversion, Loss, abaqus_name, convert
 from .formats import a_format, describe, format_of
-from .nastran import grid_rounding
+from .nastran_coords import grid_rounding
 from .patch_bdf import patch_bdf
 from .patchers import patcher_for
 
@@ -218,6 +218,8 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
     source_fmt = mesh.file_format or (format_of(mesh.path) if mesh.path else None)
     if p is None or mesh.raw is None or source_fmt != fmt:
         return None
+    if p.name == "medit" and (mesh.path or "").endswith("b") != target.endswith("b"):
+        return None  # Medit text (.mesh) and binary (.meshb): the other kind is written, not patched
     if point_data or cell_data or cell_extras or (point_sets and p.name != "abaqus"):
         return None  # extras the format holds: written through the conversion
     reason = None
@@ -282,7 +284,7 @@ def _flatten(mesh: Mesh, V: np.ndarray, target: str, fmt: str) -> Written | None
 
 
 def _rounding(deck: bytes, V: np.ndarray, path: str) -> float:
-    """:func:`~solver.io.nastran.grid_rounding` of a deck just written."""
+    """:func:`~solver.io.nastran_coords.grid_rounding` of a deck just written."""
     try:
         return grid_rounding(deck, V[:, :3] if V.shape[1] >= 3 else np.c_[V, np.zeros((len(V), 3 - V.shape[1]))])
     except ValueError as e:

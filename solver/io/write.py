@@ -136,7 +136,9 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
     LossyWriteError
         The target cannot hold everything and ``lossy`` is False; nothing is written.
     InvalidMeshError
-        ``V`` has the wrong shape, the format is unknown, or writing failed.
+        ``V`` has the wrong shape, the format is unknown, or writing failed;
+        ``unwritable_folder`` when the target's folder (created when missing)
+        cannot be created.
     """
     V = np.asarray(V, dtype=np.float64)
     if V.shape != mesh.V.shape:
@@ -157,6 +159,7 @@ def write_mesh(mesh: Mesh, V: np.ndarray, path: str | os.PathLike[str],
         skipped.append(f"quality: {describe(fmt)} holds no per-element data")
     if nastran_large and fmt != "nastran":
         skipped.append(f"nastran_large: {describe(fmt)} is not a Nastran deck")
+    _make_folder(target)
     if flatten:
         flat = _flatten(mesh, V, target, fmt)
         if flat is not None:
@@ -265,6 +268,16 @@ def _patch_in_place(mesh: Mesh, V: np.ndarray, target: str, fmt: str, point_sets
     return Written(main, fmt, files, True, write_rounding=rounding)
 
 
+def _make_folder(target: str) -> None:
+    """Create the folder ``target`` is written in; a typed error naming it when that fails."""
+    folder = os.path.dirname(os.path.abspath(target))
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as e:
+        raise InvalidMeshError(f"cannot create the folder {folder!r} to write {os.path.basename(target)!r} in: "
+                               f"{e.strerror or e}", code="unwritable_folder", folder=folder) from None
+
+
 def _flatten(mesh: Mesh, V: np.ndarray, target: str, fmt: str) -> Written | None:
     """An Abaqus assembly deck written flat (:func:`solver.io.abaqus_flat.flatten`), or None."""
     if fmt != "abaqus" or mesh.raw is None or mesh.file_format != "abaqus":
@@ -277,7 +290,6 @@ def _flatten(mesh: Mesh, V: np.ndarray, target: str, fmt: str) -> Written | None
     except ValueError as e:
         raise InvalidMeshError(f"cannot write {os.path.basename(target)!r} flat: {e}", code="unwritable_format",
                                format=fmt) from e
-    os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
     with open(target, "wb") as fh:
         fh.write(data)
     return Written(target, fmt, [target], False)

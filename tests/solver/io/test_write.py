@@ -202,3 +202,16 @@ def test_an_stl_round_trip_writes_the_normals_of_the_new_positions(tmp_path):
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.linalg.norm(n, axis=1)[:, None]
     assert len(normals) == len(F) and np.abs(normals / np.linalg.norm(normals, axis=1)[:, None] - n).max() < 1e-9
+
+
+def test_a_missing_output_folder_is_created_and_one_that_cannot_be_is_named(tmp_path):
+    from solver.errors import InvalidMeshError
+
+    mesh = read_mesh(DATA / "bar_small.bdf")
+    w = write_mesh(mesh, mesh.V, tmp_path / "out" / "deep" / "bar.bdf")  # as the README's snippet writes out/
+    assert (tmp_path / "out" / "deep" / "bar.bdf").read_bytes() == (DATA / "bar_small.bdf").read_bytes()
+    assert w.patched
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(InvalidMeshError) as e:
+        write_mesh(mesh, mesh.V, tmp_path / "afile" / "bar.bdf")
+    assert e.value.code == "unwritable_folder" and e.value.details["folder"].endswith("afile")

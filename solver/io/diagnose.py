@@ -12,23 +12,27 @@ file, the element and the node of an undefined reference), and
 
 from __future__ import annotations
 
+import io
 import os
 import re
 
-from ..errors import UnreadableFileError
+from ..errors import UnreadableFileError, UnsupportedElementError
+from .element_words import element_words
 from .formats import a_format, detect_format
+from .patch_medit import medit_keywords
 
-__all__ = ["check_file", "diagnose", "check_complete", "undefined_inp_node", "undefined_bdf_node"]
+__all__ = ["check_file", "diagnose", "check_complete", "undefined_inp_node", "undefined_bdf_node",
+           "medit_high_order"]
 
 #: Formats with a signature strong enough to tell that a file is something else.
 _STRONG = {"gmsh", "vtu", "vtk-xml", "xdmf", "vtk", "hdf5", "netcdf", "zip", "gzip", "pdf", "json", "html",
-           "ply", "off", "stl", "abaqus", "nastran", "ansys"}
+           "ply", "off", "stl", "abaqus", "nastran", "ansys", "lsdyna", "ansys-cdb"}
 #: Formats whose files always carry their signature near the start.
 _SIGNED = {"gmsh", "vtu", "vtk", "ply", "off", "stl"}
 
 
-#: Container formats and the meshio formats stored in them.
-_CONTAINERS = {"hdf5": {"med", "cgns", "h5m", "xdmf", "hmf"}, "netcdf": {"exodus"}, "vtk-xml": set()}
+#: Container formats and the meshio formats stored in them (netCDF-4, meshio's Exodus default, is HDF5).
+_CONTAINERS = {"hdf5": {"med", "cgns", "h5m", "xdmf", "hmf", "exodus"}, "netcdf": {"exodus"}, "vtk-xml": set()}
 
 
 def _expected_ok(expected: str, detected: str | None) -> bool:
@@ -94,7 +98,8 @@ def check_file(path: str, fmt: str | None) -> bytes:
 
 def _hint(detected: str | None) -> str:
     ext = {"gmsh": ".msh", "vtu": ".vtu", "vtk": ".vtk", "abaqus": ".inp", "nastran": ".bdf", "stl": ".stl",
-           "off": ".off", "ply": ".ply", "medit": ".mesh", "obj": ".obj"}.get(detected or "")
+           "off": ".off", "ply": ".ply", "medit": ".mesh", "obj": ".obj", "lsdyna": ".k",
+           "ansys-cdb": ".cdb"}.get(detected or "")
     if ext:
         return f": rename it to {ext} or pass its format"
     if detected == "ansys":
@@ -104,7 +109,7 @@ def _hint(detected: str | None) -> str:
     return ": it is not a mesh"
 
 
-def diagnose(path: str, fmt: str, exc: BaseException) -> UnreadableFileError:
+def diagnose(path: str, fmt: str, exc: BaseException) -> UnreadableFileError | UnsupportedElementError:
     """The error to raise when the reader of ``fmt`` failed on ``path`` with ``exc``.
 
     Parameters
@@ -117,13 +122,19 @@ def diagnose(path: str, fmt: str, exc: BaseException) -> UnreadableFileError:
 
     Returns
     -------
-    UnreadableFileError
+    UnreadableFileError or UnsupportedElementError
         ``truncated_file``, ``no_nodes``, ``no_elements``, ``undefined_node``
-        or, when nothing more specific is known, ``unreadable_file`` quoting the reader.
+        or, when nothing more specific is known, ``unreadable_file`` quoting the reader;
+        ``unsupported_element`` for a Medit file with quadratic or higher-order
+        elements (``TetrahedraP2``...), which meshio's reader stops at.
     """
     name = os.path.basename(path)
     with open(path, "rb") as fh:
         data = fh.read()
+    if fmt == "medit":
+        high = medit_high_order(data)
+        if high:
+            return _high_order_error(name, high)
     if fmt in ("gmsh", "gmsh22"):
         for sec in (b"Nodes", b"Elements"):
             if re.search(rb"^\$" + sec + rb"\s*$", data, re.M) and not re.search(rb"^\$End" + sec, data, re.M):
@@ -272,6 +283,63 @@ def undefined_bdf_node(data: bytes) -> tuple[int, int, int, str, int] | None:
     return (*bad[0], len(bad))
 
 
+#: Medit element keywords without their order, and meshio's name of the linear type.
+_MEDIT_SHAPES = {"Edges": "line", "Triangles": "triangle", "Quadrilaterals": "quad", "Tetrahedra": "tetra",
+                 "Prisms": "wedge", "Pyramids": "pyramid", "Hexahedra": "hexahedron"}
+_MEDIT_HIGH = re.compile(rb"(?m)^[ \t]*(" + "|".join(_MEDIT_SHAPES).encode()
+                         + rb")([PQ])([2-9])[ \t]*(?:\r?\n[ \t]*)?(\d+)?")
+_MEDIT_NAME = re.compile(r"(?:Gmf)?(" + "|".join(_MEDIT_SHAPES) + r")([PQ])([2-9])\Z")
+
+
+def _nodes(shape: str, p: int) -> int:
+    """Nodes of a Lagrange element of order ``p``."""
+    return {"line": p + 1, "triangle": (p + 1) * (p + 2) // 2, "quad": (p + 1) ** 2,
+            "tetra": (p + 1) * (p + 2) * (p + 3) // 6, "hexahedron": (p + 1) ** 3,
+            "wedge": (p + 1) ** 2 * (p + 2) // 2, "pyramid": (p + 1) * (p + 2) * (2 * p + 3) // 6}[shape]
+
+
+def medit_high_order(data: bytes) -> dict[str, int]:
+    r"""The quadratic and higher-order element keywords of a Medit file (text or binary), with their counts.
+
+    meshio reads Medit's linear elements only: its text reader stops at a
+    keyword such as ``TetrahedraP2`` without a word, its binary reader skips
+    the keyword's elements.
+
+    Examples
+    --------
+    >>> medit_high_order(b"MeshVersionFormatted 2\nDimension 3\nVertices\n0\nTetrahedraP2\n12\nTrianglesP2 3\nEnd\n")
+    {'TetrahedraP2': 12, 'TrianglesP2': 3}
+    """
+    found: dict[str, int] = {}
+    if data[:4] in (b"\x01\x00\x00\x00", b"\x00\x00\x00\x01"):
+        for kw, _, _ in medit_keywords(io.BytesIO(data)):
+            if _MEDIT_NAME.match(kw.name):
+                found[kw.name[3:]] = found.get(kw.name[3:], 0) + kw.count
+        return found
+    for m in _MEDIT_HIGH.finditer(data):
+        key = (m[1] + m[2] + m[3]).decode()
+        found[key] = found.get(key, 0) + int(m[4] or 0)
+    return found
+
+
+def _high_order_error(name: str, found: dict[str, int]) -> UnsupportedElementError:
+    """The refusal of a Medit file's quadratic or higher-order elements, named with their counts."""
+    types: dict[str, int] = {}
+    labels: dict[str, str] = {}
+    for key, count in found.items():
+        m = _MEDIT_NAME.match(key)
+        assert m is not None
+        shape = _MEDIT_SHAPES[m[1]]
+        kind = f"{shape}{_nodes(shape, int(m[3]))}"
+        types[kind], labels[kind] = types.get(kind, 0) + count, key
+    order = "quadratic" if all(k[-1] == "2" for k in found) else "quadratic or higher-order"
+    return UnsupportedElementError(
+        f"{name!r} holds {element_words(types, labels)}; tetmorph does not read {order} Medit elements, only "
+        "linear ones (Edges, Triangles, Quadrilaterals, Tetrahedra, Prisms, Pyramids, Hexahedra). Quadratic "
+        "tetrahedra are read from Gmsh (.msh), VTU or Abaqus (.inp) files.",
+        file=name, keywords=dict(found), types=types)
+
+
 def check_complete(path: str, fmt: str, data: bytes | None = None) -> None:
     """Refuse a text mesh whose last line stops in the middle.
 
@@ -283,6 +351,12 @@ def check_complete(path: str, fmt: str, data: bytes | None = None) -> None:
     UnreadableFileError
         ``truncated_file``.
     """
+    if fmt == "medit" and path.endswith("b"):  # binary: meshio skips elements it does not know
+        with open(path, "rb") as fh:
+            high = medit_high_order(fh.read())
+        if high:
+            raise _high_order_error(os.path.basename(path), high)
+        return
     if fmt not in ("abaqus", "nastran", "tetgen", "medit", "gmsh", "vtk"):
         return
     if data is None:

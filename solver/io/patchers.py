@@ -17,8 +17,10 @@ import numpy as np
 
 from .patch_bdf import grid_count, patch_bdf
 from .patch_inp import node_line_count, patch_inp
+from .patch_medit import medit_point_count, patch_medit
 from .patch_msh import patch_msh
 from .patch_node import node_count, patch_node
+from .patch_vtk import patch_vtk, vtk_point_count
 from .patch_vtu import patch_vtu
 
 __all__ = ["Patcher", "PATCHERS", "register", "patcher_for"]
@@ -102,6 +104,8 @@ register(Patcher("vtu", (), ("vtu",), lambda raw, n: b"<VTKFile" in raw[:400], p
 register(Patcher("nastran", ("bdf", "nas"), ("bdf", "nas", "fem"), lambda raw, n: grid_count(raw) == n, patch_bdf))
 register(Patcher("tetgen", ("node", "ele"), ("node", "ele"), lambda raw, n: node_count(raw) == n, patch_node,
                  main="node", companions=("ele",)))
+register(Patcher("vtk", (), ("vtk",), lambda raw, n: vtk_point_count(raw) == n, patch_vtk))
+register(Patcher("medit", (), ("mesh", "meshb"), lambda raw, n: medit_point_count(raw) == n, patch_medit))
 
 
 def patcher_for(path: str, file_format: str | None = None) -> Patcher | None:

@@ -17,6 +17,7 @@ from ..ops.elements import LINEAR_TYPES, oriented
 from ..ops.unique import unique
 from .bounds import ReadBounds, check_declared_sizes, check_read_sizes, expansion_budget, memory_error
 from .diagnose import check_complete, check_file, diagnose
+from .element_words import cell_counts, element_words
 from .formats import SURFACE_FORMATS, format_of
 from .patch_inp import node_block_sets
 from .patchers import patcher_for
@@ -233,13 +234,13 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None, *
     m = _read(path, fmt, bounds)
     counts = {c.type: len(c.data) for c in m.cells if len(c.data)}
     if any(t in VOLUME_CELLS or t in MIXED_TYPES for t in counts):
-        raise UnreadableFileError(f"{name!r} is a volume mesh already ({counts}): morph it directly",
+        raise UnreadableFileError(f"{name!r} is a volume mesh already ({element_words(counts)}): morph it directly",
                                   code="not_a_surface", file=name, cells=counts)
     parts = [np.asarray(c.data, np.int64) for c in m.cells if c.type == "triangle"]
     parts += [np.asarray(c.data, np.int64)[:, k] for c in m.cells if c.type == "quad"
               for k in ([0, 1, 2], [0, 2, 3])]
     if not parts or not sum(len(x) for x in parts):
-        raise UnreadableFileError(f"{name!r} has no triangles (its cells: {counts or 'none'})",
+        raise UnreadableFileError(f"{name!r} has no triangles (its cells: {element_words(counts)})",
                                   code="no_triangles", file=name, cells=counts)
     return _points(m), np.concatenate(parts)
 
@@ -275,8 +276,10 @@ def _read_file(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
     if reader is None:
         raise UnreadableFileError(f"tetmorph cannot read {fmt!r} files ({os.path.basename(path)!r})",
                                   code="unknown_format", file=os.path.basename(path), format=fmt)
+    from .guarded import stop_at_end  # a reader looping at the end of a cut file stops: truncated_file
+
     try:
-        with warnings.catch_warnings(), _gmsh22_cell_data(), expansion_budget(path, bounds):
+        with warnings.catch_warnings(), _gmsh22_cell_data(), expansion_budget(path, bounds), stop_at_end(fmt):
             warnings.simplefilter("ignore")
             m = reader(path)
     except UnreadableFileError:
@@ -408,7 +411,8 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
     if unsupported:
         counts = {t: int(sum(len(c.data) for c in m.cells if c.type == t)) for t in unsupported}
         raise UnsupportedElementError(
-            f"element types {counts} are not supported: tetmorph deforms linear tetrahedra, "
+            f"{element_words(counts)} {'is' if sum(counts.values()) == 1 else 'are'} not supported: "
+            "tetmorph deforms linear tetrahedra, "
             "hexahedra, wedges and pyramids, quadratic tetrahedra (tetra10) alone, and triangle "
             "surfaces; other elements are refused rather than silently mangled",
             types=counts)
@@ -426,7 +430,8 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
     if not len(T) and not cells and not len(surface):
         counts = {c.type: len(c.data) for c in m.cells}
         raise InvalidMeshError(
-            f"the mesh has no tetrahedra, other volume elements or triangles (its cells: {counts or 'none'}); "
+            "the mesh has no tetrahedra, other volume elements or triangles (its cells: "
+            f"{element_words(cell_counts(m.cells))}); "
             "tetmorph morphs volume meshes and triangle surfaces", code="no_elements", cells=counts)
     return Mesh.validated(V, T, surface, cells, sets=_named_sets(m), source=m)
 
@@ -446,7 +451,8 @@ def _quadratic_from_meshio(m: meshio.Mesh) -> Mesh:
     if unsupported:
         counts = {t: int(sum(len(c.data) for c in m.cells if c.type == t)) for t in unsupported}
         raise UnsupportedElementError(
-            f"element types {counts} next to quadratic tetrahedra are not supported yet", types=counts)
+            f"{element_words(counts)} next to quadratic tetrahedra {'is' if sum(counts.values()) == 1 else 'are'} "
+            "not supported yet", types=counts)
     T10 = np.concatenate([np.asarray(c.data, np.int64) for c in m.cells if c.type == "tetra10"])
     V = _points(m)
     T = np.ascontiguousarray(T10[:, :4])

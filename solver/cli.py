@@ -248,7 +248,7 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pm.add_argument("--flatten", action="store_true", help="Abaqus/CAE assembly decks: write one flat deck (no "
                     "*Part/*Instance; every instance numbered apart), e.g. for CalculiX or instances morphed apart")
     add_solve_arguments(pm)
-    pm.set_defaults(func=cmd_morph)
+    pm.set_defaults(func=cmd_morph, kernels=True)
     pf = sub.add_parser("features", help="form-feature candidates (holes, bosses, planes) or the "
                         "min-cut feature region inside a band")
     pf.add_argument("mesh")
@@ -306,6 +306,12 @@ def main(argv: list[str] | None = None, extend: Callable[[Any], None] | None = N
     """
     args = build_parser(extend).parse_args(argv)
     try:
+        if getattr(args, "kernels", False):  # commands that factor: never a silent minute on a cold install
+            from .kernels import announced, load_kernels
+
+            with announced("loading the solver's compiled kernels (the first run after an install compiles "
+                           "them: minutes)"):
+                load_kernels()
         return int(args.func(args))
     except SolverError as e:
         _say(f"tetmorph: error [{e.code}]: {e.message}")

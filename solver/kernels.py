@@ -22,11 +22,52 @@ peer's ``import igl``.
 
 from __future__ import annotations
 
+import contextlib
+import sys
+import threading
 import time
+from collections.abc import Iterator
+from typing import TextIO
 
 import numpy as np
 
-__all__ = ["load_kernels"]
+__all__ = ["load_kernels", "announced"]
+
+
+@contextlib.contextmanager
+def announced(what: str, after_s: float = 1.0, stream: TextIO | None = None) -> Iterator[None]:
+    """Say on standard error what is being done, once it has taken ``after_s`` seconds, and when it ends.
+
+    Short work says nothing; a first use that compiles the kernels (minutes)
+    or a cold load (a second or two) is never silent.
+
+    Parameters
+    ----------
+    what : str
+        ``"loading the solver's kernels"``.
+    after_s : float
+    stream : file, optional
+        Default: ``sys.stderr``.
+    """
+    out = stream if stream is not None else sys.stderr
+    done = threading.Event()
+    said = threading.Event()
+    t0 = time.perf_counter()
+
+    def watch() -> None:
+        if not done.wait(after_s):
+            print(f"tetmorph: {what}...", file=out, flush=True)
+            said.set()
+
+    watcher = threading.Thread(target=watch, name="tm-announce", daemon=True)
+    watcher.start()
+    try:
+        yield
+    finally:
+        done.set()
+        watcher.join()
+        if said.is_set():
+            print(f"tetmorph: {what}: done in {time.perf_counter() - t0:.1f} s", file=out, flush=True)
 
 
 def load_kernels() -> float:
@@ -119,4 +160,6 @@ def _supernodal_kernels() -> None:
 
 
 if __name__ == "__main__":
-    print(f"tetmorph kernels ready ({load_kernels():.1f} s)")
+    with announced("compiling the solver's kernels (once per install location; a few minutes)", after_s=2.0):
+        took = load_kernels()
+    print(f"tetmorph kernels ready ({took:.1f} s)")

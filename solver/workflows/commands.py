@@ -279,7 +279,7 @@ def add_commands(subparsers: Any) -> None:
                     "policy; 'reject' writes no deck for an inverting row")
     pd.add_argument("--report", help="write every row's REPORT as JSON ('-': standard output)")
     pd.add_argument("--output-format", help="output meshio format name")
-    pd.set_defaults(func=cmd_doe)
+    pd.set_defaults(func=cmd_doe, kernels=True)
     pb = subparsers.add_parser("bounds", help="per shape, the largest positive and negative parameter with 0 "
                                "inverted elements (bisection on back-substitutions), as JSON")
     _common(pb)
@@ -287,7 +287,7 @@ def add_commands(subparsers: Any) -> None:
                     f"(LO <= 0 <= HI); default: 1, 2, 4, ... up to {MAX_VALUE:g} each way")
     pb.add_argument("--tol", type=float, default=TOL, help=f"final bracket width (default {TOL:g})")
     pb.add_argument("--output", help="write the JSON here (default: standard output)")
-    pb.set_defaults(func=cmd_bounds)
+    pb.set_defaults(func=cmd_bounds, kernels=True)
     ps = subparsers.add_parser("sensitivities", help="dX/dtheta per node for every shape (analytic), as point "
                                "data d_<shape> of the variant's mesh")
     _common(ps)
@@ -295,7 +295,7 @@ def add_commands(subparsers: Any) -> None:
     ps.add_argument("--at", type=int, metavar="ROW", help="plan row (from 1); default: the rest shape")
     ps.add_argument("--output", required=True, help="output mesh with point data (VTU: .vtu)")
     ps.add_argument("--output-format", help="output meshio format name")
-    ps.set_defaults(func=cmd_sensitivities)
+    ps.set_defaults(func=cmd_sensitivities, kernels=True)
     pt = subparsers.add_parser("study", help="every row of a PLAN morphed, written, run through an FE solver "
                                "command and its responses read into one table (CSV)")
     _common(pt)
@@ -305,7 +305,7 @@ def add_commands(subparsers: Any) -> None:
                     "mesh figures, solver time, responses, deck, message")
     pt.add_argument("--inversion", choices=["warn", "reject", "clamp"], default="reject",
                     help="the morph's inversion policy (default reject: an inverting row is recorded, not solved)")
-    pt.set_defaults(func=cmd_study)
+    pt.set_defaults(func=cmd_study, kernels=True)
     po = subparsers.add_parser("optimize", help="minimize an FE response over the shape parameters (SLSQP or "
                                "COBYQA), every evaluation morphed, written and solved as a study row")
     _common(po)
@@ -330,7 +330,7 @@ def add_commands(subparsers: Any) -> None:
                     "iteration, role, parameters, status, objective, feasible, slacks, responses, deck")
     po.add_argument("--plot", help="an SVG chart of the objective against the iterations")
     po.add_argument("--result", help="the start, the best evaluation and the status as JSON ('-': standard output)")
-    po.set_defaults(func=cmd_optimize)
+    po.set_defaults(func=cmd_optimize, kernels=True)
 
 
 def _solver_options(p: argparse.ArgumentParser) -> None:

@@ -218,3 +218,11 @@ def test_the_cli_morphs_an_assembly_in_place_or_flat(tmp_path):
     np.testing.assert_allclose(place(lug), flat_lug, rtol=0, atol=1e-9)
     assert np.abs(flat_lug - place(LUG_SCALE * X)).max() > 0.1  # it moved
     assert n == len(flat_lug)
+
+
+def test_an_lsdyna_deck_named_inp_is_named_for_what_it_is(tmp_path):
+    text = "*KEYWORD\n*NODE\n       1             0.0             0.0             0.0\n*END\n"
+    p = _write(tmp_path, text, "model.inp")
+    with pytest.raises(UnreadableFileError) as e:
+        read_mesh(p)
+    assert e.value.code == "wrong_format" and e.value.details["detected"] == "lsdyna" and ".k" in e.value.message

@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import socket
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
@@ -22,10 +23,11 @@ from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 
 from solver import load_kernels
+from solver.kernels import announced
 from solver.linalg import threads
 
 from .api import batch, health, history, meshes, sessions, stream, study, tetrahedralize
-from .api.deps import refuse_nul
+from .api.deps import refuse_duplicate_keys, refuse_nul
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
 from .demo import load_demo
@@ -36,7 +38,7 @@ from .models.error import ErrorEnvelope
 from .observability import Metrics, RequestContext, editor_csp
 from .security import Authenticator, ConnectionSlots, load_secret
 from .settings import Settings
-from .state.batch import clear_jobs, sweep_job_files
+from .state.batch import clear_jobs, sweep_dead_servers, sweep_job_files
 from .state.jobs import JobRunner
 from .state.registry import Registry
 from .state.sweeper import Sweeper
@@ -55,6 +57,13 @@ compact binary frame, or any mesh format) with a REPORT that counts inverted
 elements. Every error has the body
 `{"error": {"status", "code", "type", "message", "details"}}`.
 """
+
+
+def _load_kernels() -> None:
+    """Load the solver's kernels, saying so on standard error when it takes more than a second."""
+    with announced("loading the solver's compiled kernels (the first start after an install compiles them: "
+                   "minutes)"):
+        load_kernels()
 
 
 def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
@@ -82,6 +91,10 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
         log.info("moved %d records to the salted owner ids of the configured keys", moved)
         reg = Registry(settings)  # reload the records with their new owners
     clear_jobs(settings.data_dir, settings.replica_id)  # jobs live in memory: older files are orphans
+    if settings.database_url is None:  # a single server: the job folders of its stopped processes are orphans
+        dead = sweep_dead_servers(settings.data_dir, socket.gethostname())
+        if dead:
+            log.info("removed the job folders of %d stopped servers: %s", len(dead), dead[:10])
     removed = reg.store.remove_orphans()
     if removed:
         log.info("removed %d leftovers of interrupted uploads: %s", len(removed), removed[:10])
@@ -108,7 +121,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         if settings.load_kernels:  # once per process: later apps of the same process find them loaded
-            await asyncio.to_thread(load_kernels)
+            await asyncio.to_thread(_load_kernels)
         reg.start()
         app.state.jobs.closed = False
         sweeper.start()
@@ -146,7 +159,8 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     app.add_middleware(ErrorShield)
     app.add_middleware(RequestContext, metrics=metrics, replica=settings.replica_id)
     for mod in (meshes, tetrahedralize, sessions, history, batch, study):
-        app.include_router(mod.router, prefix="/v1", dependencies=[Depends(refuse_nul)])
+        app.include_router(mod.router, prefix="/v1",
+                           dependencies=[Depends(refuse_nul), Depends(refuse_duplicate_keys)])
     app.include_router(stream.router, prefix="/v1")  # its frames are checked as they come (parse_frame)
     app.include_router(health.router)
     install_docs(app)  # Swagger UI with its files from the service, not a CDN

@@ -69,7 +69,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
               "-d '{\"handles\": {\"tip\": {\"translation\": [0, 0, 0.2]}}}'", flush=True)
     uvicorn.run(app, host=args.host, port=args.port, workers=1, log_level=args.log_level, log_config=None,
                 access_log=False, ws_max_size=settings.max_frame_bytes + 1024,
-                http=bounded_protocol(settings.head_timeout_s, settings.http_impl))
+                http=bounded_protocol(settings.head_timeout_s, settings.http_impl, settings.max_header_bytes,
+                                      settings.max_headers))
     return 0
 
 

@@ -18,7 +18,7 @@ import logging
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from .errors import STORE_RETRY_AFTER_S, envelope, error_body
+from .errors import envelope, error_body, retry_after
 
 __all__ = ["ErrorShield", "BodyLimit", "UnicodeGuard", "lone_surrogate", "may_hold_bad_text"]
 
@@ -61,7 +61,8 @@ class ErrorShield:
             if started:  # nothing more can be said on this response
                 log.error("error after the response started", exc_info=e)
                 return
-            retry = [(b"retry-after", str(STORE_RETRY_AFTER_S).encode())] if status == 503 else None
+            wait = retry_after(status, body["error"]["code"])  # a store out of reach, a full data directory
+            retry = [(b"retry-after", str(wait).encode())] if wait is not None else None
             await send_json(send, status, body, retry)
 
 

@@ -30,7 +30,7 @@ from .errors import ServiceError
 from .settings import Settings
 
 __all__ = ["Authenticator", "Limiter", "RateLimiter", "SharedRateLimiter", "ConnectionSlots",
-           "PUBLIC", "load_secret", "legacy_owner", "parse_keys"]
+           "PUBLIC", "load_secret", "legacy_owner", "parse_keys", "one_key"]
 
 PUBLIC = "public"
 SECRET_FILE = "secret.key"
@@ -74,6 +74,46 @@ def legacy_owner(key: str) -> str:
     return "k_" + hashlib.sha256(key.encode()).hexdigest()[:16]
 
 
+def _values(items: Mapping[str, str] | None, name: str) -> list[str]:
+    """Every value of ``name`` (starlette's headers and query parameters keep repeated names)."""
+    if items is None:
+        return []
+    getlist = getattr(items, "getlist", None)
+    if getlist is not None:
+        return [str(v) for v in getlist(name)]
+    value = items.get(name)
+    return [] if value is None else [value]
+
+
+def one_key(headers: Mapping[str, str], query: Mapping[str, str] | None = None) -> str | None:
+    """The one API key a request names: ``X-API-Key``, ``Authorization: Bearer`` or the ``api_key`` query.
+
+    Each may come more than once, and several may come together, as long as they name one key.
+
+    Raises
+    ------
+    ServiceError
+        400 ``conflicting_credentials`` when they name different keys; the error names where
+        they came from, never the keys.
+
+    Examples
+    --------
+    >>> one_key({"x-api-key": "K1"}, {"api_key": "K1"}), one_key({"authorization": "Basic eDp5"})
+    ('K1', None)
+    """
+    found: list[tuple[str, str]] = [("X-API-Key", v) for v in _values(headers, "x-api-key") if v]
+    for auth in _values(headers, "authorization"):
+        if auth.lower().startswith("bearer ") and auth[7:].strip():
+            found.append(("Authorization", auth[7:].strip()))
+    found += [("api_key", v) for v in _values(query, "api_key") if v]
+    keys = {key for _, key in found}
+    if len(keys) > 1:
+        where = sorted({name for name, _ in found})
+        raise ServiceError("conflicting_credentials", f"the request names {len(keys)} different API keys, in "
+                           f"{' and '.join(where)}; send one key (repeated, it must be the same)", headers=where)
+    return found[0][1] if found else None
+
+
 class Authenticator:
     """Map a request's API key to the owner id of its resources.
 
@@ -103,16 +143,12 @@ class Authenticator:
         Raises
         ------
         ServiceError
-            401 when keys are configured and none, or an unknown one, is given.
+            401 when keys are configured and none, or an unknown one, is given; 400
+            ``conflicting_credentials`` when the request names two different keys (:func:`one_key`).
         """
         if not self.enabled:
             return PUBLIC
-        key = headers.get("x-api-key")
-        auth = headers.get("authorization", "")
-        if not key and auth.lower().startswith("bearer "):
-            key = auth[7:].strip()
-        if not key and query is not None:
-            key = query.get("api_key")
+        key = one_key(headers, query)
         if not key:
             e = ServiceError("missing_api_key", "an API key is required: send the X-API-Key header")
             e.headers["WWW-Authenticate"] = "ApiKey"

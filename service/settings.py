@@ -42,6 +42,10 @@ class Settings(BaseSettings):
 
     data_dir: Path = Field(default_factory=_default_data_dir,
                            description="Where meshes and sessions persist across restarts.")
+    min_free_mb: float = Field(64.0, ge=0, description="Free space the data directory's disk keeps in reserve: "
+                               "with less, GET /ready answers 503 (store_writable false) so that a load "
+                               "balancer sends no more writes; 0 checks none. A write that finds the disk full "
+                               "answers 507 storage_full, stores nothing and leaves what was stored intact.")
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list,
         description="Accepted API keys (comma separated). Empty: no authentication, one tenant.")
@@ -68,7 +72,13 @@ class Settings(BaseSettings):
                                   "1 KiB/s after that long); a slower connection is closed (tetmorph serve).")
     http_impl: Literal["auto", "httptools", "h11"] = Field(
         "auto", description="HTTP/1.1 parser of tetmorph serve: httptools (auto, a dependency of the service "
-                            "extra) or h11; both apply head_timeout_s to request heads and bodies.")
+                            "extra) or h11; both apply head_timeout_s to request heads and bodies, and "
+                            "max_header_kb and max_headers to request heads.")
+    max_header_kb: float = Field(64.0, gt=0, description="Largest request head, request line and headers "
+                                 "together; a larger one is answered 431 headers_too_large as soon as that much "
+                                 "has come, and its connection closed (tetmorph serve).")
+    max_headers: int = Field(100, gt=0, description="Most header lines of a request (431 headers_too_large "
+                             "above, as max_header_kb).")
     max_elements: int = Field(5_000_000, gt=0, description="Most volume elements per mesh (422 above).")
     max_sessions: int = Field(64, gt=0, description="Most live sessions per API key (429 above).")
     rate_limit_per_s: float = Field(200.0, ge=0,
@@ -182,6 +192,11 @@ class Settings(BaseSettings):
         return int(mb * 2**20)
 
     @property
+    def max_header_bytes(self) -> int:
+        """Request head limit in bytes."""
+        return int(self.max_header_kb * 1024)
+
+    @property
     def max_frame_bytes(self) -> int:
         """WebSocket frame limit in bytes."""
         return int(self.max_frame_kb * 1024)
@@ -190,6 +205,11 @@ class Settings(BaseSettings):
     def batch_max_result_bytes(self) -> int:
         """Largest batch result in bytes."""
         return int(self.batch_max_result_mb * 1024 * 1024)
+
+    @property
+    def min_free_bytes(self) -> int:
+        """Free space kept in reserve in the data directory, in bytes."""
+        return int(self.min_free_mb * 2**20)
 
     @property
     def cache_budget_bytes(self) -> int:

@@ -31,6 +31,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("solver.cli", "solver.kernels", "solver"),
     ("service.errors", "service.settings", "service.binary", "service.format_table"),
     ("service.models", "service.formats", "service.middleware", "service.security", "service.observability",
+     "service.strict_json",
      "service.process", "service.client", "service.http_protocol", "service.docs_assets"),
     ("service.state",),
     ("service.api", "service.demo"),

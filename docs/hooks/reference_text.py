@@ -42,6 +42,10 @@ SETTING_NOTES = {
     "batch_max_rows": "Answered with 422 `too_many_rows`.",
     "batch_max_result_mb": "The batch fails with `result_too_large` and leaves nothing.",
     "bounds_time_limit_s": "Answered with 422 `bounds_time_limit`, naming the shapes finished.",
+    "min_free_mb": "`GET /ready` measures the free space of the data directory's file system "
+                   "(`shutil.disk_usage`); keep the reserve above the largest upload. A write that fails for want "
+                   "of space (`ENOSPC`, `EDQUOT`) answers 507 `storage_full` with `Retry-After: 30` whatever the "
+                   "reserve; see [Service, a full disk](../guide/service.md#a-full-disk).",
 }
 
 #: Environment variables the solver reads itself.
@@ -96,7 +100,8 @@ STATUS_TITLES = {
     400: "400: a request that cannot be parsed", 401: "401: who is asking", 404: "404: unknown resources",
     405: "405: method not allowed", 409: "409: the resource's state forbids the request",
     410: "410: removed sessions", 413: "413: too large", 422: "422: the documents, files or parameters",
-    429: "429: limits per key", 500: "500: faults of the server", 503: "503: the store cannot be reached",
+    429: "429: limits per key", 431: "431: request heads too large", 500: "500: faults of the server",
+    503: "503: the store cannot be reached", 507: "507: the data directory is full",
 }
 
 _REEXPORT = "Check the export that wrote it; re-export or upload it again."
@@ -109,6 +114,15 @@ ERRORS: dict[str, tuple[str, str]] = {
     "missing_api_key": ("The service has API keys and the request carries none.",
                         "Send `X-API-Key: KEY` (or `Authorization: Bearer KEY`; `?api_key=` on a WebSocket)."),
     "invalid_api_key": ("The key sent is not one of `TETMORPH_API_KEYS`.", "Use a configured key."),
+    "conflicting_credentials": ("The request names two different API keys (two `X-API-Key` headers, `X-API-Key` "
+                                "and `Authorization: Bearer`, or a header and `?api_key=`); `details.headers` "
+                                "names where, never the keys.", "Send one key; sent twice, it must be the same."),
+    "invalid_host": ("An HTTP/1.1 request without a `Host` header, or a request with two (RFC 9112, section 3.2).",
+                     "Send exactly one `Host` header; HTTP clients do it themselves."),
+    "headers_too_large": ("The request line and headers pass `MAX_HEADER_KB`, or the request has more than "
+                          "`MAX_HEADERS` header lines; answered as soon as that much has come, and the connection "
+                          "is closed.", "Send fewer or shorter headers (a proxy that adds some counts too), or "
+                          "raise `TETMORPH_MAX_HEADER_KB` / `TETMORPH_MAX_HEADERS`."),
     "unauthorized": ("The request lacks valid authentication.", "Send a configured API key."),
     "forbidden": ("The request is not allowed.", "Use a key that may do it."),
     # resources
@@ -178,6 +192,9 @@ ERRORS: dict[str, tuple[str, str]] = {
     "duplicate_file_name": ("Two uploaded files are stored under one name once folders and odd characters are "
                             "cleaned from their names (`../x/beam.node` and `beam.node`).",
                             "Rename one of the files the error names."),
+    "duplicate_key": ("An object of the JSON body or stream frame names a key twice (escaped spellings count as "
+                      "the same key); `details.key` and `details.field`, its path, say which.",
+                      "Keep one of the two entries; check what wrote the document."),
     "invalid_options": ("A `SolveOptions` document has an unknown field, backend or a value of the wrong type.",
                         "Use `backend` (auto, cholmod, pardiso, scipy), `sweeps` and `basis` (true or false)."),
     "no_range": ("`tetmorph optimize`: a shape inverts elements at any non-zero value, so its safe range is empty.",
@@ -204,6 +221,13 @@ ERRORS: dict[str, tuple[str, str]] = {
     "store_unavailable": ("PostgreSQL cannot be reached; nothing was stored.",
                           "Retry after `Retry-After` (1 s); `GET /ready` says when the replica is back."),
     "unavailable": ("The service cannot answer now.", "Retry later; `GET /ready` gives the failing check."),
+    "storage_full": ("A write of the data directory failed for want of space: its disk is full (`ENOSPC`) or the "
+                     "service's disk quota is spent (`EDQUOT`). Nothing of the request was stored and every record "
+                     "stored before is intact (a MOVE is not committed: the session keeps its version); a batch or "
+                     "tetrahedralization job fails with this code and leaves no file.",
+                     "Free space in the data directory (`TETMORPH_DATA_DIR`: old meshes, finished jobs' zips) or "
+                     "grow its volume, then send the request again after `Retry-After` (30 s). `GET /ready` answers "
+                     "503 while less than `TETMORPH_MIN_FREE_MB` is free."),
     # files
     "unreadable_file": ("The file cannot be read as its format; the reader's own words are in the message.",
                         _REEXPORT),
@@ -272,6 +296,9 @@ ERRORS: dict[str, tuple[str, str]] = {
     "unsupported_keyword": ("A keyword tetmorph does not read in a deck (`*NODE, INPUT=` reading nodes from "
                             "another file).",
                             "Use `*INCLUDE, INPUT=` for the file instead."),
+    "unwritable_folder": ("The folder a mesh is written to is missing and cannot be created (a file of that "
+                          "name, no permission): `details.folder`.",
+                          "Write to a folder you can create, or remove the file in the way."),
     "parse_time_limit": ("Reading the uploaded file took longer than `TETMORPH_PARSE_TIME_LIMIT_S` (120 s by "
                          "default): the worker process reading it was stopped and replaced. A damaged file "
                          "some reader never finishes, or a mesh far larger than usual.",
@@ -436,8 +463,10 @@ Query: `kind` (`positions` or `displacements`), `dtype` (`float64` or `float32`)
 [stream frame](documents.md#streamframe) `{"seq": k, "move": MOVE}`; each solved MOVE comes
 back as a binary frame (`TMF1`, header with `seq`, `dropped` and a short REPORT), each
 failed one as a text frame `{"seq", "error"}`. MOVEs that arrive while one is solving
-replace each other (latest wins). Close codes: 4401 no or unknown key, 4404 unknown
-session, 4410 expired session, 4429 more open streams than `MAX_CONNECTIONS_PER_KEY`,
+replace each other (latest wins). Close codes: 4400 two different API keys, 4401 no or
+unknown key, 4404 unknown session, 4410 expired session, 4422 an invalid `kind`, `dtype` or
+`frames` (the reason names the parameter and its allowed values), 4429 more open streams than
+`MAX_CONNECTIONS_PER_KEY`,
 1013 the session store (PostgreSQL) cannot be reached (try again later), 1009 a frame over
 `MAX_FRAME_KB`, 1011 a fault of the server.
 """

@@ -12,6 +12,7 @@ activity against its idle time.
 
 from __future__ import annotations
 
+import asyncio
 import time
 from typing import Annotated, Any
 from urllib.parse import unquote_plus
@@ -23,8 +24,13 @@ from ..errors import ServiceError
 from ..settings import Settings
 from ..state.registry import Registry
 from ..state.session import Session
+from ..strict_json import duplicate_key, duplicate_key_error
 
-__all__ = ["OwnerDep", "RegistryDep", "SessionDep", "MeshDep", "SettingsDep", "safe_name"]
+__all__ = ["OwnerDep", "RegistryDep", "SessionDep", "MeshDep", "SettingsDep", "safe_name", "refuse_nul",
+           "refuse_duplicate_keys"]
+
+#: JSON bodies larger than this are checked for repeated keys off the event loop.
+_THREAD_BYTES = 1 << 20
 
 _key_header = APIKeyHeader(name="X-API-Key", auto_error=False,
                            description="Required when the service is configured with API keys.")
@@ -111,3 +117,24 @@ async def refuse_nul(request: Request) -> None:
             text = value if isinstance(value, str) else (getattr(value, "filename", None) or "")
             if "\x00" in key or "\x00" in text:
                 raise bad(f"form field {key.replace(chr(0), '?')!r}")
+
+
+def _is_json(content_type: str) -> bool:
+    """Whether a body of this content type is parsed as JSON (``application/json``, ``application/*+json``)."""
+    kind = content_type.split(";", 1)[0].strip().lower()
+    return kind == "application/json" or (kind.startswith("application/") and kind.endswith("+json"))
+
+
+async def refuse_duplicate_keys(request: Request) -> None:
+    """Refuse a JSON body with an object that names a key twice: 422 ``duplicate_key`` with the key and its path.
+
+    Every JSON body is checked here, before any route reads it (:mod:`service.strict_json`), whatever its model.
+    """
+    if not _is_json(request.headers.get("content-type", "")):
+        return
+    body = await request.body()
+    if not body:
+        return
+    found = await asyncio.to_thread(duplicate_key, body) if len(body) > _THREAD_BYTES else duplicate_key(body)
+    if found is not None:
+        raise duplicate_key_error(*found)

@@ -1,29 +1,38 @@
-"""Exception handlers: every error becomes the JSON envelope of :mod:`service.errors`."""
+"""Exception handlers: every error becomes the JSON envelope of :mod:`service.errors`.
+
+A stream (WebSocket) whose query parameters are invalid is accepted, then closed with
+:data:`STREAM_INVALID_QUERY` and a reason naming each parameter and its allowed values.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from typing import Any
 
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
+from fastapi import FastAPI, Request, WebSocket
+from fastapi.exceptions import RequestValidationError, WebSocketRequestValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
 from solver.errors import SolverError
 
-from ..errors import HTTP_CODES, STORE_RETRY_AFTER_S, ServiceError, envelope, error_body
+from ..errors import HTTP_CODES, ServiceError, envelope, error_body, retry_after
 from .responses import JSONResponse
 
-__all__ = ["install_handlers", "error_response", "validation_envelope"]
+__all__ = ["install_handlers", "error_response", "validation_envelope", "stream_query_reason",
+           "STREAM_INVALID_QUERY"]
+
+#: Close code of a stream opened with an invalid query parameter (4000 + the status of ``invalid_request``).
+STREAM_INVALID_QUERY = 4422
 
 
 def error_response(e: BaseException) -> JSONResponse:
     """Map any exception to a JSONResponse carrying the envelope."""
     status, body = error_body(e)
     headers = getattr(e, "headers", None)
-    if status == 503 and body["error"]["code"] == "store_unavailable":
-        headers = {**(headers or {}), "Retry-After": str(STORE_RETRY_AFTER_S)}
+    wait = retry_after(status, body["error"]["code"])  # a store out of reach (503), a full data directory (507)
+    if wait is not None:
+        headers = {"Retry-After": str(wait), **(headers or {})}
     return JSONResponse(body, status_code=status, headers=headers)
 
 
@@ -41,6 +50,27 @@ def validation_envelope(errors: Sequence[Any]) -> dict[str, Any]:
     where = "; ".join(f"{'.'.join(x['loc'])}: {x['msg']}" for x in out[:5])
     return envelope(422, "invalid_request", f"invalid request: {where}", {"errors": out},
                     "RequestValidationError")
+
+
+def stream_query_reason(errors: Sequence[Any], limit: int = 123) -> str:
+    """The close reason of an invalid stream query: each parameter, the value given and what it may be.
+
+    At most ``limit`` bytes of UTF-8, the most a WebSocket close frame carries.
+
+    Examples
+    --------
+    >>> stream_query_reason([{"loc": ("query", "kind"), "input": "velocity",
+    ...                       "msg": "Input should be 'positions' or 'displacements'"}])
+    "invalid query parameter kind='velocity': input should be 'positions' or 'displacements'"
+    """
+    parts = []
+    for err in errors:
+        name = str(list(err.get("loc", ()))[-1]) if err.get("loc") else "?"
+        given = repr(err["input"])[:20] if isinstance(err.get("input"), (str, int, float)) else "?"
+        msg = str(err.get("msg", "invalid"))
+        parts.append(f"{name}={given}: {msg[:1].lower()}{msg[1:]}")
+    text = "invalid query parameter " + "; ".join(parts)
+    return text.encode()[:limit].decode(errors="ignore")
 
 
 #: The methods a route of the API may have.
@@ -85,3 +115,10 @@ def install_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, e: RequestValidationError) -> JSONResponse:
         return JSONResponse(validation_envelope(list(e.errors())), status_code=422)
+
+    @app.exception_handler(WebSocketRequestValidationError)
+    async def _stream_query(ws: WebSocket, e: WebSocketRequestValidationError) -> None:
+        # closed before the handshake, a real server answers HTTP 403 and the reason is lost:
+        # accept, then close, so that the client reads which parameter and what it may be
+        await ws.accept()
+        await ws.close(code=STREAM_INVALID_QUERY, reason=stream_query_reason(list(e.errors())))

@@ -19,9 +19,11 @@ interior solve: its ``full`` frame is not sent and the MOVE is not committed.
 Under the ``reject`` inversion policy no boundary frame is sent (the check,
 which may refuse the MOVE, comes only with the full solve).
 
-Close codes: 4401 no or unknown API key, 4403 a browser page of another
-origin (``TETMORPH_ALLOWED_ORIGINS`` lists the ones allowed), 4404 unknown
-session, 4410 expired session, 4429 too many connections of the key, 1013
+Close codes: 4400 two different API keys, 4401 no or unknown API key, 4403 a
+browser page of another origin (``TETMORPH_ALLOWED_ORIGINS`` lists the ones
+allowed), 4404 unknown session, 4410 expired session, 4422 an invalid query
+parameter (``kind``, ``dtype``, ``frames``; closed by
+:mod:`service.api.handlers`), 4429 too many connections of the key, 1013
 (RFC 6455's "try again later") the session store (PostgreSQL) cannot be
 reached when the stream opens, 1009 frame over the size limit, 1011 server
 fault, each with a reason. A MOVE that meets a store outage once the stream is
@@ -32,7 +34,6 @@ open is answered like any failed MOVE (a text frame, ``store_unavailable``,
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import time
 from typing import Any, Literal
@@ -41,8 +42,9 @@ from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from pydantic import ValidationError
 from starlette.websockets import WebSocketState
 
+from .. import strict_json
 from ..binary import encode_frame
-from ..errors import STORE_RETRY_AFTER_S, ServiceError, error_body, status_of, store_outage
+from ..errors import STORE_RETRY_AFTER_S, ServiceError, disk_full, error_body, status_of, store_outage
 from ..middleware import lone_surrogate, may_hold_bad_text
 from ..models.move import StreamFrame
 from ..state.registry import Registry
@@ -65,7 +67,8 @@ def parse_frame(text: str | None, data: bytes | None, limit: int) -> StreamFrame
     ------
     ServiceError
         ``invalid_message`` (not JSON, not an object, unknown fields, no
-        ``move``, ...) or ``payload_too_large``.
+        ``move``, ...), ``duplicate_key`` (an object naming a key twice) or
+        ``payload_too_large``.
     """
     size = len(text.encode()) if text is not None else len(data or b"")
     if size > limit:
@@ -74,7 +77,7 @@ def parse_frame(text: str | None, data: bytes | None, limit: int) -> StreamFrame
     if text is None:
         raise ServiceError("invalid_message", "send text frames holding a JSON object {seq, move}")
     try:
-        doc = json.loads(text)
+        doc = strict_json.loads(text)
     except (ValueError, RecursionError) as e:
         raise ServiceError("invalid_message", f"the frame is not JSON: {str(e)[:100]}") from None
     if not isinstance(doc, dict):
@@ -220,7 +223,7 @@ async def _serve(ws: WebSocket, reg: Registry, s: Any, kind: str, dtype: str, li
                 else:
                     r = await reg.moves.deform(s, frame.move, frame.inversion, "basic", frame.repair)
             except Exception as e:  # noqa: BLE001 - every failed MOVE is answered, the session unchanged
-                if status_of(e) >= 500 and not store_outage(e):
+                if status_of(e) >= 500 and not store_outage(e) and not disk_full(e):  # those: an error frame
                     raise
                 if getattr(e, "code", None) == "session_not_found":  # deleted while streamed: the stream ends
                     await _close(ws, 4404, str(getattr(e, "message", e)))

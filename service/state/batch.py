@@ -278,14 +278,9 @@ def _folder_name(replica: str) -> str:
 
 
 def process_started(pid: int) -> float | None:
-    """When process ``pid`` started (seconds since the epoch), or None when it is gone or that cannot be read.
-
-    A zombie (a process that ended and was not reaped) counts as gone.
-    """
+    """When process ``pid`` started (seconds since the epoch), or None when that cannot be read."""
     try:
         stat = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
-        if stat[0] in ("Z", "X"):
-            return None
         boot = next(float(line.split()[1]) for line in Path("/proc/stat").read_text().splitlines()
                     if line.startswith("btime "))
         return boot + int(stat[19]) / os.sysconf("SC_CLK_TCK")
@@ -294,20 +289,23 @@ def process_started(pid: int) -> float | None:
     try:  # no /proc (macOS): psutil where it is installed
         import psutil
 
-        p = psutil.Process(pid)
-        return None if p.status() == psutil.STATUS_ZOMBIE else float(p.create_time())
+        return float(psutil.Process(pid).create_time())
     except Exception:  # noqa: BLE001 - not installed, gone, or not ours to read: unknown
         return None
 
 
-def _alive(pid: int) -> bool:
+def _runs(pid: int) -> bool:
+    """Whether process ``pid`` runs (a zombie, ended and not reaped, does not)."""
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
+    except (ProcessLookupError, OverflowError):  # none, or a number no PID can be
         return False
-    except OSError:  # another user's process: alive
+    except OSError:  # another user's process
+        pass
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0] not in ("Z", "X")
+    except (OSError, IndexError):
         return True
-    return True
 
 
 def _last_written(folder: Path) -> float:
@@ -316,6 +314,14 @@ def _last_written(folder: Path) -> float:
         with contextlib.suppress(OSError):
             times.append(f.lstat().st_mtime)
     return max(times)
+
+
+def _may_own(pid: int, written: float) -> bool:
+    """Whether process ``pid`` may be the one that last wrote a folder at ``written``."""
+    if not _runs(pid):
+        return False
+    started = process_started(pid)  # unknown: it may be the owner
+    return started is None or started <= written + PID_REUSE_MARGIN_S
 
 
 def sweep_dead_servers(data_dir: Path, host: str) -> list[str]:
@@ -337,16 +343,11 @@ def sweep_dead_servers(data_dir: Path, host: str) -> list[str]:
         m = pattern.fullmatch(folder.name)
         if m is None or not folder.is_dir() or int(m.group(1)) == os.getpid():
             continue
-        pid = int(m.group(1))
         try:
-            written = _last_written(folder)
+            if _may_own(int(m.group(1)), _last_written(folder)):
+                continue
         except OSError:
             continue  # removed meanwhile
-        started = process_started(pid) if _alive(pid) else None
-        if _alive(pid) and (started is None and Path("/proc").is_dir() is False):
-            continue  # alive, and when it started cannot be told: it may be the owner
-        if started is not None and started <= written + PID_REUSE_MARGIN_S:
-            continue  # the process that may have written it runs
         shutil.rmtree(folder, ignore_errors=True)
         removed.append(folder.name)
     return removed

@@ -22,7 +22,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import NotFound, ServiceError
+from ..errors import NotFound, ServiceError, error_record
 from .store import new_id
 
 __all__ = ["Job", "JobRunner"]
@@ -169,8 +169,7 @@ class JobRunner:
             except Exception as e:  # noqa: BLE001 - stored on the job, answered by GET of the job
                 if job.status != "cancelled":
                     job.status, job.stage, job.finished = "failed", "failed", time.time()
-                    job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
-                                 "message": getattr(e, "message", str(e)), "details": getattr(e, "details", {})}
+                    job.error = error_record(e)  # a full data directory: storage_full
                 return
             if job.status != "cancelled":  # a cancel whose work returned before the task's cancellation came
                 job.status, job.stage, job.finished = "done", "done", time.time()
@@ -289,9 +288,7 @@ class JobRunner:
                 with job.lock:
                     if job.status != "cancelled":
                         job.status, job.stage, job.finished = "failed", "failed", time.time()
-                        job.error = {"type": type(e).__name__, "code": getattr(e, "code", "worker_failed"),
-                                     "message": getattr(e, "message", str(e)),
-                                     "details": getattr(e, "details", {})}
+                        job.error = error_record(e)  # a full data directory: storage_full
                 return
             with job.lock:
                 if job.status != "cancelled":

@@ -95,14 +95,19 @@ class PgStore:
         ``postgresql://user@host:port/db``.
     root : path
         The shared data directory (mesh files).
+    bounds : ReadBounds, optional
+        What an uploaded file may declare or expand to.
+    min_free_bytes : int
+        The free space the data directory keeps in reserve (see :meth:`writable`).
     """
 
     shared = True
 
-    def __init__(self, url: str, root: str | os.PathLike[str], bounds: ReadBounds | None = None) -> None:
+    def __init__(self, url: str, root: str | os.PathLike[str], bounds: ReadBounds | None = None,
+                 min_free_bytes: int = 0) -> None:
         self.url = url
         self.root = Path(root)
-        self.files = FileStore(root, bounds)  # mesh folders (and the data directory's layout)
+        self.files = FileStore(root, bounds, min_free_bytes)  # mesh folders (and the data directory's layout)
         self.bounds = self.files.bounds
         self.sessions_dir = self.files.sessions_dir
         self._db = PgConnection(url)
@@ -121,7 +126,7 @@ class PgStore:
         self._db.close()
 
     def writable(self) -> bool:
-        """True when the database answers and the data directory takes files."""
+        """True when the database answers and the data directory takes files (its reserve free)."""
         return self._db.answers() and self.files.writable()
 
     # ----------------------------------------------------------------- meshes

@@ -47,7 +47,7 @@ class Registry:
     def __init__(self, settings: Settings, store: Store | None = None) -> None:
         self.settings = settings
         self.store: Store = store if store is not None else open_store(
-            settings.data_dir, settings.database_url, settings.read_bounds())
+            settings.data_dir, settings.database_url, settings.read_bounds(), settings.min_free_bytes)
         self.factors = FactorCache(settings.cache_budget_bytes)
         self.builder = Builder(settings.build_workers, settings.solve_pool_size, settings.solve_options())
         self.parse = shared_pool(settings.parse_workers, ParseLimits(settings.parse_time_limit_s,

@@ -220,6 +220,7 @@ class Sessions(Mapping[str, Session]):
         except BaseException:
             checked.cancel()
             self._live.pop(sid, None)
+            self.factors.drop(sid)  # built before its record failed to store (a full disk): not in the cache
             if stored:
                 self.store.delete_session(sid)
             if not task.done():

@@ -15,8 +15,11 @@ Layout (``data_dir``)::
     sessions/history/<id>.json       the session's undo history (empty when missing)
     sessions/expired/<id>.json       sessions removed for idleness (they answer 410 for a while)
 
-JSON files are replaced atomically, so a crash never leaves a half-written
-record; a restart reloads every session and rebuilds it on first use.
+JSON files are replaced atomically (written to a temporary file of the same
+folder, flushed to the disk, then renamed over the record), so a crash or a
+full disk never leaves a half-written record: a write that fails leaves the
+record it would have replaced as it was, and no temporary file. A restart
+reloads every session and rebuilds it on first use.
 
 A session's presets and undo history are kept apart from its record: a
 MOVE's commit writes the record (its version checked) and never them, and
@@ -25,6 +28,7 @@ writing them never touches the record or its version.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -44,7 +48,8 @@ from solver.mesh import Mesh, mesh_from_arrays
 
 from ..security import Limiter, RateLimiter
 
-__all__ = ["Store", "FileStore", "EMPTY_HISTORY", "new_id", "valid_id", "read_mesh_files", "record_only"]
+__all__ = ["Store", "FileStore", "EMPTY_HISTORY", "new_id", "valid_id", "read_mesh_files", "record_only",
+           "free_bytes"]
 
 #: The undo history of a session none was saved for: nothing applied, nothing undone.
 EMPTY_HISTORY: dict[str, Any] = {"applied": [], "undone": []}
@@ -63,15 +68,23 @@ def valid_id(ident: str) -> bool:
 
 
 def _write_json(path: Path, doc: dict[str, Any] | list[Any]) -> None:
+    """Replace ``path`` with ``doc`` atomically: all of it, or (the disk full, say) the file as it was."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
     try:
         with os.fdopen(fd, "w") as f:
             json.dump(doc, f)
+            f.flush()
+            os.fsync(f.fileno())  # on the disk before it replaces the record: no rename of a file still empty
         os.replace(tmp, path)
     except BaseException:
-        if os.path.exists(tmp):
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def free_bytes(path: str | os.PathLike[str]) -> int:
+    """Bytes of the file system of ``path`` that this process may still write (``shutil.disk_usage``)."""
+    return shutil.disk_usage(path).free
 
 
 def record_only(record: dict[str, Any]) -> dict[str, Any]:
@@ -234,14 +247,21 @@ class FileStore:
     ----------
     root : path
         The data directory; created if missing.
+    bounds : ReadBounds, optional
+        What an uploaded file may declare or expand to.
+    min_free_bytes : int
+        The free space the data directory keeps in reserve: below it :meth:`writable` is False.
     """
 
     shared = False
 
-    def __init__(self, root: str | os.PathLike[str], bounds: ReadBounds | None = None) -> None:
+    def __init__(self, root: str | os.PathLike[str], bounds: ReadBounds | None = None,
+                 min_free_bytes: int = 0) -> None:
         self.root = Path(root)
         #: What an uploaded file may declare or expand to (checked before it is read).
         self.bounds = bounds or ReadBounds()
+        #: Free space in reserve: with less, the store says it is not writable (``TETMORPH_MIN_FREE_MB``).
+        self.min_free_bytes = min_free_bytes
         self.meshes_dir = self.root / "meshes"
         self.sessions_dir = self.root / "sessions"
         self.presets_dir = self.sessions_dir / "presets"
@@ -406,11 +426,20 @@ class FileStore:
         return doc["owner"], float(doc["expired_at"])
 
     def writable(self) -> bool:
-        """True when a file can be created in the sessions folder."""
+        """True when a byte can be written in the sessions folder and the disk has its reserve free.
+
+        The reserve (``min_free_bytes``) makes readiness fail before writes do, so that a load
+        balancer sends the writes elsewhere while the records still fit.
+        """
         try:
+            if self.min_free_bytes and free_bytes(self.root) < self.min_free_bytes:
+                return False
             fd, path = tempfile.mkstemp(dir=self.sessions_dir, prefix=".tmp-ready-")
-            os.close(fd)
-            os.unlink(path)
+            try:
+                os.write(fd, b"\0")  # a file system that is full still creates empty files
+            finally:
+                os.close(fd)
+                os.unlink(path)
             return True
         except OSError:
             return False

@@ -16,13 +16,14 @@ __all__ = ["open_store"]
 
 
 def open_store(data_dir: str | os.PathLike[str], database_url: str | None = None,
-               bounds: ReadBounds | None = None) -> Store:
+               bounds: ReadBounds | None = None, min_free_bytes: int = 0) -> Store:
     """The store of the settings: :class:`~.store.FileStore`, or PostgreSQL records when ``database_url`` is set.
 
-    ``bounds`` is what an uploaded file may declare or expand to (checked before it is read).
+    ``bounds`` is what an uploaded file may declare or expand to (checked before it is read);
+    with less than ``min_free_bytes`` free in the data directory the store says it is not writable.
     """
     if database_url:
         from .pg_store import PgStore
 
-        return PgStore(database_url, data_dir, bounds)
-    return FileStore(data_dir, bounds)
+        return PgStore(database_url, data_dir, bounds, min_free_bytes)
+    return FileStore(data_dir, bounds, min_free_bytes)

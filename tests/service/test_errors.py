@@ -55,6 +55,33 @@ def test_status_table_decides_by_code_then_type():
     assert isinstance(e, SpecError) and status_of(e) == 422 and e.details == {"n": 1}
 
 
+def test_a_write_refused_for_want_of_space_is_507_storage_full_with_retry_after():
+    import errno
+
+    from service.errors import STORAGE_RETRY_AFTER_S, error_body, error_from_dict, error_record, retry_after, status_of
+    from solver.errors import InvalidMeshError
+
+    for number, words in ((errno.ENOSPC, "no space"), (errno.EDQUOT, "quota")):
+        e = OSError(number, "refused", "/srv/tetmorph/sessions/.tmp-1.json")
+        assert status_of(e) == 507
+        status, body = error_body(e)
+        assert status == 507 and body["error"]["code"] == "storage_full" and body["error"]["type"] == "OSError"
+        assert words in body["error"]["message"] and "/srv" not in str(body), body
+        assert body["error"]["details"] == {"errno": errno.errorcode[number], "retry_after_s": STORAGE_RETRY_AFTER_S}
+        assert retry_after(status, body["error"]["code"]) == STORAGE_RETRY_AFTER_S
+        wrapped = RuntimeError("zip")
+        wrapped.__cause__ = e
+        assert status_of(wrapped) == 507
+        record = error_record(wrapped)  # a job that failed so
+        assert record["code"] == "storage_full" and status_of(error_from_dict(record)) == 507
+    assert status_of(OSError(errno.EACCES, "denied")) == 500 and status_of(OSError(errno.ENOSPC, "x")) == 507
+    typed = InvalidMeshError("cannot write", code="unwritable_folder")  # a typed error keeps its code
+    typed.__cause__ = OSError(errno.ENOSPC, "full")
+    assert status_of(typed) == 422 and error_body(typed)[1]["error"]["code"] == "unwritable_folder"
+    assert error_record(KeyError("k"))["code"] == "worker_failed"
+    assert retry_after(500, "internal_error") is None
+
+
 def test_session_exists(tmp_path):
     """The registry refuses a session id in use (the demo's fixed id)."""
     with running(tmp_path, demo=True) as tc:

@@ -193,6 +193,40 @@ def test_job_files_of_dead_processes_are_swept_by_age_whatever_replica_wrote_the
         assert not fresh.exists()
 
 
+def test_a_single_server_removes_at_start_the_job_folders_of_its_dead_processes(tmp_path):
+    """A killed server's folder (``jobs/<host>-<pid>``) goes at the next start, not an hour later; a folder
+    whose PID is alive stays, unless that process started after the folder was last written (a reused PID)."""
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    host = "".join(c if c.isalnum() or c in "._-" else "_" for c in socket.gethostname())
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    sleepers = [subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"]) for _ in range(2)]
+    try:
+        jobs = tmp_path / "data" / "jobs"
+        dead = jobs / f"{host}-{gone.pid}" / "j_0001.zip"  # written a moment ago: the age sweep keeps it
+        live = jobs / f"{host}-{sleepers[0].pid}" / "j_0001.zip"
+        reused = jobs / f"{host}-{sleepers[1].pid}" / "j_0002-decks" / "plate_1.inp"
+        elsewhere = jobs / f"otherhost-{gone.pid}" / "j_0003.zip"  # another machine's PID: not ours to judge
+        for f in (dead, live, reused, elsewhere):
+            f.parent.mkdir(parents=True, exist_ok=True)
+            f.write_bytes(b"x")
+        before_start = time.time() - 600  # within the jobs' keep time: the age sweep keeps it
+        for f in (reused, reused.parent, reused.parent.parent):
+            os.utime(f, (before_start, before_start))
+        with running(tmp_path / "data"):
+            assert not dead.parent.exists()
+            assert live.exists() and elsewhere.exists()
+            assert not reused.parent.parent.exists()
+    finally:
+        for p in sleepers:
+            p.kill()
+            p.wait()
+
+
 def test_bounds_are_the_library_bounds(tmp_path, library):
     d, _, _ = library
     shapes = plate_shapes()["shapes"]

@@ -155,3 +155,20 @@ def test_boundary_frames_come_first_and_match_the_full_frame(client, tc, bracket
                 full.append(h["seq"])
     assert full == sorted(full) and len(full) < len(burst)
     assert client.session(s["id"])["last_move"] == burst[-1]
+
+
+@pytest.mark.parametrize("query, name, allowed", [
+    ("kind=velocity", "kind", ("positions", "displacements")),
+    ("dtype=float16", "dtype", ("float32", "float64")),
+    ("frames=partial", "frames", ("full", "boundary")),
+])
+def test_an_invalid_stream_parameter_closes_with_4422_naming_it_and_the_allowed_values(client, tc, query, name,
+                                                                                       allowed):
+    from starlette.websockets import WebSocketDisconnect
+
+    s = client.create_session(upload_bracket(client)["id"], BRACKET_SPEC)
+    with pytest.raises(WebSocketDisconnect) as e:
+        with tc.websocket_connect(f"/v1/sessions/{s['id']}/stream?{query}") as ws:  # accepted, then closed
+            ws.receive_bytes()
+    assert e.value.code == 4422, (e.value.code, e.value.reason)
+    assert name in e.value.reason and all(a in e.value.reason for a in allowed), e.value.reason

@@ -13,7 +13,8 @@ def test_long_work_is_announced_when_it_passes_the_threshold_and_when_it_ends():
     with announced("loading the kernels", after_s=0.05, stream=out):
         time.sleep(0.3)
     lines = out.getvalue().splitlines()
-    assert lines[0] == "tetmorph: loading the kernels..." and lines[1].startswith("tetmorph: loading the kernels: done in")
+    assert lines[0] == "tetmorph: loading the kernels..."
+    assert lines[1].startswith("tetmorph: loading the kernels: done in")
 
 
 def test_short_work_says_nothing():

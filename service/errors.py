@@ -58,6 +58,7 @@ CODE_STATUS: dict[str, int] = {
     "result_too_large": 422, "bounds_time_limit": 422, "solver_unavailable": 422, "duplicate_file_name": 422,
     "duplicate_key": 422,  # a JSON object names a key twice (service/strict_json.py)
     "parse_time_limit": 422, "parse_cpu_limit": 422,  # a file's read stopped (service/state/parse_pool.py)
+    "unused_points": 422,  # an upload of nodes no element uses (service/state/reads.py)
     "parse_memory_limit": 413,
     # 431: a request head over TETMORPH_MAX_HEADER_KB or TETMORPH_MAX_HEADERS (service/http_protocol.py)
     "headers_too_large": 431,

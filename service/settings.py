@@ -123,8 +123,9 @@ class Settings(BaseSettings):
     parse_cpu_limit_s: float = Field(120.0, gt=0, description="Most CPU seconds one file's read may use "
                                      "(RLIMIT_CPU of the worker; 422 parse_cpu_limit).")
     parse_memory_mb: float = Field(0.0, ge=0, description="Address space a parse worker may add to what it "
-                                   "uses once started (RLIMIT_AS; 413 parse_memory_limit). 0: derived, twice "
-                                   "max_file_expanded_mb plus max_upload_mb.")
+                                   "uses once started (RLIMIT_AS; 413 parse_memory_limit). 0: derived, three "
+                                   "times max_file_expanded_mb plus max_upload_mb (readers hold a "
+                                   "compressed array, its blocks and the array at once).")
     parse_queue_depth: int = Field(8, gt=0, description="Files one API key may have waiting to be read "
                                    "(429 parse_queue_full above).")
     tetra_workers: int = Field(1, gt=0, description="Processes that run fTetWild (one job each).")
@@ -188,7 +189,7 @@ class Settings(BaseSettings):
     @property
     def parse_memory_bytes(self) -> int:
         """The address space a parse worker may add (``parse_memory_mb``, or derived from the upload bounds)."""
-        mb = self.parse_memory_mb or 2 * self.max_file_expanded_mb + self.max_upload_mb
+        mb = self.parse_memory_mb or 3 * self.max_file_expanded_mb + self.max_upload_mb
         return int(mb * 2**20)
 
     @property

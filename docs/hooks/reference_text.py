@@ -307,9 +307,14 @@ ERRORS: dict[str, tuple[str, str]] = {
                         "worker process reading it was stopped and replaced.",
                         "Check the file (export it again); for a very large mesh, raise the setting."),
     "parse_memory_limit": ("Reading the uploaded file needed more memory than a reader may use "
-                           "(`TETMORPH_PARSE_MEMORY_MB`, by default twice `TETMORPH_MAX_FILE_EXPANDED_MB` plus "
-                           "`TETMORPH_MAX_UPLOAD_MB`); the worker process reading it was stopped and replaced.",
+                           "(`TETMORPH_PARSE_MEMORY_MB`, by default three times "
+                           "`TETMORPH_MAX_FILE_EXPANDED_MB` plus `TETMORPH_MAX_UPLOAD_MB`); the worker process "
+                           "reading it was stopped and replaced.",
                            "Upload the mesh uncompressed or in parts, or raise the settings."),
+    "unused_points": ("The uploaded file defines far more nodes than its elements use (`details.nodes`, "
+                      "`details.used`): more than 100,000 and ten times the used ones. Such a file holds "
+                      "no mesh to morph, only memory.",
+                      "Export the part's mesh without the unused nodes."),
     "parse_queue_full": ("This API key already has `TETMORPH_PARSE_QUEUE_DEPTH` files waiting to be read "
                          "(`details.queued`, `details.limit`).",
                          "Wait for the answers to the uploads already sent, then retry."),

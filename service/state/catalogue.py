@@ -116,7 +116,7 @@ class Catalogue:
         meta = {"id": mid, "owner": owner, "name": name, "format": fmt, "file": main,
                 "files": sorted(files), "created": time.time()}
 
-        async def write_and_read(d: Path) -> Mesh:
+        async def write_and_read(d: Path) -> tuple[Mesh, dict[str, Any] | None]:
             root = d.resolve()
             for fname, data in files.items():
                 target = (d / fname).resolve()
@@ -125,7 +125,11 @@ class Catalogue:
                                        field="companions")
                 target.parent.mkdir(parents=True, exist_ok=True)
                 target.write_bytes(data)
-            return await self._load(meta)
+            if self.parse is None:
+                return await self._load(meta), None
+            # read, held to what a mesh to morph is and summarised in a worker: the server gets the result
+            return await self.parse.call(owner, "service.state.reads.read_upload", str(self.store.root), meta,
+                                         self.store.bounds, what=repr(name))
 
         return await self._store(meta, write_and_read)
 
@@ -137,23 +141,24 @@ class Catalogue:
                 "file": "arrays.npz", "files": ["arrays.npz"], "created": time.time(),
                 **(extra or {})}
 
-        async def write(d: Path) -> Mesh:
+        async def write(d: Path) -> tuple[Mesh, dict[str, Any] | None]:
             self.store.save_arrays(meta["id"], mesh)
-            return mesh
+            return mesh, None
 
         return await self._store(meta, write)
 
-    async def _store(self, meta: dict[str, Any], produce: Callable[[Path], Awaitable[Mesh]]) -> dict[str, Any]:
-        """Create the mesh's directory and let ``produce`` fill it and return the parsed mesh.
+    async def _store(self, meta: dict[str, Any],
+                     produce: Callable[[Path], Awaitable[tuple[Mesh, dict[str, Any] | None]]]) -> dict[str, Any]:
+        """Create the mesh's directory and let ``produce`` fill it and return the parsed mesh (and its summary).
 
         Then check its size and save ``meta`` with its summary; remove everything on failure.
         """
         mid = meta["id"]
         d = self.store.new_mesh_dir(mid)
         try:
-            mesh = await produce(d)
+            mesh, info = await produce(d)
             self.check_size(mesh)
-            meta["info"] = await self.builder.solve(mesh.info)
+            meta["info"] = info if info is not None else await self.builder.solve(mesh.info)
             self.store.save_mesh_meta(meta)
         except BaseException:
             self.store.delete_mesh(mid)

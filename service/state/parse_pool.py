@@ -85,6 +85,20 @@ def _vm_bytes() -> int:
     return 0
 
 
+#: Growth of a worker's resident memory over a call after which it is replaced rather than kept: what a
+#: large read leaves in the allocator would make the next call's memory limit depend on the last file.
+RETIRE_GROWTH = 256 * 2**20
+
+
+def _rss_bytes() -> int:
+    """The process's resident memory in bytes (0 where /proc is not there)."""
+    try:
+        with open("/proc/self/statm", encoding="ascii") as fh:
+            return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
 def _serve(conn: Connection, memory_bytes: int, warm: tuple[str, ...]) -> None:
     """The worker's loop (spawned: nothing of the service is imported here but what calls name)."""
     import resource
@@ -97,6 +111,7 @@ def _serve(conn: Connection, memory_bytes: int, warm: tuple[str, ...]) -> None:
         with contextlib.suppress(ValueError, OSError):
             resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     conn.send(("ready", os.getpid()))
+    start_rss = _rss_bytes()
     while True:
         try:
             msg = conn.recv()
@@ -127,10 +142,12 @@ def _serve(conn: Connection, memory_bytes: int, warm: tuple[str, ...]) -> None:
                 reply = ("error", {"type": "UnreadableFileError", "code": "unreadable_file",
                                    "message": f"the reader failed ({type(e).__name__}: {str(e)[:300]})",
                                    "details": {}})
+        # a worker that grew by more than RETIRE_GROWTH keeps that memory: it is replaced after this call
+        retire = reply[0] == "memory" or _rss_bytes() - start_rss > RETIRE_GROWTH
         try:
-            conn.send(reply)
+            conn.send((*reply, retire))
         except MemoryError:
-            conn.send(("memory",))
+            conn.send(("memory", True))
 
 
 @dataclass(eq=False)
@@ -354,7 +371,7 @@ class ParsePool:
                 call.future.set_exception(self._limit("time", call))
                 return
             reply = w.conn.recv()
-            healthy = reply[0] in ("ok", "error")
+            healthy = reply[0] in ("ok", "error") and not reply[-1]
             if reply[0] == "ok":
                 call.future.set_result(reply[1])
             elif reply[0] == "error":

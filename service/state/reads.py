@@ -24,7 +24,10 @@ from ..errors import ServiceError
 from ..formats import scrubbed
 from .store import read_mesh_files
 
-__all__ = ["read_stored", "read_surface_upload"]
+__all__ = ["read_stored", "read_upload", "read_surface_upload", "UNUSED_POINTS"]
+
+#: Unused nodes an upload may hold beyond ten times the used ones (a deck's reference points are a few).
+UNUSED_POINTS = 100_000
 
 
 def read_stored(root: str, meta: dict[str, Any], bounds: ReadBounds | None = None) -> Mesh:
@@ -33,6 +36,28 @@ def read_stored(root: str, meta: dict[str, Any], bounds: ReadBounds | None = Non
         return read_mesh_files(Path(root), meta, bounds)
     except SolverError as e:
         raise scrubbed(e, root) from None
+
+
+def read_upload(root: str, meta: dict[str, Any], bounds: ReadBounds | None = None) -> tuple[Mesh, dict[str, Any]]:
+    """An uploaded mesh read, held to what a mesh to morph is, and summarised (:meth:`Mesh.info`), here.
+
+    The summary is made in the worker, not in the server; a file whose nodes are mostly unused by
+    its elements (millions of points around one tetrahedron, within every declared bound) is refused
+    before it reaches the server.
+
+    Raises
+    ------
+    ServiceError
+        422 ``unused_points``.
+    """
+    mesh = read_stored(root, meta, bounds)
+    used = int(np.count_nonzero(mesh.referenced))
+    unused = mesh.n - used
+    if unused > max(UNUSED_POINTS, 10 * used):
+        raise ServiceError("unused_points", f"the file defines {mesh.n:,} nodes and its elements use {used:,}: "
+                           f"{unused:,} nodes belong to no element. tetmorph morphs meshes; export the part's "
+                           "mesh without the unused nodes", nodes=int(mesh.n), used=used)
+    return mesh, mesh.info()
 
 
 def read_surface_upload(data: bytes, fmt: str, ext: str, max_triangles: int, bounds: ReadBounds

@@ -67,3 +67,18 @@ def test_a_slow_upload_of_one_tenant_does_not_hold_up_another_tenants_upload_and
                     headers={"X-API-Key": "alpha"})
         assert r.status_code == 201, r.text
         assert tc.get("/ready").status_code == 200
+
+
+def test_a_file_of_nodes_no_element_uses_is_refused_in_the_worker(tmp_path):
+    """Within every declared bound: 300,000 points around one tetrahedron (a 'points bomb')."""
+    import meshio
+
+    P = np.zeros((300_000, 3))
+    P[:4] = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    path = tmp_path / "bomb.vtu"
+    meshio.write(path, meshio.Mesh(P, [("tetra", np.array([[0, 1, 2, 3]]))]), compression="zlib")
+    with running(tmp_path / "d") as tc:
+        r = tc.post("/v1/meshes", files=[("file", ("bomb.vtu", path.read_bytes()))])
+        assert r.status_code == 422 and err(r)["code"] == "unused_points", r.text
+        assert err(r)["details"] == {"nodes": 300_000, "used": 4}
+        assert tc.get("/v1/meshes").json() == []

@@ -39,3 +39,14 @@ def refuse() -> None:
 
 def crash() -> None:
     raise KeyError("np.int64(262)")
+
+
+_KEPT: list[bytearray] = []
+
+
+def keep(mb: int) -> int:
+    """Allocate, touch and keep ``mb`` MiB (what a large read leaves behind)."""
+    block = bytearray(mb * 2**20)
+    block[::4096] = b"\x01" * len(block[::4096])
+    _KEPT.append(block)
+    return len(block)

@@ -129,3 +129,19 @@ def test_a_closed_pool_answers_unavailable():
             await pool.call("a", T + "echo", 1)
         assert e.value.code == "unavailable" and status_of(e.value) == 503
     run(go())
+
+
+def test_a_worker_that_grew_in_a_call_is_replaced_after_answering_it():
+    async def go():
+        pool = await _pool(workers=1)
+        try:
+            (pid,) = pool.pids()
+            assert (await pool.call("a", T + "hog", 8)) == 8 * 2**20  # small: kept
+            assert pool.pids() == [pid]
+            keep = await pool.call("a", T + "keep", 400)  # keeps 400 MiB: answered, then replaced
+            assert keep == 400 * 2**20
+            value, new = await pool.call("a", T + "echo", 1)
+            assert value == 1 and new != pid and pool.health()["replaced"] == 1
+        finally:
+            pool.close()
+    run(go())

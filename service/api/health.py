@@ -33,10 +33,11 @@ def health(request: Request, reg: RegistryDep, settings: SettingsDep) -> dict[st
 def ready(request: Request, reg: RegistryDep) -> JSONResponse:
     """200 when the store takes records (data directory, database) and the workers and the sweeper run, else 503."""
     state = request.app.state
+    pool = reg.parse.health()
     checks = {"store_writable": reg.store.writable(),
               "workers": not reg.builder.closed and state.jobs.alive,
               "sweeper": state.sweeper.alive,
-              "parse_workers": not reg.parse.health()["stuck"]}
+              "parse_workers": not (pool["stuck"] or pool["saturated"])}
     ok = all(checks.values())
     return JSONResponse({"ready": ok, "checks": checks}, status_code=200 if ok else 503)
 

@@ -28,7 +28,8 @@ class Ready(BaseModel):
     ready: bool
     checks: dict[str, bool] = Field(description="store_writable, workers, sweeper, parse_workers (the "
                                     "processes that read uploaded files: false when a read is past its "
-                                    "limits unstopped, or no worker can be started)")
+                                    "limits unstopped, no worker can be started, or more than twice as many "
+                                    "files wait as there are workers, none of them idle)")
 
 
 class FormatInfo(BaseModel):

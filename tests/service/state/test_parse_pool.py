@@ -145,3 +145,19 @@ def test_a_worker_that_grew_in_a_call_is_replaced_after_answering_it():
         finally:
             pool.close()
     run(go())
+
+
+def test_a_saturated_pool_says_so_for_ready():
+    async def go():
+        pool = await _pool(workers=1, time_s=30)
+        try:
+            assert not pool.health()["saturated"]
+            calls = [asyncio.ensure_future(pool.call(k, T + "sleep", 0.5)) for k in "abcd"]
+            await asyncio.sleep(0.2)
+            h = pool.health()
+            assert h["busy"] == 1 and h["waiting"] == 3 and h["saturated"]
+            await asyncio.gather(*calls)
+            assert not pool.health()["saturated"]
+        finally:
+            pool.close()
+    run(go())

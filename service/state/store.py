@@ -516,20 +516,7 @@ class FileStore:
         upload and its summary), presets of sessions without a record (the
         process died while deleting one) and temporary files of atomic writes.
         """
-        gone = []
-        for d in self.meshes_dir.iterdir():
-            if d.is_dir() and not (d / "meta.json").is_file():
-                shutil.rmtree(d, ignore_errors=True)
-                gone.append(d.name)
-        for p in self.presets_dir.glob("*.json") if self.presets_dir.is_dir() else []:
-            if not (self.sessions_dir / p.name).is_file():
-                p.unlink(missing_ok=True)
-                gone.append(f"presets/{p.name}")
-        for folder in (self.meshes_dir, self.sessions_dir):
-            for p in folder.rglob(".tmp-*"):
-                p.unlink(missing_ok=True)
-                gone.append(p.name)
-        return gone
+        return _remove_orphans(self.meshes_dir, self.sessions_dir, self.presets_dir)
 
     def rename_owner(self, old: str, new: str) -> int:
         """Give every mesh and session of owner ``old`` to ``new``; return how many records changed."""
@@ -543,3 +530,21 @@ class FileStore:
                 self.save_session({**rec, "owner": new})
                 n += 1
         return n
+
+
+def _remove_orphans(meshes_dir: Path, sessions_dir: Path, presets_dir: Path) -> list[str]:
+    """:meth:`FileStore.remove_orphans` of a data directory's folders."""
+    gone = []
+    for d in meshes_dir.iterdir():
+        if d.is_dir() and not (d / "meta.json").is_file():
+            shutil.rmtree(d, ignore_errors=True)
+            gone.append(d.name)
+    for p in presets_dir.glob("*.json") if presets_dir.is_dir() else []:
+        if not (sessions_dir / p.name).is_file():
+            p.unlink(missing_ok=True)
+            gone.append(f"presets/{p.name}")
+    for folder in (meshes_dir, sessions_dir):
+        for p in folder.rglob(".tmp-*"):
+            p.unlink(missing_ok=True)
+            gone.append(p.name)
+    return gone

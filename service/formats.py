@@ -1,8 +1,9 @@
 """File formats the service reads and writes, by extension or name, and what each keeps.
 
 Two kinds of formats are offered. The formats of :mod:`solver.io.registry`,
-read by tetmorph's own readers (Abaqus/CAE decks with their includes, and the
-CAE decks registered beside them), are looked up there first: their names,
+each written back in place by a module of its own (Gmsh, VTU, legacy VTK,
+Medit, TetGen, Nastran, Abaqus/CAE decks with their includes, and the CAE
+decks registered beside them), are looked up there first: their names,
 aliases and extensions, their titles, what they read and refuse, and whether
 a mesh of another format may be converted to them (``writes``); a format
 that is written back in place only is offered for uploads and for the

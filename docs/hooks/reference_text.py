@@ -483,23 +483,24 @@ FORMATS_INTRO = """# Mesh formats
 Generated when the site is built from `service/format_table.py`, the table that
 `python -m service.formats` measures by round trips of tiny meshes through meshio
 {meshio} (a node set, a tetra10 element, a pyramid on a hexahedron), and from the
-formats tetmorph reads with readers of its own (`solver/io/registry.py`); `GET
+formats registered by tetmorph's format modules (`solver/io/registry.py`); `GET
 /v1/formats` answers the same rows. "Offered here" is this installation: a format
 whose Python package is missing is listed but not offered. "Write" is a
 conversion: a mesh of another format written in it. Files written back to the
 format they were read from are patched in place instead ("written back in
-place"); a format read by a reader of tetmorph's own and not measured shows "—"
-for what a conversion keeps, since none is made to it. What each conversion keeps,
+place"); a registered format that is not measured shows "—" for what a
+conversion keeps, since none is made to it. What each conversion keeps,
 and what it refuses, is in the guide's [formats](../guide/formats.md) page.
 
 """
 
 FORMATS_READERS = """
-## Formats read by tetmorph's own readers
+## Formats registered by tetmorph's modules
 
-These formats are read by the modules of `solver/io/` that register them, not by
-meshio: what each reads and what it refuses, with a typed error naming the line
-or the element kind. A deck with `*INCLUDE` is uploaded with its included files
+These formats are registered by the modules of `solver/io/` that hold them, each
+read by a reader of tetmorph's own or by meshio's and written back in place by
+tetmorph: what each reads and what it refuses, with a typed error naming the
+line, the section or the element kind. A deck with `*INCLUDE` is uploaded with its included files
 (companions under their paths relative to the deck, or one zip) and written back
 as the same tree.
 """

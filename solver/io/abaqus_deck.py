@@ -27,6 +27,7 @@ and the instances; :func:`solver.io.abaqus_flat.flatten` then writes one flat de
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 import meshio
@@ -44,13 +45,14 @@ from .abaqus_parse import (
     kind_words,
     parse_deck,
 )
+from .diagnose import check_last_line, undefined_node_error
 from .patch_inp import coordinate_text
 from .patchers import Patcher
 from .read_bounds import ReadBounds, check_read_sizes
 from .registry import FileFormat, register_format
 
 __all__ = ["is_assembly", "read_deck", "to_meshio", "patch_deck", "deck_includes", "AssemblyWriteError",
-           "MAX_INCLUDE_DEPTH", "parse_deck"]
+           "MAX_INCLUDE_DEPTH", "parse_deck", "sniff", "undefined_inp_node"]
 
 
 class _Resolver:
@@ -424,8 +426,87 @@ def _node_count(raw: bytes, n: int) -> bool:
     return sum(len(sc.labels) for sc, _ in deck.origin) == n
 
 
+_KEYWORDS = re.compile(rb"^\s*\*\s*(heading|node|element|part|assembly|nset|elset|include|material|step)\b",
+                       re.IGNORECASE | re.MULTILINE)
+
+
+def sniff(head: bytes, size: int | None = None) -> bool:
+    r"""Whether a file's first bytes hold an Abaqus keyword at a line start (``*HEADING``, ``*NODE``...).
+
+    Asked after LS-DYNA's sniffer, whose decks have ``*NODE`` too.
+
+    Examples
+    --------
+    >>> sniff(b"*Heading\n*Node\n1, 0, 0, 0\n"), sniff(b"GRID,1,,0.,0.,0.\n")
+    (True, False)
+    """
+    return _KEYWORDS.search(head) is not None
+
+
+_KEY = re.compile(rb"^\s*\*\s*([A-Za-z ]+)", re.I)
+
+
+def undefined_inp_node(data: bytes) -> tuple[int, int, int, str, int] | None:
+    r"""The first element of an Abaqus deck that names a node no ``*NODE`` block defines.
+
+    Returns
+    -------
+    (element, node, line, type, count) or None
+        ``line`` is 1-based; ``count`` the number of such element lines.
+
+    Examples
+    --------
+    >>> undefined_inp_node(b"*NODE\n1,0,0,0\n2,1,0,0\n*ELEMENT, TYPE=T3D2\n1, 1, 2\n2, 2, 100\n")
+    (2, 100, 6, 'T3D2', 1)
+    """
+    nodes: set[int] = set()
+    elements: list[tuple[int, list[int], int, str]] = []
+    block, kind, pending = None, "", None
+    for k, raw in enumerate(data.splitlines()):
+        line = raw.strip()
+        if not line or line.startswith(b"**"):
+            continue
+        m = _KEY.match(line)
+        if m:
+            word = m.group(1).strip().upper()
+            block = b"NODE" if word == b"NODE" else b"ELEMENT" if word == b"ELEMENT" else None
+            typ = re.search(rb"type\s*=\s*([\w]+)", line, re.I)
+            kind = typ.group(1).decode() if typ else "?"
+            pending = None
+            continue
+        fields = [f for f in line.split(b",") if f.strip()]
+        try:
+            ints = [int(f) for f in fields] if block == b"ELEMENT" else [int(fields[0])]
+        except (ValueError, IndexError):
+            continue
+        if block == b"NODE":
+            nodes.add(ints[0])
+        elif block == b"ELEMENT":
+            if pending is not None:
+                pending[1].extend(ints)
+            else:
+                pending = (ints[0], ints[1:], k + 1, kind)
+                elements.append(pending)
+            if not line.endswith(b","):
+                pending = None
+    bad = [(e, [n for n in ns if n not in nodes], ln, t) for e, ns, ln, t in elements]
+    bad = [b for b in bad if b[1]]
+    if not bad:
+        return None
+    e, ns, ln, t = bad[0]
+    return e, ns[0], ln, t, len(bad)
+
+
+def _diagnose(path: str, data: bytes, exc: BaseException) -> UnreadableFileError | None:
+    """An element naming a node no ``*NODE`` block defines, for a reader that failed on the lookup."""
+    found = undefined_inp_node(data) if isinstance(exc, KeyError) else None
+    return undefined_node_error(os.path.basename(path), *found) if found is not None else None
+
+
 register_format(FileFormat(
     "abaqus", "Abaqus/CalculiX deck (.inp)", (".inp",), aliases=("inp",), read=read_deck,
+    sniff=sniff, sniff_order=900, telling=True, check_complete=check_last_line, diagnose=_diagnose,
+    nodes_where="no *NODE data lines",
     patcher=Patcher("abaqus", ("inp",), ("inp",), _node_count, _patch_main, includes=deck_includes,
                     patch_tree=lambda raw, inc, V: patch_deck(raw, V, inc)),
     writes=True,

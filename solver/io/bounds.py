@@ -8,40 +8,34 @@ the headers) of a file and refuses, with a typed error naming the count, the
 bound and the setting that holds it:
 
 - declared nodes over :attr:`ReadBounds.points` (``too_many_points``) and
-  elements over :attr:`ReadBounds.cells` (``too_many_cells``): VTU, legacy
-  VTK, Gmsh, Medit (ASCII and binary), TetGen ``.node``/``.ele`` (attribute
-  counts included), PLY, OFF, binary STL, SU2, UGRID;
-- compressed VTU data arrays whose zlib/LZMA block headers, or HDF5 datasets
-  (XDMF's, CGNS, MED...) whose shapes, add up to more than
-  :attr:`ReadBounds.expanded_bytes` (``too_many_bytes``);
+  elements over :attr:`ReadBounds.cells` (``too_many_cells``);
+- data that adds up to more than :attr:`ReadBounds.expanded_bytes`
+  (``too_many_bytes``): compressed VTU arrays by their block headers, HDF5
+  datasets (XDMF's, CGNS, MED...) by their shapes;
 - counts a file could not hold, however small (``truncated_file``).
 
-While a VTU file is read, :func:`expansion_budget` makes meshio's
-decompression stop at the same byte bound, for block headers that lie.
+Each format that tetmorph writes back in place checks its own counts (its
+:attr:`~solver.io.registry.FileFormat.check_sizes`: VTU, legacy VTK, Gmsh,
+Medit, TetGen); the meshio formats it only reads are checked here: PLY, OFF,
+binary STL, SU2, UGRID, XDMF and the HDF5 formats.
 """
 
 from __future__ import annotations
 
-import base64
-import contextlib
-import lzma
 import os
 import re
 import struct
-import threading
-import zlib
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from ..errors import SolverError, UnreadableFileError
-from .binary_headers import gmsh41_binary, medit_binary
-from .read_bounds import ReadBounds, check_block, check_node_tags, check_read_sizes
+from .read_bounds import ReadBounds, check_read_sizes, declared_total
 from .read_bounds import check_bounds as _check
 from .read_bounds import check_holds as _holds
+from .registry import FORMATS
 
-__all__ = ["ReadBounds", "check_declared_sizes", "check_read_sizes", "expansion_budget", "memory_error"]
+__all__ = ["ReadBounds", "check_declared_sizes", "check_read_sizes", "memory_error"]
 
 
 #: Bytes of a file's head read for the counts it declares (XML headers, Gmsh sections before $Nodes).
@@ -67,7 +61,8 @@ def check_declared_sizes(path: str, fmt: str, bounds: ReadBounds | None = None) 
         cannot hold.
     """
     bounds = bounds or ReadBounds()
-    check = _CHECKS.get(fmt)
+    own = FORMATS.get(fmt)
+    check = own.check_sizes if own is not None else _CHECKS.get(fmt)
     if check is None:
         return  # text formats without declared counts: what they hold is bounded by their size
     with open(path, "rb") as fh:
@@ -78,191 +73,6 @@ def check_declared_sizes(path: str, fmt: str, bounds: ReadBounds | None = None) 
         raise
     except (struct.error, ValueError, IndexError, OverflowError, OSError, UnicodeDecodeError):
         return  # a header too short or malformed to read a count from: the format's reader names the defect
-
-
-# ------------------------------------------------------------------ VTU, VTK, Gmsh
-
-
-def _total(pat: bytes, head: bytes) -> int:
-    return sum(int(x) for x in re.findall(pat, head))
-
-
-def _vtu(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    _check(name, bounds, _total(rb'NumberOfPoints\s*=\s*"(\d+)"', head), _total(rb'NumberOfCells\s*=\s*"(\d+)"', head))
-    m = re.search(rb'compressor\s*=\s*"(vtkZLibDataCompressor|vtkLZMADataCompressor)"', head)
-    if m is None:
-        return  # uncompressed data is no larger than the file
-    _check(name, bounds, nbytes=_vtu_expanded(path, name, head))
-
-
-def _vtu_expanded(path: str, name: str, head: bytes) -> int:
-    """The bytes a compressed VTU's data arrays expand to, summed from their block headers."""
-    with open(path, "rb") as fh:
-        data = fh.read()
-    wide = re.search(rb'header_type\s*=\s*"UInt64"', head) is not None
-    big = re.search(rb'byte_order\s*=\s*"BigEndian"', head) is not None
-    item = 8 if wide else 4
-    fmt = (">" if big else "<") + ("Q" if wide else "I")
-    total = 0
-    for m in re.finditer(rb'<DataArray\b[^>]*\bformat\s*=\s*"binary"[^>]*>\s*', data):
-        total += _blocks(name, _b64_reader(data, m.end()), item, fmt, len(data))
-    app = re.search(rb'<AppendedData\b([^>]*)>\s*_', data)
-    if app is not None:
-        raw = b'"raw"' in app[1]
-        start = app.end()
-        for m in re.finditer(rb'<DataArray\b[^>]*\bformat\s*=\s*"appended"[^>]*\boffset\s*=\s*"(\d+)"', data):
-            at = start + int(m[1])
-            read = (lambda k, at=at: data[at:at + k]) if raw else _b64_reader(data, at)
-            total += _blocks(name, read, item, fmt, len(data))
-    return total
-
-
-def _b64_reader(data: bytes, at: int) -> Any:
-    """``read(k)``: the first ``k`` bytes the base64 text at ``data[at:]`` decodes to."""
-    def read(k: int) -> bytes:
-        chars = -(-k // 3) * 4
-        try:
-            return base64.b64decode(data[at:at + chars] + b"=" * (-chars % 4))[:k]
-        except ValueError:
-            return b""
-    return read
-
-
-def _blocks(name: str, read: Any, item: int, fmt: str, size: int) -> int:
-    """Bytes one compressed array expands to: ``[blocks, block size, last size, compressed sizes...]``."""
-    first = read(3 * item)
-    if len(first) < 3 * item:
-        return 0  # the reader names what is wrong with it
-    nblocks, block, last = struct.unpack(fmt[0] + 3 * fmt[1], first)
-    _holds(name, "compressed blocks", nblocks, item, size)
-    if nblocks == 0:
-        return 0
-    return (nblocks - 1) * block + (last or block)
-
-
-def _vtk(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    cells = _total(rb"(?m)^\s*CELLS\s+(\d+)", head)
-    if re.match(rb"#\s*vtk DataFile Version 5", head) and cells:  # 5.x: CELLS counts the offsets, one more
-        cells -= len(re.findall(rb"(?m)^\s*CELLS\s+\d+", head))
-    _check(name, bounds, _total(rb"(?m)^\s*POINTS\s+(\d+)", head), cells)
-    size = os.path.getsize(path)
-    least = 1 if re.search(rb"(?m)^\s*BINARY\s*$", head[:1024]) else 2  # bytes a number takes at the least
-    with open(path, "rb") as fh:
-        data = fh.read()
-    # every section the reader allocates from its count: POINTS n (3n numbers), CELLS n m (m), CELL_TYPES n,
-    # FIELD arrays "name components tuples type"
-    numbers = [("POINTS", 3 * int(n)) for n in re.findall(rb"(?m)^\s*POINTS\s+(\d+)", data)]
-    numbers += [("CELLS", int(m)) for m in re.findall(rb"(?m)^\s*CELLS\s+\d+\s+(\d+)", data)]
-    numbers += [("CELL_TYPES", int(n)) for n in re.findall(rb"(?m)^\s*CELL_TYPES\s+(\d+)", data)]
-    numbers += [(f"field array {a.decode(errors='replace')}", int(c) * int(t)) for a, c, t in re.findall(
-        rb"(?m)^[ \t]*(\S+)[ \t]+(\d+)[ \t]+(\d+)[ \t]+(?:bit|unsigned_char|char|unsigned_short|short|"
-        rb"unsigned_int|int|unsigned_long|long|float|double|vtktypeint64|vtktypeuint64)[ \t]*\r?$", data)]
-    for what, n in numbers:
-        _check(name, bounds, nbytes=8 * n)
-        _holds(name, f"numbers in {what}", n, least, size)
-
-
-def _gmsh(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    fmt = re.search(rb"\$MeshFormat[ \t]*\r?\n[ \t]*(\S+)[ \t]+1[ \t]+(\d+)[ \t]*\r?\n", head[:1 << 16])
-    if fmt and fmt[1] != b"4.0" and fmt[1].split(b".")[0] == b"4":
-        # binary, read as 4.1 (meshio reads "4", "4.1", "4.10", ... so): the sections' headers are
-        # machine integers, not text; the integer 1 after the format line tells the byte order
-        one = head[fmt.end():fmt.end() + 4]
-        order = {struct.pack("<i", 1): "<", struct.pack(">i", 1): ">"}.get(one)
-        return gmsh41_binary(path, name, head, int(fmt[2]), order, bounds) if order else None
-    nodes = elems = tag = 0
-    m = re.search(rb"\$Nodes\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
-    if m:  # 2.2: the count; 4.1: blocks, count, smallest and largest tag
-        nodes = int(m[2]) if m[2] else int(m[1])
-        tag = int(m[4]) if m[4] else 0
-    m = re.search(rb"\$Elements\s*\r?\n\s*(\d+)(?:[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+))?", head)
-    if m:
-        elems = int(m[2]) if m[2] else int(m[1])
-    # 4.1: a block may declare more than the section's total (a count a reader allocates)
-    for section, per, total, code, bound in ((b"Nodes", 2, nodes, "too_many_points", bounds.points),
-                                             (b"Elements", 1, elems, "too_many_cells", bounds.cells)):
-        block = _gmsh_blocks(head, section, per) if b"$MeshFormat\n4" in head[:64] else 0
-        if block > 0:
-            check_block(name, section.decode(), block, max(total, 0), code, bound)
-    if nodes <= bounds.points:  # else the count itself is named below
-        check_node_tags(name, tag, bounds)
-    _check(name, bounds, nodes, elems)
-    size = os.path.getsize(path)
-    _holds(name, "nodes", nodes, 2, size)  # at least a tag and a blank each (binary: more)
-    _holds(name, "elements", elems, 2, size)
-
-
-def _gmsh_blocks(head: bytes, section: bytes, lines_per_item: int) -> int:
-    """The largest count a Gmsh 4.1 ``$Nodes`` or ``$Elements`` block declares, over the blocks in ``head``.
-
-    Each block is a header ``dim tag (parametric | type) count`` followed by
-    ``lines_per_item * count`` lines; the walk stops at the end of the head or
-    at a line that is no block header (a 2.2 file, a binary one).
-    """
-    k = head.find(b"$" + section)
-    if k < 0:
-        return 0
-    lines = head[k:].split(b"\n")[2:]  # the section's name and its totals line
-    i, largest = 0, 0
-    while i < len(lines) - 1:  # the last line may be cut by the head
-        f = lines[i].split()
-        if len(f) != 4 or not all(x.isdigit() for x in f):
-            break
-        n = int(f[3])
-        largest = max(largest, n)
-        i += 1 + lines_per_item * n
-    return largest
-
-
-# ------------------------------------------------------------------ Medit
-
-#: Medit keywords meshio reads as points; every other counted keyword is checked as elements.
-_MEDIT_POINTS = {"Vertices", "Corners", "RequiredVertices", "Normals", "NormalAtVertices", "Tangents",
-                 "TangentAtVertices", "VertexOnGeometricVertex", "VertexOnGeometricEdge"}
-
-
-def _medit(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    size = os.path.getsize(path)
-    if head[:4] in (struct.pack("<i", 1), struct.pack(">i", 1)):
-        return medit_binary(path, name, size, bounds)
-    with open(path, "rb") as fh:
-        data = fh.read()
-    # meshio reads the count on the line after the keyword, and skips that many lines or numbers
-    for m in re.finditer(rb"(?m)^[ \t]*([A-Za-z]+)[ \t]*\r?\n[ \t]*(\d+)[ \t]*$", data):
-        word, n = m[1].decode(), int(m[2])
-        if word in ("Dimension", "MeshVersionFormatted"):
-            continue
-        _check(name, bounds, *((n, 0) if word in _MEDIT_POINTS else (0, n)))
-        _holds(name, f"{word} entries", n, 2, size)
-
-
-# ------------------------------------------------------------------ TetGen
-
-
-def _tetgen(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
-    from .tetgen import tetgen_paths
-
-    node, ele = tetgen_paths(path)
-    for p, what, width in ((node, "points", 4), (ele, "cells", 3)):
-        if not os.path.isfile(p):
-            continue  # the reader names the missing companion
-        with open(p, "rb") as fh:
-            text = fh.read(1 << 16)
-        first = next((ln.split(b"#", 1)[0].split() for ln in text.splitlines() if ln.split(b"#", 1)[0].split()),
-                     [])
-        try:
-            nums = [int(t) for t in first[:width]]
-        except ValueError:
-            continue  # the reader names the header's defect
-        nums += [0] * (width - len(nums))
-        pname = os.path.basename(p)
-        count, attrs = nums[0], nums[2]
-        _check(pname, bounds, *((count, 0) if what == "points" else (0, count)))
-        # a table of count x (id, data, attributes, marker) numbers, allocated before it is read
-        per = 1 + (3 + (nums[3] != 0) if what == "points" else max(nums[1], 4)) + max(attrs, 0)
-        _check(pname, bounds, nbytes=count * per * 8)
-        _holds(pname, f"{'nodes' if what == 'points' else 'elements'} with {per} numbers each", count, 2 * per,
-               os.path.getsize(p))
 
 
 # ------------------------------------------------------------------ surfaces: PLY, OFF, STL
@@ -306,8 +116,8 @@ def _stl(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
 
 def _su2(path: str, name: str, head: bytes, bounds: ReadBounds) -> None:
     size = os.path.getsize(path)
-    points = _total(rb"(?m)^\s*NPOIN\s*=\s*(\d+)", head)
-    cells = _total(rb"(?m)^\s*(?:NELEM|MARKER_ELEMS)\s*=\s*(\d+)", head)
+    points = declared_total(rb"(?m)^\s*NPOIN\s*=\s*(\d+)", head)
+    cells = declared_total(rb"(?m)^\s*(?:NELEM|MARKER_ELEMS)\s*=\s*(\d+)", head)
     _check(name, bounds, points, cells)
     _holds(name, "points and elements", points + cells, 4, size)
 
@@ -428,75 +238,10 @@ def _own_data_only(h5py: Any, name: str, where: str, obj: Any) -> None:
             refuse(where, "a dataset stored in an external file", str(obj.external[0][0]))
 
 
-_CHECKS = {"vtu": _vtu, "vtk": _vtk, "gmsh": _gmsh, "medit": _medit, "tetgen": _tetgen, "ply": _ply,
-           "off": _off, "stl": _stl, "su2": _su2, "ugrid": _ugrid, "xdmf": _xdmf, "cgns": _hdf5,
+#: The size checks of the meshio formats tetmorph reads but does not write back (a registered format's is
+#: its :attr:`~solver.io.registry.FileFormat.check_sizes`).
+_CHECKS = {"ply": _ply, "off": _off, "stl": _stl, "su2": _su2, "ugrid": _ugrid, "xdmf": _xdmf, "cgns": _hdf5,
            "med": _hdf5, "h5m": _hdf5, "hmf": _hdf5}
-
-
-# ------------------------------------------------------------------ the decompression budget
-
-_budget = threading.local()
-
-
-class _Bounded:
-    """A compression module whose ``decompress`` stops at the thread's :func:`expansion_budget`."""
-
-    def __init__(self, module: Any) -> None:
-        self.module = module
-
-    def __getattr__(self, attr: str) -> Any:
-        return getattr(self.module, attr)
-
-    def decompress(self, data: bytes) -> bytes:
-        left: int | None = getattr(_budget, "left", None)
-        if left is None:
-            return bytes(self.module.decompress(data))
-        if self.module is zlib:
-            d = zlib.decompressobj()
-            out = d.decompress(data, left + 1)
-            if len(out) <= left and not d.unconsumed_tail:
-                out += d.flush()
-        else:
-            out = lzma.LZMADecompressor().decompress(data, max_length=left + 1)
-        if len(out) > left:
-            raise _budget.error
-        _budget.left = left - len(out)
-        return bytes(out)
-
-
-def _install() -> None:
-    from meshio.vtu import _vtu
-
-    for attr in ("zlib", "lzma"):
-        mod = getattr(_vtu, attr, None)
-        if mod is not None and not isinstance(mod, _Bounded):
-            setattr(_vtu, attr, _Bounded(mod))
-
-
-@contextlib.contextmanager
-def expansion_budget(path: str, bounds: ReadBounds) -> Iterator[None]:
-    """While meshio reads a VTU file in this thread, stop its decompression past ``bounds.expanded_bytes``.
-
-    Block headers are checked before reading (:func:`check_declared_sizes`);
-    this bounds what the blocks really expand to when the headers lie.
-
-    Raises
-    ------
-    UnreadableFileError
-        ``too_many_bytes``, from inside the reader.
-    """
-    _install()
-    name = os.path.basename(path)
-    _budget.left = bounds.expanded_bytes
-    _budget.error = UnreadableFileError(
-        f"{name!r}: its compressed data expands to more than {bounds.expanded_bytes:,} bytes "
-        f"({bounds.bytes_setting}), more than its block headers declare; reading stopped there",
-        code="too_many_bytes", file=name, bound=bounds.expanded_bytes, setting=bounds.bytes_setting)
-    try:
-        yield
-    finally:
-        _budget.left = None
-        _budget.error = None
 
 
 def memory_error(path: str, fmt: str, e: MemoryError, bounds: ReadBounds) -> UnreadableFileError:

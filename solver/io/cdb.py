@@ -219,7 +219,7 @@ CDB = register_format(FileFormat(
     name="ansys-cdb", title="Ansys MAPDL archive (.cdb)", extensions=(".cdb",), aliases=("cdb", "mapdl"),
     sniff=keyword_sniffer(rb"^[ \t]*(?:NBLOCK|EBLOCK|CMBLOCK|ETBLOCK)[ \t]*,|^/(?:PREP7|COM|TITLE|BATCH|NOPR)\b"
                           rb"|^[ \t]*ET[ \t]*,[ \t]*\d+[ \t]*,"),
-    read=read_cdb,
+    telling=True, read=read_cdb,
     patcher=Patcher("ansys-cdb", ("cdb", "mapdl"), ("cdb",), lambda raw, n: node_line_count(raw) == n, patch_cdb),
     writes=False,
     reads="NBLOCK nodes; SOLID EBLOCK tets (4, 10 nodes), 8-node bricks and their wedge, pyramid and tet forms, "

@@ -11,24 +11,19 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Callable
 
 import meshio
 
-from .registry import FORMATS, by_extension, own_format, sniff_registered
+from .registry import FORMATS, FileFormat, by_extension, own_format, sniffers
 
 __all__ = ["format_of", "detect_format", "describe", "a_format", "FORMAT_NAMES", "SURFACE_FORMATS"]
 
-#: Human names of the formats, for messages.
+#: Human names of the formats without a module of their own, for messages (a registered format has its
+#: :attr:`~solver.io.registry.FileFormat.title`).
 FORMAT_NAMES = {
-    "abaqus": "Abaqus/CalculiX deck (.inp)",
-    "gmsh": "Gmsh mesh (.msh)",
     "gmsh22": "Gmsh 2.2 mesh (.msh)",
-    "vtu": "VTK XML unstructured grid (.vtu)",
-    "vtk": "legacy VTK file (.vtk)",
     "vtk-xml": "VTK XML file of another kind than an unstructured grid",
-    "medit": "Medit mesh (.mesh)",
-    "tetgen": "TetGen mesh (.node + .ele)",
-    "nastran": "Nastran bulk data deck (.bdf/.nas)",
     "stl": "STL triangle surface (.stl)",
     "obj": "Wavefront OBJ surface (.obj)",
     "off": "OFF surface (.off)",
@@ -47,13 +42,12 @@ FORMAT_NAMES = {
 #: Triangle-surface formats: meshes in them are surfaces, never volumes.
 SURFACE_FORMATS = {"stl", "obj", "off", "ply"}
 
-#: The format each extension means where meshio knows several.
-_PREFERRED = {".msh": "gmsh"}
-_EXTRA = {".nas": "nastran", ".bdf": "nastran", ".fem": "nastran", ".ele": "tetgen", ".node": "tetgen"}
-
 
 def format_of(path: str | os.PathLike[str], file_format: str | None = None) -> str | None:
     """The meshio format name a file name (or an explicit format name) means.
+
+    The registered formats' names, aliases and extensions come first
+    (:mod:`solver.io.registry`: ``.msh`` is Gmsh, never ANSYS), then meshio's.
 
     Parameters
     ----------
@@ -84,42 +78,71 @@ def format_of(path: str | os.PathLike[str], file_format: str | None = None) -> s
     own = by_extension(name)
     if own is not None:
         return own.name
-    for ext in sorted({*meshio.extension_to_filetypes, *_EXTRA}, key=len, reverse=True):
+    for ext in sorted(meshio.extension_to_filetypes, key=len, reverse=True):
         if name.endswith(ext):
             return _by_extension(ext)
     return None
 
 
 def _by_extension(ext: str) -> str | None:
-    if ext in _PREFERRED:
-        return _PREFERRED[ext]
-    if ext in _EXTRA:
-        return _EXTRA[ext]
     names = meshio.extension_to_filetypes.get(ext)
     return names[0] if names else None
 
 
-_ABAQUS = re.compile(rb"^\s*\*\s*(heading|node|element|part|assembly|nset|elset|include|material|step)\b",
-                     re.IGNORECASE | re.MULTILINE)
-_NASTRAN = re.compile(rb"^(BEGIN\s+BULK|GRID[*,\s]|CTETRA|CHEXA|SOL\s|CEND)", re.IGNORECASE | re.MULTILINE)
-_OBJ = re.compile(rb"^\s*v\s+[-+.\d]", re.MULTILINE)
-_TETGEN_HEAD = re.compile(rb"^\s*\d+\s+3\s+\d+\s+\d+\s*$")
+# ------------------------------------------------------------------ sniffing
+
+_OBJ, _FACE = re.compile(rb"^\s*v\s+[-+.\d]", re.MULTILINE), re.compile(rb"^\s*f\s+\d", re.MULTILINE)
+_MAGIC = ((b"\x89HDF", "hdf5"), (b"CDF\x01", "netcdf"), (b"CDF\x02", "netcdf"), (b"PK\x03\x04", "zip"),
+          (b"\x1f\x8b", "gzip"), (b"%PDF", "pdf"))
+
+
+def _documents(head: bytes, data: bytes, size: int | None) -> str | None:
+    """Containers and documents, by their first bytes."""
+    text = head.lstrip()
+    found = next((fmt for magic, fmt in _MAGIC if head.startswith(magic)), None)
+    if found is None and text[:1] in (b"{", b"[") and b'"' in text[:200]:
+        return "json"
+    return "html" if found is None and text[:15].lower().startswith((b"<!doctype html", b"<html")) else found
+
+
+def _surfaces(head: bytes, data: bytes, size: int | None) -> str | None:
+    """PLY, OFF and STL (binary STL by its length)."""
+    text = head.lstrip()
+    if text.startswith(b"ply") or re.match(rb"[CN]?OFF\b", text):
+        return "ply" if text.startswith(b"ply") else "off"
+    if size is not None and len(data) >= 84 and size == 84 + 50 * int.from_bytes(data[80:84], "little"):
+        return "stl"
+    return "stl" if text[:5].lower() == b"solid" and b"facet" in head else None
+
+
+#: The sniffing rules of the formats without a module, each at its place among the registered sniffers
+#: (:attr:`~solver.io.registry.FileFormat.sniff_order`: Gmsh 100, VTU 200, legacy VTK 400, Medit 600,
+#: LS-DYNA and Ansys .cdb 800, Abaqus 900, Nastran 1000, TetGen 1200), lowest first.
+_RULES: tuple[tuple[int, Callable[[bytes, bytes, int | None], str | None]], ...] = (
+    (210, lambda head, data, size: "vtk-xml" if b"<VTKFile" in head[:1024] else None),  # not the VTU sniffer's
+    (300, lambda head, data, size: "xdmf" if b"<Xdmf" in head[:1024] else None),
+    (500, _documents), (700, _surfaces),
+    (1100, lambda head, data, size: "obj" if _OBJ.search(head) and _FACE.search(data) else None),
+    (1300, lambda head, data, size: "ansys" if head.lstrip().startswith(b"(") else None))
 
 
 def detect_format(data: bytes, size: int | None = None) -> str | None:
     r"""The format a file's first bytes look like, or None.
+
+    The registered formats' sniffers and the rules of the formats without a module are asked in
+    the order of their places (:attr:`~solver.io.registry.FileFormat.sniff_order`); the first answer wins.
 
     Parameters
     ----------
     data : bytes
         The start of the file (a few kilobytes are enough).
     size : int, optional
-        The file's size in bytes (recognises binary STL by its length).
+        The file's size in bytes (recognises binary STL and binary Medit by it).
 
     Returns
     -------
     str or None
-        A key of :data:`FORMAT_NAMES`.
+        A registered format's name or a key of :data:`FORMAT_NAMES`.
 
     Examples
     --------
@@ -129,55 +152,14 @@ def detect_format(data: bytes, size: int | None = None) -> str | None:
     True
     """
     head = data[:8192]
-    text = head.lstrip()
-    if text.startswith(b"$MeshFormat") or text.startswith(b"$NOD"):
-        return "gmsh"
-    if b"<VTKFile" in head[:1024]:
-        return "vtu" if b"UnstructuredGrid" in head[:2048] else "vtk-xml"
-    if b"<Xdmf" in head[:1024]:
-        return "xdmf"
-    if text.startswith(b"# vtk DataFile"):
-        return "vtk"
-    if head.startswith(b"\x89HDF"):
-        return "hdf5"
-    if head.startswith(b"CDF\x01") or head.startswith(b"CDF\x02"):
-        return "netcdf"
-    if head.startswith(b"PK\x03\x04"):
-        return "zip"
-    if head.startswith(b"\x1f\x8b"):
-        return "gzip"
-    if head.startswith(b"%PDF"):
-        return "pdf"
-    if text[:1] in (b"{", b"[") and b'"' in text[:200]:
-        return "json"
-    if text[:15].lower().startswith((b"<!doctype html", b"<html")):
-        return "html"
-    if re.search(rb"^\s*MeshVersionFormatted", head, re.MULTILINE):
-        return "medit"
-    if head[:4] in (b"\x01\x00\x00\x00", b"\x00\x00\x00\x01") and size is not None and size > 8:
-        return "medit"  # binary Medit (.meshb): code 1, then the version
-    if text.startswith(b"ply"):
-        return "ply"
-    if re.match(rb"[CN]?OFF\b", text):
-        return "off"
-    if size is not None and len(data) >= 84 and size == 84 + 50 * int.from_bytes(data[80:84], "little"):
-        return "stl"
-    if text[:5].lower() == b"solid" and b"facet" in head:
-        return "stl"
-    own = sniff_registered(head)
-    if own is not None:
-        return own
-    if _ABAQUS.search(head):
-        return "abaqus"
-    if _NASTRAN.search(head):
-        return "nastran"
-    if _OBJ.search(head) and re.search(rb"^\s*f\s+\d", data, re.MULTILINE):
-        return "obj"
-    first = next((ln for ln in head.splitlines() if ln.strip() and not ln.lstrip().startswith(b"#")), b"")
-    if _TETGEN_HEAD.match(first):
-        return "tetgen"
-    if text.startswith(b"("):
-        return "ansys"
+    asked: list[tuple[int, FileFormat | Callable[[bytes, bytes, int | None], str | None]]] = [
+        *_RULES, *((f.sniff_order, f) for f in sniffers())]
+    for _, rule in sorted(asked, key=lambda r: r[0]):
+        if isinstance(rule, FileFormat):
+            if rule.sniff is not None and rule.sniff(head, size):
+                return rule.name
+        elif (found := rule(head, data, size)) is not None:
+            return found
     return None
 
 

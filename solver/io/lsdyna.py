@@ -177,7 +177,7 @@ _ABAQUS_ONLY = re.compile(rb"^\*\s*(?:heading\b|element\s*,|node\s*,|nset\b|else
 _NODE_THEN_CARD = re.compile(rb"^\*node[ \t]*\r?\n(?:\$[^\n]*\n)*([^\n]*)", re.IGNORECASE | re.MULTILINE)
 
 
-def sniff(head: bytes) -> bool:
+def sniff(head: bytes, size: int | None = None) -> bool:
     r"""Whether the first bytes of a file are an LS-DYNA keyword deck (never an Abaqus deck).
 
     A ``*KEYWORD`` line says so; otherwise a keyword only LS-DYNA has (``*ELEMENT_SOLID``, ``*SET_NODE_LIST``,
@@ -209,7 +209,7 @@ def _accepts(data: bytes, n: int) -> bool:
 #: The format's entry in :data:`solver.io.registry.FORMATS`.
 LSDYNA = register_format(FileFormat(
     name="lsdyna", title="LS-DYNA keyword deck (.k)", extensions=(".k", ".key", ".dyn"),
-    aliases=("k", "keyword", "ls-dyna"), sniff=sniff, read=read,
+    aliases=("k", "keyword", "ls-dyna"), sniff=sniff, telling=True, read=read,
     patcher=Patcher("lsdyna", ("k", "keyword", "ls-dyna"), ("k", "key", "dyn"), _accepts, patch,
                     includes=includes, patch_tree=patch_tree),
     writes=False,

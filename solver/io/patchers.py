@@ -2,8 +2,9 @@
 
 A patcher takes the bytes of the file a mesh was read from and new positions,
 and returns the same file with only the coordinates changed, or ``None`` when
-it cannot (the caller then writes through meshio). Formats register here, as
-meshio registers its readers and writers, so :func:`solver.io.read.read_mesh`
+it cannot (the caller then writes through meshio). Each format's module builds
+its patcher and registers it with the format (:func:`solver.io.registry.register_format`),
+as meshio registers its readers and writers, so :func:`solver.io.read.read_mesh`
 knows which files to keep and :func:`solver.io.write.write_mesh` which to
 patch.
 """
@@ -14,14 +15,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-
-from .patch_bdf import grid_count, patch_bdf
-from .patch_inp import node_line_count, patch_inp
-from .patch_medit import medit_point_count, patch_medit
-from .patch_msh import patch_msh
-from .patch_node import node_count, patch_node
-from .patch_vtk import patch_vtk, vtk_point_count
-from .patch_vtu import patch_vtu
 
 __all__ = ["Patcher", "PATCHERS", "register", "patcher_for"]
 
@@ -95,17 +88,6 @@ def register(p: Patcher) -> Patcher:
     """Add a patcher to :data:`PATCHERS`."""
     PATCHERS[p.name] = p
     return p
-
-
-register(Patcher("abaqus", ("inp",), ("inp",), lambda raw, n: node_line_count(raw) == n, patch_inp))
-register(Patcher("gmsh", ("msh",), ("msh",), lambda raw, n: raw.lstrip().startswith(b"$MeshFormat"),
-                 patch_msh))
-register(Patcher("vtu", (), ("vtu",), lambda raw, n: b"<VTKFile" in raw[:400], patch_vtu))
-register(Patcher("nastran", ("bdf", "nas"), ("bdf", "nas", "fem"), lambda raw, n: grid_count(raw) == n, patch_bdf))
-register(Patcher("tetgen", ("node", "ele"), ("node", "ele"), lambda raw, n: node_count(raw) == n, patch_node,
-                 main="node", companions=("ele",)))
-register(Patcher("vtk", (), ("vtk",), lambda raw, n: vtk_point_count(raw) == n, patch_vtk))
-register(Patcher("medit", (), ("mesh", "meshb"), lambda raw, n: medit_point_count(raw) == n, patch_medit))
 
 
 def patcher_for(path: str, file_format: str | None = None) -> Patcher | None:

@@ -5,24 +5,22 @@ from __future__ import annotations
 import contextlib
 import os
 import warnings
-from collections.abc import Iterator
 from typing import Any
 
 import meshio
 import numpy as np
 
-from ..errors import MAX_IDS, InvalidMeshError, UnreadableFileError, UnsupportedElementError
+from ..errors import InvalidMeshError, UnreadableFileError, UnsupportedElementError
 from ..mesh.mesh import IGNORED_TYPES, MIXED_TYPES, Mesh
 from ..ops.elements import LINEAR_TYPES, oriented
 from ..ops.unique import unique
-from .bounds import ReadBounds, check_declared_sizes, check_read_sizes, expansion_budget, memory_error
+from .bounds import ReadBounds, check_declared_sizes, check_read_sizes, memory_error
 from .diagnose import check_complete, check_file, diagnose
 from .element_words import cell_counts, element_words
 from .formats import SURFACE_FORMATS, format_of
 from .patch_inp import node_block_sets
 from .patchers import patcher_for
 from .registry import FORMATS
-from .tetgen import read_tetgen, tetgen_paths
 
 __all__ = ["read_mesh", "read_surface", "mesh_from_meshio", "REGION_KEYS", "SET_PREFIX"]
 
@@ -158,8 +156,9 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     path = os.fspath(path)
     name = os.path.basename(path)
     fmt = reading_name(format_of(path, file_format))
-    if fmt == "tetgen":
-        path = tetgen_paths(path)[0]
+    own = FORMATS.get(fmt or "")
+    if own is not None and own.main_path is not None:  # the file the mesh is read from (TetGen: the .node)
+        path = own.main_path(path)
     if not os.path.isfile(path):
         raise UnreadableFileError(f"no such file: {path}", code="file_not_found", file=name)
     check_file(path, fmt)
@@ -170,8 +169,6 @@ def read_mesh(path: str | os.PathLike[str], file_format: str | None = None, volu
     if np.asarray(m.points).size == 0:
         raise UnreadableFileError(f"{name!r} defines no nodes ({_where_nodes(fmt)}): there is no mesh in it",
                                   code="no_nodes", file=name)
-    if fmt == "nastran":
-        _basic_coordinates(m, path, name)
     if volume and fmt in SURFACE_FORMATS | {"obj"}:
         raise _surface_error(name, m)
     try:
@@ -272,14 +269,15 @@ def _read_file(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
     own = FORMATS.get(fmt)
     if own is not None and own.read is not None:
         return _read_own(path, fmt, own.read, bounds)
-    reader = read_tetgen if fmt == "tetgen" else meshio._helpers.reader_map.get(fmt)
+    reader = meshio._helpers.reader_map.get(fmt)
     if reader is None:
         raise UnreadableFileError(f"tetmorph cannot read {fmt!r} files ({os.path.basename(path)!r})",
                                   code="unknown_format", file=os.path.basename(path), format=fmt)
     from .guarded import stop_at_end  # a reader looping at the end of a cut file stops: truncated_file
 
+    reading = own.reading(path, bounds) if own is not None and own.reading is not None else contextlib.nullcontext()
     try:
-        with warnings.catch_warnings(), _gmsh22_cell_data(), expansion_budget(path, bounds), stop_at_end(fmt):
+        with warnings.catch_warnings(), reading, stop_at_end(fmt):
             warnings.simplefilter("ignore")
             m = reader(path)
     except UnreadableFileError:
@@ -315,31 +313,9 @@ def _read_own(path: str, fmt: str, reader: Any, bounds: ReadBounds) -> meshio.Me
         raise diagnose(path, fmt, e) from e
 
 
-@contextlib.contextmanager
-def _gmsh22_cell_data() -> Iterator[None]:
-    """Split Gmsh 2.2 ``$ElementData`` per cell block right while a file is read.
-
-    meshio 5.3's Gmsh 2.2 reader splits it at the lengths of its ``(type, cells)``
-    tuples (2) instead of their cells, so a file with data and two cell types fails.
-    """
-    from meshio.gmsh import _gmsh22
-
-    original = _gmsh22.cell_data_from_raw
-
-    def split(cells: list[Any], raw: dict[str, np.ndarray]) -> dict[str, list[np.ndarray]]:
-        sizes = [len(c[1]) if isinstance(c, tuple) else len(c) for c in cells]
-        return {k: np.split(v, np.cumsum(sizes)[:-1]) for k, v in raw.items()}
-
-    _gmsh22.cell_data_from_raw = split
-    try:
-        yield
-    finally:
-        _gmsh22.cell_data_from_raw = original
-
-
 def _where_nodes(fmt: str) -> str:
-    return {"abaqus": "no *NODE data lines", "nastran": "no GRID cards after BEGIN BULK",
-            "gmsh": "an empty $Nodes section", "medit": "no Vertices"}.get(fmt, "no points")
+    own = FORMATS.get(fmt)
+    return own.nodes_where if own is not None and own.nodes_where else "no points"
 
 
 def _surface_error(name: str, m: meshio.Mesh) -> UnreadableFileError:
@@ -349,43 +325,6 @@ def _surface_error(name: str, m: meshio.Mesh) -> UnreadableFileError:
         f"{name!r} holds a triangle surface ({counts}), not a volume mesh: fill it with tetrahedra first, "
         f"e.g. `tetmorph tetrahedralize {name} --output {stem}.vtu` (or POST /v1/tetrahedralize)",
         code="surface_not_volume", file=name, cells=counts)
-
-
-def _basic_coordinates(m: meshio.Mesh, path: str, name: str) -> None:
-    """Place GRID cards given in local coordinate systems (CP field) in the basic system, in ``m``.
-
-    meshio reads each GRID's fields as written; :class:`~solver.io.nastran_coords.GridPositions`
-    turns those of a CORD2R, CORD2C or CORD2S system into basic positions. A system that cannot be
-    placed (undefined, a loop of RIDs, a CORD1x card, points in a line) is refused, naming the GRID.
-    """
-    from .nastran import grid_cards
-    from .nastran_coords import GridPositions
-
-    cp = m.point_data.pop("nastran:ref", None)  # meshio's name for the CP field (it leaves blank fields out)
-    if cp is None or not np.any(np.asarray(cp) != 0):
-        return
-    with open(path, "rb") as fh:
-        lines = fh.read().splitlines(keepends=True)
-    try:
-        cards = grid_cards(lines)
-    except ValueError as e:
-        raise UnreadableFileError(f"{name!r}: {e}", code="unreadable_file", file=name) from None
-    try:
-        grids = GridPositions.of(lines, cards)
-    except UnreadableFileError as e:  # named here with the file, and every GRID given in the same system
-        cid = e.details.get("chain", [e.details.get("system")])[0]
-        ids = [c.id for c in cards if c.cp == cid]
-        more = f"; {len(ids)} GRID cards are given in system {cid}" if len(ids) > 1 else ""
-        raise UnreadableFileError(f"{name!r}: {e.message}{more}", code=e.code, file=name, grids=ids[:MAX_IDS],
-                                  count=len(ids), **e.details) from None
-    if len(cards) != len(m.points):
-        raise UnreadableFileError(f"{name!r}: {len(cards)} GRID cards where meshio read {len(m.points)} nodes; "
-                                  "their positions in local coordinate systems cannot be placed",
-                                  code="unreadable_file", file=name)
-    points = np.array(m.points, dtype=np.float64)
-    local = grids.cp != 0
-    points[local] = grids.basic[local]
-    m.points = points
 
 
 def mesh_from_meshio(m: meshio.Mesh) -> Mesh:

@@ -3,19 +3,21 @@
 :class:`ReadBounds` holds the most nodes, elements and expanded bytes a file may
 declare or hold, with the settings that set each; the functions here refuse a
 count over its bound (``too_many_points``, ``too_many_cells``, ``too_many_bytes``)
-or a count the file could not hold (``truncated_file``). The format walkers in
-:mod:`solver.io.bounds` and :mod:`solver.io.binary_headers` call them.
+or a count the file could not hold (``truncated_file``). The size checks of the
+format modules (:attr:`solver.io.registry.FileFormat.check_sizes`) and of
+:mod:`solver.io.bounds` call them.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from ..errors import UnreadableFileError
 from ..limits import MAX_CELLS, MAX_EXPANDED_BYTES, MAX_POINTS
 
 __all__ = ["ReadBounds", "check_block", "check_bounds", "check_holds", "check_node_tags", "check_read_sizes",
-           "too_many"]
+           "too_many", "declared_total"]
 
 
 @dataclass(frozen=True)
@@ -39,6 +41,17 @@ class ReadBounds:
     points_setting: str = "MAX_POINTS (solver/limits.py)"
     cells_setting: str = "MAX_CELLS (solver/limits.py)"
     bytes_setting: str = "MAX_EXPANDED_BYTES (solver/limits.py)"
+
+
+def declared_total(pattern: bytes, head: bytes) -> int:
+    r"""The sum of the counts the regular expression ``pattern`` (one group: the digits) finds in ``head``.
+
+    Examples
+    --------
+    >>> declared_total(rb'NumberOfPoints="(\d+)"', b'<Piece NumberOfPoints="4"/><Piece NumberOfPoints="5"/>')
+    9
+    """
+    return sum(int(x) for x in re.findall(pattern, head))
 
 
 def too_many(name: str, what: str, declared: int, bounds: ReadBounds, *, held: bool = False) -> UnreadableFileError:

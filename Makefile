@@ -14,7 +14,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SYSDEPS := libsuitesparse-dev libopenblas0-pthread
 
-.PHONY: test-latest constraints run morph-demo test check docs docs-img gldeps docs-pictures docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
+.PHONY: test-latest constraints nastrandeps run morph-demo test check docs docs-img gldeps docs-pictures docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
 
 DEMO := examples/beam
 HOST ?= 127.0.0.1
@@ -29,14 +29,14 @@ morph-demo: install
 	  --output out/beam_{i}.vtu --report out/report.json
 	@echo "deformed meshes in out/, reports in out/report.json"
 
-test: install web browser calculix clusterdeps gldeps
+test: install web browser calculix clusterdeps gldeps nastrandeps
 	$(BIN)/python -m pytest -q
 
 # The suite on the newest versions pip resolves today, in .venv-latest (not part of CI; never fails the
 # build): prints the packages that differ from constraints.txt and the test summary. Refresh the pins
 # with `make constraints` in a commit of their own once it passes.
 LATEST := .venv-latest
-test-latest: install web browser calculix clusterdeps gldeps
+test-latest: install web browser calculix clusterdeps gldeps nastrandeps
 	test -x $(LATEST)/bin/python || $(PYTHON) -m venv $(LATEST)
 	$(LATEST)/bin/python -m pip install -q --upgrade pip
 	$(LATEST)/bin/python -m pip install -q --upgrade -e ".[dev,service,cholmod,cluster]"
@@ -79,7 +79,7 @@ docs-serve: install
 
 # The developer's loop (CONTRIBUTING.md): lint, then the solver and service tests without the
 # browser, the cluster, CalculiX, fuzzing and the tests marked slow. `make test` runs them all.
-check: lint web
+check: lint web nastrandeps
 	$(BIN)/python -m pytest -q -p no:cacheprovider -m "not slow and not fuzz and not ccx" -n auto \
 	  --ignore=tests/browser --ignore=tests/cluster --ignore=tests/service/state/test_pg_registry.py
 
@@ -110,6 +110,15 @@ clusterdeps: install $(CLUSTER_STAMP)
 $(CLUSTER_STAMP): pyproject.toml constraints.txt | $(STAMP)
 	$(BIN)/python -m pip install -q -c constraints.txt -e ".[cluster]"
 	touch $(CLUSTER_STAMP)
+
+# pyNastran, the independent reader of the Nastran tests, in a virtualenv of its own: 1.4.1 pins numpy < 2,
+# which would hold every package of .venv back to numpy 1.26 (tests/solver/io/pynastran_positions.py)
+NASTRAN_VENV := .venv-nastran
+nastrandeps: $(NASTRAN_VENV)/.installed
+$(NASTRAN_VENV)/.installed: constraints-nastran.txt
+	test -x $(NASTRAN_VENV)/bin/python || $(PYTHON) -m venv $(NASTRAN_VENV)
+	$(NASTRAN_VENV)/bin/python -m pip install -q -c constraints-nastran.txt pyNastran
+	touch $@
 
 bench: install
 	$(BIN)/python benchmarks/bench_solver.py

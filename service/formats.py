@@ -61,6 +61,9 @@ MESH_FORMATS = {
 }
 #: The library meshio needs for a format (beyond meshio's own dependencies).
 NEEDS = {"xdmf": "h5py", "med": "h5py", "h5m": "h5py", "cgns": "h5py", "hmf": "h5py", "exodus": "netCDF4"}
+#: meshio readers that fail on valid files under numpy 2 (meshio 5.3.5 reads ASCII UGRID with
+#: ``np.fromfile(sep=" ")``, which numpy 2 refuses where numpy 1 stopped at the next section): not offered.
+BROKEN_ON_NUMPY2 = {"ugrid"}
 #: Closed-surface formats accepted by the tetrahedralize resource.
 SURFACE_FORMATS = {"stl": ".stl", "obj": ".obj", "ply": ".ply", "off": ".off"}
 #: Formats whose meshio writer fails on decks with boundary faces next to their tets (a converted
@@ -74,7 +77,9 @@ _PREFERRED = {".msh": "gmsh"}
 
 @functools.cache
 def available(name: str) -> bool:
-    """True if the libraries format ``name`` needs are installed."""
+    """True if the libraries format ``name`` needs are installed (and read it with the installed numpy)."""
+    if name in BROKEN_ON_NUMPY2 and int(np.__version__.split(".")[0]) >= 2:
+        return False
     need = NEEDS.get(name)
     return need is None or importlib.util.find_spec(need) is not None
 

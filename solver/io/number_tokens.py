@@ -237,10 +237,13 @@ def splice(data: bytes, starts: np.ndarray, ends: np.ndarray, which: np.ndarray,
 
 def _leading_numbers(data: bytes, start: int, end: int | None, count: int) -> np.ndarray | None:
     """The first ``count`` numbers of ``data[start:end]`` as numpy (and meshio) read text; None if fewer."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # numpy stops at the first word that is no number: the next keyword
-        values = np.fromstring(data[start:end], dtype=np.float64, sep=" ")
-    return values[:count] if values.size >= count else None
+    words = data[start:end].split(None, count)[:count]  # the next keyword, after them, is not read
+    if len(words) < count:
+        return None
+    try:
+        return np.array(words).astype(np.float64) if count else np.zeros(0)
+    except ValueError:  # a word among them that is no number: fewer numbers than ``count``
+        return None
 
 
 def patch_numbers(data: bytes, start: int, count: int, new: np.ndarray, dtype: str | np.dtype,

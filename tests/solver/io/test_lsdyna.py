@@ -51,7 +51,7 @@ def _ints(values, w: int) -> str:
 
 def _nodes(ids, P, fmt: str) -> list[str]:
     if fmt == "free":
-        return [f"{i},{x!r}, {y!r} ,{z!r},0,0" for i, (x, y, z) in zip(ids, P, strict=True)]
+        return [f"{i},{float(x)!r}, {float(y)!r} ,{float(z)!r},0,0" for i, (x, y, z) in zip(ids, P, strict=True)]
     wi, wr = WIDTH[fmt]
     return [f"{i:{wi}d}" + "".join(_real(v, wr) for v in p) + _ints([0, 0], wi) for i, p in zip(ids, P, strict=True)]
 

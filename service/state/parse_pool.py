@@ -42,7 +42,7 @@ from typing import Any
 
 from ..errors import ServiceError, error_from_dict
 
-__all__ = ["ParsePool", "ParseLimits", "shared_pool"]
+__all__ = ["ParsePool", "ParseLimits", "shared_pool", "reader_pids"]
 
 log = logging.getLogger("tetmorph.service")
 
@@ -469,6 +469,13 @@ def shared_pool(workers: int, limits: ParseLimits, queue_depth: int) -> ParsePoo
             pool = _SHARED[key] = ParsePool(workers, limits, queue_depth)
             pool.start()
         return pool
+
+
+def reader_pids() -> set[int]:
+    """The process ids of every shared pool's workers in this process (to tell them from other children)."""
+    with _SHARED_LOCK:
+        pools = list(_SHARED.values())
+    return {pid for pool in pools for pid in pool.pids()}
 
 
 @atexit.register

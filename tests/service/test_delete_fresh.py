@@ -116,9 +116,13 @@ def fresh_study(sid: str) -> str:
 
 def tetra_workers() -> list[psutil.Process]:
     """The job runner's worker processes (not multiprocessing's resource tracker)."""
-    out = []
+    from service.state.parse_pool import reader_pids
+
+    out, readers = [], reader_pids()  # the processes that read uploads are not the job runner's
     for p in psutil.Process().children(recursive=True):
         try:
+            if p.pid in readers:
+                continue
             if "spawn_main" in " ".join(p.cmdline()) and p.status() != psutil.STATUS_ZOMBIE:
                 out.append(p)
         except psutil.Error:

@@ -8,6 +8,7 @@ import meshio
 import numpy as np
 import pytest
 
+from service.state.parse_pool import reader_pids
 from solver.testing import sphere_surface
 
 from ..conftest import err, running
@@ -99,7 +100,7 @@ def test_long_tetrahedralization_runs_beside_the_service_and_can_be_cancelled(tm
         assert worst < 2.0, worst
         doc = tc.get(f"/v1/jobs/{job['id']}").json()
         assert doc["status"] == "running" and doc["elapsed_s"] >= 3.0
-        readers = set(tc.app.state.registry.parse.pids())  # the processes that read uploads stay
+        readers = reader_pids()  # the processes that read uploads (this app's and earlier ones') stay
         kids = [p for p in _workers() if p.pid not in readers]
         assert kids, "the job runs in a child process"
         r = tc.delete(f"/v1/jobs/{job['id']}")
@@ -136,7 +137,7 @@ def test_tetrahedralization_time_limit_and_worker_failure(tmp_path, monkeypatch)
         job = tc.post("/v1/tetrahedralize", files=[("file", ("big.stl", path.read_bytes()))],
                       data={"edge_length_fac": "0.02"}).json()
         time.sleep(0.5)
-        readers = set(tc.app.state.registry.parse.pids())
+        readers = reader_pids()
         for p in _workers():  # the worker process this test's job started (not the readers of uploads)
             if p.pid not in readers:
                 p.kill()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import threading
 import time
 
 import pytest
@@ -16,7 +17,22 @@ T = "tests.service.state.parse_targets."
 
 
 def run(coro):
-    return asyncio.run(coro)
+    """The coroutine on a loop of its own in a thread of its own (the suite's thread may hold a running loop)."""
+    out: dict = {}
+
+    def target():
+        try:
+            out["value"] = asyncio.run(coro)
+        except BaseException as e:  # noqa: BLE001 - re-raised in the test's thread
+            out["error"] = e
+
+    t = threading.Thread(target=target)
+    t.start()
+    t.join(120)
+    assert not t.is_alive(), "the pool test did not end in 120 s"
+    if "error" in out:
+        raise out["error"]
+    return out.get("value")
 
 
 async def _pool(workers=2, **limits) -> ParsePool:

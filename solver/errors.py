@@ -141,7 +141,11 @@ class LossyWriteError(InvalidMeshError):
 
 
 class SpecError(SolverError, ValueError):
-    """A SPEC or MOVE document is malformed or names something that does not exist."""
+    """A SPEC or MOVE document is malformed or names something that does not exist.
+
+    Codes: ``node_on_axis``, ``no_intersection`` (raised through a helper for a radius or
+    map edit's nodes, details ``ids``), besides the codes raised where they are named.
+    """
 
     default_code = "invalid_spec"
 

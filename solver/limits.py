@@ -10,7 +10,7 @@ __all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS", "EXTENT", "SCALE_MIN", "SCALE
            "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX",
            "TARGET_AMOUNT_MAX", "SHAPES_MAX", "SHAPE_NAME_MAX", "PLAN_ROWS_MAX", "PLAN_TEXT_MAX", "BLOCK_MAX",
            "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX", "MAX_EXPANDED_BYTES",
-           "THREADS_MAX"]
+           "THREADS_MAX", "LATTICE_COUNT_MAX"]
 
 #: Largest magnitude of a mesh coordinate, and of any coordinate, direction or target in a
 #: document. Far beyond any part in any unit, and small enough that squared distances and
@@ -70,3 +70,6 @@ MAX_EXPANDED_BYTES = 16 * 2**30
 #: Most threads a SPEC or a caller may ask one solve to use (a cap: a solve never takes more than the
 #: cores that are free).
 THREADS_MAX = 1024
+#: Most control points of a morph volume's lattice along one axis (SPEC ``lattice[].counts``): a
+#: Bernstein polynomial of degree 15 at most per axis, 4,096 control points in all.
+LATTICE_COUNT_MAX = 16

@@ -296,6 +296,16 @@ ERRORS: dict[str, tuple[str, str]] = {
     "unsupported_keyword": ("A keyword tetmorph does not read in a deck (`*NODE, INPUT=` reading nodes from "
                             "another file).",
                             "Use `*INCLUDE, INPUT=` for the file instead."),
+    "node_on_axis": ("A node of a `radius` edit, or of a `map` onto a circle or cylinder, lies on the axis (or at "
+                     "a mapped sphere's centre), where it has no radial direction; `details.ids` lists them.",
+                     "Leave those nodes out of the selection, or move the axis."),
+    "no_intersection": ("A `map` with projection `along`: the line through some nodes along the direction misses "
+                        "the surface or runs parallel to it; `details.ids` lists them.",
+                        "Choose another direction, or projection `nearest`."),
+    "not_a_cylinder": ("A `radius` edit without an axis: its selection's boundary faces fit no cylinder.",
+                       "Give the axis (`tetmorph features` prints a bore's), or select the cylindrical faces only."),
+    "twist_conflict": ("Shapes give one `twist` entry a linear law and a table.",
+                       "Use one kind of law in every shape of that twist."),
     "unwritable_folder": ("The folder a mesh is written to is missing and cannot be created (a file of that "
                           "name, no permission): `details.folder`.",
                           "Write to a folder you can create, or remove the file in the way."),

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..limits import EXTENT, SCALE_MAX, SCALE_MIN
+from .edit_entries import EDIT_KINDS
+from .edit_values import EditValue, edit_values, scaled_value, value_dict
 from .spec import expect
 
 if TYPE_CHECKING:
@@ -114,6 +116,9 @@ class Move:
         The point the plane or line of a SPEC ``motion`` passes through.
     targets : dict of str to float
         Amount per SPEC ``targets``: 0 rest, 1 on the target surface (missing: 0).
+    edits : dict of str to dict of str to value
+        Per edit kind (``radius``, ``twist``, ``map``, ``offset``, ``lattice``), the value of each
+        named edit (:mod:`solver.constraints.edit_values`); an edit not named stays at rest.
     """
 
     handles: dict[str, HandleMove]
@@ -122,6 +127,11 @@ class Move:
     features: dict[str, float] = field(default_factory=dict)
     motion: dict[str, np.ndarray] = field(default_factory=dict)
     targets: dict[str, float] = field(default_factory=dict)
+    edits: dict[str, dict[str, EditValue]] = field(default_factory=dict)
+
+    def edit(self, kind: str, name: str) -> EditValue | None:
+        """The value of one edit (None: at rest)."""
+        return self.edits.get(kind, {}).get(name)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the MOVE as a JSON-compatible dict (rotations as axis and angle)."""
@@ -147,6 +157,7 @@ class Move:
             doc["motion"] = {k: {"point": v.tolist()} for k, v in self.motion.items()}
         if self.targets:
             doc["targets"] = {k: {"amount": v} for k, v in self.targets.items()}
+        doc.update(value_dict(self.edits))
         return doc
 
 
@@ -199,11 +210,14 @@ class RestTargets:
         Rest position of each motion point.
     relative : dict of str to (3,) array
         Rest offset ``a - b`` of each relative constraint.
+    radius : dict of str to float
+        Nominal rest radius (the mean) of each SPEC ``radius`` edit.
     """
 
     points: dict[str, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)
     motion: dict[str, np.ndarray] = field(default_factory=dict)
     relative: dict[str, np.ndarray] = field(default_factory=dict)
+    radius: dict[str, float] = field(default_factory=dict)
 
 
 def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
@@ -211,7 +225,8 @@ def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
 
     Handles: translation ``f t``, rotation angle ``f θ``, scale ``s^f``.
     Point and motion targets and relative offsets: ``rest + f (target - rest)``.
-    Feature and relative scales: ``s^f``.
+    Feature and relative scales: ``s^f``. Edits: :func:`~solver.constraints.edit_values.scaled_value`
+    (a new radius ``r0 + f (r - r0)`` about the nominal rest radius ``r0``; every other parameter times ``f``).
     """
     handles = {k: h.interpolate(f) for k, h in mv.handles.items()}
     points = {}
@@ -229,7 +244,9 @@ def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
             relative[k] = {"scale": v["scale"] ** f}
     features = {k: v ** f for k, v in mv.features.items()}
     targets = {k: f * v for k, v in mv.targets.items()}
-    return Move(handles, points, relative, features, motion, targets)
+    edits = {kind: {n: scaled_value(v, f, rest.radius.get(n) if kind == "radius" else None) for n, v in named.items()}
+             for kind, named in mv.edits.items()}
+    return Move(handles, points, relative, features, motion, targets, edits)
 
 
 def _rotation_vector(rot: RotationDoc, where: str) -> np.ndarray:
@@ -268,8 +285,9 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
         ``{"handles": {HANDLE: {"translation": [..], "rotation": {...}, "pivot": [..],
         "scale": s}}, "points": {POINT: [x, y, z]}, "relative": {NAME: {"offset": [..]}
         | {"scale": s}}, "features": {FEATURE: {"scale": s}}, "motion": {NAME:
-        {"point": [x, y, z]}}, "targets": {NAME: {"amount": a}}}``; every field is optional. A handle the MOVE
-        does not name stays at its rest position.
+        {"point": [x, y, z]}}, "targets": {NAME: {"amount": a}}}``, and the edits' ``radius``, ``twist``,
+        ``map``, ``offset`` and ``lattice``; every field is optional. A handle the MOVE does not name
+        stays at its rest position.
     handle_names : sequence of str
     names : dict, optional
         Names the SPEC defines per category (``"points"``, ``"relative"``,
@@ -287,8 +305,8 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     SpecError
         Unknown fields or names, a value that is not a JSON number, a
         non-finite or out-of-range number; ``details["field"]`` names it.
-        A translation, offset, pivot or target beyond ``MOVE_RANGE`` diagonals
-        has the code ``out_of_range``.
+        A translation, offset, pivot or target beyond ``MOVE_RANGE`` diagonals (and an edit's radius,
+        distance or displacement beyond them) has the code ``out_of_range``.
 
     Examples
     --------
@@ -313,7 +331,7 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
         v = np.asarray(x, float)
         return bounds.position(v, where) if bounds is not None else v
 
-    for key in ("points", "relative", "features", "motion", "targets"):
+    for key in ("points", "relative", "features", "motion", "targets", *EDIT_KINDS):
         bad = sorted(set(getattr(m, key)) - set(names.get(key, ())))
         expect(not bad, f"MOVE.{key} names unknown {key} {bad}; the SPEC defines {sorted(names.get(key, ()))}",
                field=f"MOVE.{key}", unknown=bad)
@@ -337,4 +355,4 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     features = {k: float(v.scale) for k, v in m.features.items()}
     motion = {k: pos(v.point, f"MOVE.motion.{k}.point") for k, v in m.motion.items()}
     targets = {k: float(v.amount) for k, v in m.targets.items()}
-    return Move(out, points, relative, features, motion, targets)
+    return Move(out, points, relative, features, motion, targets, edit_values(m, bounds))

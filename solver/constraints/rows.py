@@ -17,8 +17,8 @@ two forms:
 A :class:`Block` is data only: its rows, and the rest quantities its target
 is computed from. :func:`block_target` turns a block and a MOVE into target
 values through one small function per kind (:data:`TARGETS`). Rows are listed
-in priority order (fixed, handles, ties, points, relative, features, motion,
-sliding): when constraints are dependent, earlier rows are kept and later
+in priority order (fixed, handles, targets, edits, ties, points, relative,
+features, motion, sliding): when constraints are dependent, earlier rows are kept and later
 ones are reported (ECLS §5).
 """
 
@@ -37,16 +37,18 @@ from ..ops.boundary_facets import simplex_edges
 from ..ops.rotation import log_to_matrix, rotate_by_log
 from ..ops.unique import unique
 from .correspondence import Correspondences
+from .edit_entries import EDIT_KINDS
+from .edits import Edit
 from .matching import Matching
 from .move import Move
 from .spec import FeatureEntry, MotionEntry, PointDef, PointEntry, RelativeEntry, SlidingEntry, Spec
 
 __all__ = ["Block", "KINDS", "TARGETS", "block_target", "check_ids", "point_weights", "position_blocks",
            "rotation_blocks", "fixed_rows", "handle_rows", "tie_rows", "point_rows", "relative_rows",
-           "feature_rows", "motion_rows", "sliding_rows"]
+           "feature_rows", "motion_rows", "sliding_rows", "edit_rows"]
 
-KINDS = ("fixed", "handle", "target", "tie", "symmetry", "cyclic", "point", "relative", "feature", "motion",
-         "sliding")
+KINDS = ("fixed", "handle", "target", *EDIT_KINDS, "tie", "symmetry", "cyclic", "point", "relative", "feature",
+         "motion", "sliding")
 #: How many ids a REPORT or an error's details list.
 REPORT_IDS = MAX_IDS
 
@@ -88,6 +90,8 @@ class Block:
         rigid features), or -1.
     vertices : (k,) int array
         Every vertex of the entry, for reports.
+    edit : Edit or None
+        An edit's resolved nodes (:mod:`solver.constraints.edits`), which place them per MOVE.
     """
 
     kind: str
@@ -104,6 +108,7 @@ class Block:
     aux: np.ndarray | None = None
     rot_vertex: int = -1
     vertices: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    edit: Edit | None = None
 
     @property
     def vector(self) -> bool:
@@ -167,11 +172,17 @@ def _motion_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
     return b.normal @ np.asarray(mv.motion.get(b.name, b.rest))
 
 
+def _edit_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+    assert b.edit is not None
+    return b.edit.positions(mv.edit(b.kind, b.name))[b.edit.corner]
+
+
 #: Target of each kind: ``(block, move, rot_at) -> (nrows, 3)`` replicated or ``(nrows,)`` vector.
 TARGETS: dict[str, Callable[[Block, Move, RotAt], np.ndarray]] = {
     "fixed": _fixed_target, "handle": _handle_target, "tie": _tie_target, "point": _point_target,
     "relative": _relative_target, "feature": _feature_target, "motion": _motion_target, "sliding": _fixed_target,
     "target": _target_target, "symmetry": _fixed_target, "cyclic": _fixed_target,
+    **{kind: _edit_target for kind in EDIT_KINDS},
 }
 
 
@@ -396,13 +407,21 @@ def target_rows(index: int, name: str, V0: np.ndarray, ids: np.ndarray, q: np.nd
                  vertices=ids)
 
 
+def edit_rows(V0: np.ndarray, e: Edit) -> Block:
+    """``p_i = u_i`` for the corner nodes of an edit; ``u`` from the MOVE's value (:meth:`Edit.positions`)."""
+    ids = e.ids
+    return Block(e.kind, e.index, e.name, ids.size, np.arange(ids.size), ids, np.ones(ids.size), rest=V0[ids],
+                 vertices=ids, edit=e)
+
+
 def _corners(mesh: Mesh, ids: np.ndarray) -> np.ndarray:
     return ids[mesh.referenced[ids]]
 
 
 def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
                     handle_ids: dict[str, np.ndarray], handle_pivots: dict[str, np.ndarray],
-                    ties: np.ndarray | None = None, corr: Correspondences | None = None) -> list[Block]:
+                    ties: np.ndarray | None = None, corr: Correspondences | None = None,
+                    edits: tuple[Edit, ...] = ()) -> list[Block]:
     """Rows of every hard positional constraint of ``spec``, in priority order.
 
     Parameters
@@ -418,6 +437,8 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
     ties : (t, 2) int array, optional
     corr : Correspondences, optional
         Resolved symmetry, cyclic, surface-tie and target constraints.
+    edits : tuple of Edit, optional
+        Resolved edits (their rows follow the targets').
 
     Returns
     -------
@@ -437,6 +458,7 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
         blocks.append(handle_rows(V0, h, name, ids, handle_pivots[name]))
     corr = corr or Correspondences()
     blocks += [target_rows(t.index, t.name, V0, t.ids, t.q) for t in corr.targets]
+    blocks += [edit_rows(V0, e) for e in edits]
     if ties is not None and len(ties):
         blocks.append(tie_rows(ties))
     blocks += [tied_rows(name, k, m) for k, (name, m) in enumerate(corr.surface_ties)]
@@ -543,4 +565,4 @@ def _subset(m: Matching, keep: np.ndarray) -> Matching:
 def _fields(b: Block) -> tuple:
     """A block's fields after its kind (to rebuild it under another kind)."""
     return (b.index, b.name, b.nrows, b.row, b.vert, b.coeff, b.rest, b.normal, b.entry_normal, b.pivot, b.aux,
-            b.rot_vertex, b.vertices)
+            b.rot_vertex, b.vertices, b.edit)

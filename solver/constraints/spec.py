@@ -17,11 +17,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..errors import SpecError
+
+if TYPE_CHECKING:
+    from .edit_entries import EditEntry
 
 __all__ = ["Spec", "PointDef", "PointEntry", "RelativeEntry", "FeatureEntry", "MotionEntry", "SlidingEntry",
            "SymmetryEntry", "CyclicEntry", "TargetEntry", "parse_spec", "THIN_WALL_WEIGHT"]
@@ -255,6 +258,10 @@ class Spec:
     symmetry, cyclic, targets : tuple of entries
         Mirror and cyclic symmetry (:class:`SymmetryEntry`, :class:`CyclicEntry`)
         and target surfaces (:class:`TargetEntry`).
+    edits : tuple of entries
+        The daily edits, ``radius``, ``twist``, ``map``, ``offset`` and ``lattice`` entries in that
+        order (:mod:`solver.constraints.edit_entries`): selections whose nodes get positions
+        computed from their rest positions and the MOVE's parameters.
     conflicts : {"report", "reject"}
         What a conflicting constraint does: reported in the REPORT, or the
         SPEC (and any MOVE) that makes constraints conflict is refused.
@@ -310,12 +317,17 @@ class Spec:
     ties: Any = "auto"
     voids: str = "volume"
     solve_options: dict[str, Any] = field(default_factory=dict)
+    edits: tuple[EditEntry, ...] = ()
 
     @property
     def names(self) -> dict[str, tuple[str, ...]]:
-        """Names a MOVE may address, per category (``points``, ``relative``, ``features``, ``motion``)."""
-        return {k: tuple(e.name for e in getattr(self, k))
-                for k in ("points", "relative", "features", "motion", "targets")}
+        """Names a MOVE may address, per category (``points``, ..., ``targets`` and each edit kind)."""
+        from .edit_entries import EDIT_KINDS
+
+        out = {k: tuple(e.name for e in getattr(self, k))
+               for k in ("points", "relative", "features", "motion", "targets")}
+        out.update({k: tuple(e.name for e in self.edits if e.kind == k) for k in EDIT_KINDS})
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         """Return the SPEC as a JSON-compatible dict."""
@@ -335,6 +347,8 @@ class Spec:
         for key in ("points", "relative", "features", "motion", "sliding", "symmetry", "cyclic", "targets"):
             if getattr(self, key):
                 out[key] = [e.to_dict() for e in getattr(self, key)]
+        for e in self.edits:
+            out.setdefault(e.kind, []).append(e.to_dict())
         return out
 
 
@@ -406,7 +420,11 @@ def parse_spec(doc: Any) -> Spec:
     used = list(handles.values())
     dup = sorted({s for s in used if used.count(s) > 1})
     expect(not dup, f"selection(s) {dup} drive more than one handle", field="handles", names=dup)
-    expect(len(fixed) + len(handles) > 0, "SPEC needs at least one fixed selection or handle", field="fixed")
+    from .edit_entries import edit_entries
+
+    edits = edit_entries(d, known)
+    expect(len(fixed) + len(handles) + len(edits) > 0, "SPEC needs at least one fixed selection, handle or edit "
+           "(radius, twist, map, offset, lattice)", field="fixed")
     expect(model.domain is None or model.domain in selections,
            f"SPEC.domain must name a selection; got {model.domain!r}, defined: {sorted(selections)}", field="domain")
     cons = model.constraints
@@ -428,7 +446,7 @@ def parse_spec(doc: Any) -> Spec:
                 domain=model.domain, laplacian=model.laplacian, method=method, penalty_weight=beta,
                 solve=model.solve, rotation=model.rotation, inversion=model.inversion, conflicts=model.conflicts,
                 repair=model.repair, thin_walls=float(weight), ties=ties, voids=model.voids,
-                solve_options=solve, **_entries(d, known))
+                solve_options=solve, edits=edits, **_entries(d, known))
 
 
 def _point(e: dict[str, Any], where: str, known: Callable[..., str]) -> PointDef:

@@ -18,6 +18,8 @@ import numpy as np
 
 from ..constraints.assembly import Assembly, assemble, block_targets, describe
 from ..constraints.correspondence import Correspondences, InteriorMirror, correspondences
+from ..constraints.edit_entries import EDIT_KINDS
+from ..constraints.edits import Edit, RadiusEdit, resolve_edits
 from ..constraints.matching import Matching
 from ..constraints.move import Move, MoveBounds, RestTargets
 from ..constraints.rows import (
@@ -38,7 +40,7 @@ from ..mesh import Mesh
 from ..ops.unique import unique
 from .determinacy import free_shells
 
-__all__ = ["ConstraintSet", "constraint_set", "entry_text", "CONFLICT_TOL"]
+__all__ = ["ConstraintSet", "constraint_set", "entry_text", "edit_owner", "CONFLICT_TOL"]
 
 #: A dropped constraint row whose residual exceeds this fraction of the mesh
 #: diagonal (positions) or this many radians/2 (rotation logarithms) conflicts.
@@ -58,7 +60,8 @@ class ConstraintSet:
     fixed_mid : (k,) int array
         Fixed mid-side nodes (quadratic meshes), held exactly at rest.
     owner : (n,) int array
-        -2 fixed, ``h >= 0`` handle index, -1 free (every node, mid-side nodes included).
+        -2 fixed, ``h >= 0`` handle index, -1 free, ``-3 - j`` in edit ``j`` (every node, mid-side nodes
+        included).
     handle_names : tuple of str
     handle_ids, handle_mid : dict of str to (k,) int array
         Corner and mid-side nodes of each handle.
@@ -106,6 +109,11 @@ class ConstraintSet:
         The mesh's extent, bounding MOVE translations and points.
     mirrors : tuple of InteriorMirror
         Interior nodes of every mirror symmetry, held as images of their partners.
+    edits : tuple of Edit
+        The resolved edits (``radius``, ``twist``, ``map``, ``offset``, ``lattice``): their nodes are
+        held like a handle's, edit ``j``'s with ``owner`` :func:`edit_owner` ``(j)``.
+    roles : (n,) int array or None
+        ``owner`` with every edit node counted as a handle's (the REPORT's displacement maxima).
     """
 
     sel_ids: dict[str, np.ndarray]
@@ -144,11 +152,19 @@ class ConstraintSet:
     rest: RestTargets
     bounds: MoveBounds
     mirrors: tuple[InteriorMirror, ...] = ()
+    edits: tuple[Edit, ...] = ()
+    roles: np.ndarray | None = None
 
     @property
     def pinned_mid(self) -> np.ndarray:
-        """Every mid-side node held by a fixed, handle or target selection, sorted."""
-        return _union([self.fixed_mid, *self.handle_mid.values(), *[t.mid_ids for t in self.corr.targets]])
+        """Every mid-side node held by a fixed, handle, target or edit selection, sorted."""
+        return _union([self.fixed_mid, *self.handle_mid.values(), *[t.mid_ids for t in self.corr.targets],
+                       *[e.mid_ids for e in self.edits]])
+
+
+def edit_owner(j: int) -> int:
+    """The ``owner`` code of the nodes of edit ``j`` (-3, -4, ...)."""
+    return -3 - j
 
 
 def entry_text(e: dict[str, Any]) -> str:
@@ -234,6 +250,17 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
                             f"({ids.size}); a handle needs at least one corner node", code="empty_selection",
                             handle=name, selection=spec.handles[name])
         pivots[name] = V0[ids].mean(axis=0)
+    edits = resolve_edits(mesh, spec.edits, sel_ids)
+    for j, e in enumerate(edits):
+        clash = e.nodes[owner[e.nodes] != -1]
+        if clash.size:
+            other = owner[clash[0]]
+            what = ("the fixed selections" + (" (or nodes outside the domain)" if spec.domain is not None else "")
+                    if other == -2 else f"handle {handle_names[int(other)]!r}" if other >= 0
+                    else edits[edit_owner(0) - int(other)].where)
+            raise SpecError(f"{e.where} shares vertices {format_ids(clash)} with {what}",
+                            code="overlapping_constraints", edit=e.name, ids=clash[:REPORT_IDS].tolist())
+        owner[e.nodes] = edit_owner(j)
     constrained_mask = (owner != -1) & corner
     ref = mesh.referenced
     diag = float(np.linalg.norm(V0[ref].max(0) - V0[ref].min(0))) if ref.any() else 0.0
@@ -245,7 +272,7 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
     free_shell = free_shells(mesh, constrained_mask, np.r_[ties, corr.links].astype(np.int64), spec.voids)
     for t in corr.targets:
         constrained_mask[t.ids] = owner[t.ids] != -1
-    blocks = position_blocks(mesh, spec, sel_ids, fixed, handle_ids, pivots, ties, corr)
+    blocks = position_blocks(mesh, spec, sel_ids, fixed, handle_ids, pivots, ties, corr, edits)
     rblocks, rbasis = rotation_blocks(mesh, spec, sel_ids, fixed, handle_ids, ties, corr)
     rvector = any(b.vector for b in rblocks)
     sblocks, sbasis = rotation_blocks(mesh, spec, sel_ids, fixed, handle_ids, ties, corr, "scales") if rvector \
@@ -292,7 +319,8 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
         points={e.name: (_point_at(mesh, sel_ids, e.at), None if e.target is None else np.asarray(e.target))
                 for e in spec.points},
         motion={e.name: _point_at(mesh, sel_ids, e.at) for e in spec.motion},
-        relative={e.name: _point_at(mesh, sel_ids, e.a) - _point_at(mesh, sel_ids, e.b) for e in spec.relative})
+        relative={e.name: _point_at(mesh, sel_ids, e.a) - _point_at(mesh, sel_ids, e.b) for e in spec.relative},
+        radius={e.name: e.nominal for e in edits if isinstance(e, RadiusEdit)})
     return ConstraintSet(
         sel_ids=sel_ids, fixed=fixed, fixed_mid=fixed_mid, owner=owner, handle_names=handle_names,
         handle_ids=handle_ids, handle_mid=handle_mid, handle_pivots=pivots,
@@ -300,7 +328,8 @@ def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
         rblocks=rblocks, rbasis=rbasis, rvector=rvector, sblocks=sblocks, sbasis=sbasis, sasm=sasm, sra=sra,
         corr=corr, vector=vector, mode=mode, diag=diag, conflict_tol=conflict_tol, bidx=bidx,
         unknowns=unknowns, pasm=pasm, pra=pra, rbidx=rbidx, rasm=rasm, rra=rra, rest_constraints=rest_constraints,
-        movable=movable, rest=rest, bounds=MoveBounds(center, diag), mirrors=mirrors)
+        movable=movable, rest=rest, bounds=MoveBounds(center, diag), mirrors=mirrors, edits=edits,
+        roles=np.where(owner <= edit_owner(0), 0, owner) if edits else None)
 
 
 def _interior_mirrors(corr: Correspondences, constrained: np.ndarray) -> tuple[InteriorMirror, ...]:
@@ -345,7 +374,7 @@ def _point_at(mesh: Mesh, sel_ids: dict[str, np.ndarray], p: Any) -> np.ndarray:
 
 def _solve_mode(mesh: Mesh, spec: Spec, blocks: list[Block], free_shell: np.ndarray) -> str:
     """Split where it is exact, else joint (module docstring of :mod:`solver.deform.positions`)."""
-    general = [b for b in blocks if b.kind not in ("fixed", "handle", "target")]
+    general = [b for b in blocks if b.kind not in ("fixed", "handle", "target", *EDIT_KINDS)]
     touches_interior = any(mesh.interior[b.vert].any() for b in general)
     if free_shell.any():
         on_void = [b for b in blocks if free_shell[b.vert].any()]

@@ -106,10 +106,20 @@ class Deformer:
         return self.data.nbytes
 
     def parse_move(self, move: Move | MoveDocument | dict[str, Any]) -> Move:
-        """Parse a MOVE document (a dict, or its validated model) against this SPEC's names and the mesh's extent."""
+        """Parse a MOVE document (a dict, or its validated model) against this SPEC's names and the mesh's extent.
+
+        The edits' values are checked against their resolved edits too (:meth:`Edit.check
+        <solver.constraints.edits.Edit.check>`: a radius that stays positive, twist angles within range,
+        control points of the lattice).
+        """
         if isinstance(move, Move):
             return move
-        return parse_move(move, self.handle_names, self.spec.names, self.data.constraints.bounds)
+        mv = parse_move(move, self.handle_names, self.spec.names, self.data.constraints.bounds)
+        for e in self.data.constraints.edits:
+            value = mv.edit(e.kind, e.name)
+            if value is not None:
+                e.check(value, f"MOVE.{e.kind}.{e.name}")
+        return mv
 
     @_solves
     def solve_positions(self, move: Move | dict[str, Any]) -> Solved:

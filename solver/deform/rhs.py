@@ -10,7 +10,7 @@ from ..constraints.assembly import block_targets
 from ..constraints.move import Move
 from ..mesh import Mesh
 from ..ops.rotation import rotate_by_log
-from .constraint_set import ConstraintSet
+from .constraint_set import ConstraintSet, edit_owner
 from .rotation_field import RotationField
 from .thin_walls import WallRows
 
@@ -24,7 +24,7 @@ class RightHandSides:
     Attributes
     ----------
     U : (k, 3) float array
-        Targets of the fixed and handle corner nodes (``ConstraintSet.constrained`` order).
+        Targets of the fixed, handle and edit corner nodes (``ConstraintSet.constrained`` order).
     c : (l, 3) float array
         Soft rows' right-hand side: the rotated and scaled mean curvature
         normals ``s_i R_i delta_i`` of the position system's vertex rows (eq. 3.2;
@@ -39,7 +39,7 @@ class RightHandSides:
 
 
 def handle_targets(mesh: Mesh, cs: ConstraintSet, move: Move, ids: np.ndarray) -> np.ndarray:
-    """Targets (k, 3) of fixed and handle nodes ``ids`` (corner or mid-side) under ``move``."""
+    """Targets (k, 3) of fixed, handle and edit nodes ``ids`` (corner or mid-side) under ``move``."""
     V0 = mesh.V
     U = V0[ids].copy()
     own = cs.owner[ids]
@@ -49,6 +49,13 @@ def handle_targets(mesh: Mesh, cs: ConstraintSet, move: Move, ids: np.ndarray) -
             continue
         rows = np.flatnonzero(own == h)
         U[rows] = hm.apply(V0[ids[rows]], cs.handle_pivots[name])
+    for j, e in enumerate(cs.edits):
+        value = move.edit(e.kind, e.name)
+        if value is None:
+            continue
+        rows = np.flatnonzero(own == edit_owner(j))
+        if rows.size:
+            U[rows] = e.positions(value)[np.searchsorted(e.nodes, ids[rows])]
     return U
 
 

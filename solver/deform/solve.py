@@ -209,7 +209,8 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         "inverted_elements": 0, "inverted_ids": [], "degenerate_elements": 0,
         "min_scaled_jacobian": None, "p01_scaled_jacobian": None}
     before = data.check.sj_before if data.check is not None else (None, None)
-    max_disp, max_handle, max_free, finite = displacement_maxima(solved.P, data.mesh.V, cs.owner)
+    max_disp, max_handle, max_free, finite = displacement_maxima(solved.P, data.mesh.V,
+                                                                 cs.owner if cs.roles is None else cs.roles)
     flat = data.check.degenerate_at_rest if data.check is not None else np.zeros(0, np.int64)
     targets = None
     if cs.corr.targets:
@@ -230,7 +231,7 @@ def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | 
         constraint_residual_relative=cons.residual_max / cs.diag if cs.diag else 0.0,
         constraint_rows=cons.rows, redundant_constraints=cons.redundant,
         conflicting_constraints=cons.conflicting,
-        max_displacement=max_disp, max_handle_displacement=max_handle if cs.handle_names else None,
+        max_displacement=max_disp, max_handle_displacement=max_handle if cs.handle_names or cs.edits else None,
         max_free_displacement=max_free,
         solve_method=data.spec.method, solve_mode=data.positions.mode, refine_steps=data.positions.refine_steps,
         backend=_backend(data), lu_backend=data.positions.lu_backend,

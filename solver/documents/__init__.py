@@ -5,6 +5,9 @@
 * :mod:`~solver.documents.move` -- the MOVE document, as pydantic models. The library's
   :func:`~solver.constraints.move.parse_move` and the service's OpenAPI schema both use them, so a MOVE
   has one definition and is validated once;
+* :mod:`~solver.documents.edits`, :mod:`~solver.documents.edit_moves` -- the daily edits' SPEC entries
+  (``radius``, ``twist``, ``map``, ``offset``, ``lattice``) and their MOVE parameters;
+  :mod:`~solver.documents.geometry` the directions, boxes, axes and analytic geometry they name;
 * :mod:`~solver.documents.report_record` -- the REPORT, as the frozen dataclass every update fills (no
   pydantic); :mod:`~solver.documents.report` builds its pydantic model from it, for the OpenAPI schema;
 * :mod:`~solver.documents.validation` -- a model's validation errors as a :class:`~solver.errors.SpecError`

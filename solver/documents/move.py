@@ -15,10 +15,11 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
 from ..limits import EXTENT, TARGET_AMOUNT_MAX
+from .edit_moves import LatticeMove, MapMove, OffsetMove, RadiusMove, TwistAngle, TwistMove
 from .numbers import Angle, Quat, Scale, Vec3
 
 __all__ = ["Move", "HandleMove", "Rotation", "RelativeMove", "FeatureMove", "MotionMove", "TargetMove",
-           "TargetAmount"]
+           "TargetAmount", "RadiusMove", "TwistMove", "TwistAngle", "MapMove", "OffsetMove", "LatticeMove"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
@@ -117,6 +118,11 @@ class Move(BaseModel):
     features: dict[str, FeatureMove] = Field(default_factory=dict, max_length=10_000)
     motion: dict[str, MotionMove] = Field(default_factory=dict, max_length=10_000)
     targets: dict[str, TargetMove] = Field(default_factory=dict, max_length=1000)
+    radius: dict[str, RadiusMove] = Field(default_factory=dict, max_length=10_000)
+    twist: dict[str, TwistMove] = Field(default_factory=dict, max_length=10_000)
+    map: dict[str, MapMove] = Field(default_factory=dict, max_length=10_000)
+    offset: dict[str, OffsetMove] = Field(default_factory=dict, max_length=10_000)
+    lattice: dict[str, LatticeMove] = Field(default_factory=dict, max_length=1000)
 
     def dump(self) -> dict[str, Any]:
         """The document as given (fields not set are left out)."""

@@ -83,9 +83,9 @@ class Report:
     targets: dict[str, Any] | None = field(default=None, metadata={
         "description": "per SPEC target: {amount, nodes, iterations, max_distance, mean_distance}"})
     max_handle_displacement: float | None = field(default=None, metadata={
-        "description": "largest displacement of a handle's node (left out without handles)"})
+        "description": "largest displacement of a node of a handle or an edit (left out without either)"})
     max_free_displacement: float | None = field(default=None, metadata={
-        "description": "largest displacement of a node neither fixed nor in a handle; above "
+        "description": "largest displacement of a node neither fixed nor in a handle nor in an edit; above "
                        "max_handle_displacement, the morph moves something further than its handles"})
     timings: dict[str, Any] = field(default_factory=dict, metadata={
         "description": "setup stages and update stages in ms: rhs_ms, solve_ms, check_ms, report_ms, "

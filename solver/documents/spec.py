@@ -30,20 +30,16 @@ from pydantic_core import PydanticCustomError
 
 from ..limits import THREADS_MAX
 from .choices import BACKENDS, PRECISIONS
+from .edits import Lattice, Mapping, Offset, Radius, Twist
+from .geometry import Axis, Box, Direction3
 from .numbers import INTEGRAL, Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, WallWeight, Weight
 
 __all__ = ["Spec", "SolveSettings", "Selection", "Target", "SELECTION_KINDS", "Box", "Sphere", "Plane",
            "Constraints", "Point", "Motion", "Relative", "RelativePoint", "Symmetry", "Cyclic", "Feature",
-           "Sliding", "ThinWalls", "Ties", "StoredSurface", "InlineSurface"]
+           "Sliding", "ThinWalls", "Ties", "StoredSurface", "InlineSurface", "Radius", "Twist", "Mapping", "Offset",
+           "Lattice", "Axis", "Direction3"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
-
-
-def _nonzero(v: list[float]) -> list[float]:
-    n = math.hypot(*v)
-    if not (math.isfinite(n) and n > 1e-150):
-        raise ValueError(f"must be non-zero, got {v}")
-    return v
 
 
 def _distinct(ids: list[int]) -> list[int]:
@@ -52,8 +48,6 @@ def _distinct(ids: list[int]) -> list[int]:
     return ids
 
 
-#: A direction or a normal: three numbers, not all zero (the parser uses it as a unit vector).
-Direction3 = Annotated[Vec3, AfterValidator(_nonzero)]
 #: Vertex ids of one POINT or pair, each once.
 DistinctIds = Annotated[list[VertexId], Field(json_schema_extra={"uniqueItems": True}), AfterValidator(_distinct)]
 #: The forms of a POINT, of which it has exactly one, and the fields each form may add.
@@ -66,20 +60,6 @@ def _point_schema(schema: dict[str, Any]) -> None:
     schema["dependentRequired"] = {"t": ["edge"], "barycentric": ["face"], "weights": ["vertices"]}
     schema.setdefault("allOf", []).extend([{"if": {"required": ["edge"]}, "then": {"required": ["t"]}},
                                            {"if": {"required": ["face"]}, "then": {"required": ["barycentric"]}}])
-
-
-class Box(BaseModel):
-    """A closed axis-aligned box."""
-
-    model_config = _STRICT
-    min: Vec3
-    max: Vec3
-
-    @model_validator(mode="after")
-    def _ordered(self) -> Box:
-        if any(a > b for a, b in zip(self.min, self.max, strict=True)):
-            raise ValueError(f"min {self.min} exceeds max {self.max}")
-        return self
 
 
 class Sphere(BaseModel):
@@ -260,14 +240,6 @@ class Symmetry(BaseModel):
     tolerance: NonNegLength | None = None
 
 
-class Axis(BaseModel):
-    """An axis of rotation."""
-
-    model_config = _STRICT
-    point: Vec3
-    direction: Direction3
-
-
 class Cyclic(BaseModel):
     """Cyclic symmetry of a sector: face B is face A turned by ``angle_deg`` about the axis."""
 
@@ -425,6 +397,11 @@ class Spec(BaseModel):
     targets: list[Target] = Field(default_factory=list, max_length=1000)
     symmetry: list[Symmetry] = Field(default_factory=list, max_length=100)
     cyclic: list[Cyclic] = Field(default_factory=list, max_length=100)
+    radius: list[Radius] = Field(default_factory=list, max_length=10_000)
+    twist: list[Twist] = Field(default_factory=list, max_length=10_000)
+    map: list[Mapping] = Field(default_factory=list, max_length=10_000)
+    offset: list[Offset] = Field(default_factory=list, max_length=10_000)
+    lattice: list[Lattice] = Field(default_factory=list, max_length=1000)
     precision: Literal[PRECISIONS] = Field(  # type: ignore[valid-type]
         "mixed", description="shorthand for solve_options.precision")
     solve_options: SolveSettings | None = None

@@ -22,7 +22,11 @@ differences:
   ``J_l(phi) = I + (1 - cos a) / a**2 [phi]x + (a - sin a) / a**3 [phi]x**2``,
   ``a = |phi|``;
 * scales enter as ``exp`` of log-scales (handles, propagated as
-  ``sigma = Phi s``; features; relative constraints): ``d exp(x) = exp(x) dx``.
+  ``sigma = Phi s``; features; relative constraints): ``d exp(x) = exp(x) dx``;
+* the edits' nodes: their edit's own derivative
+  (:meth:`~solver.constraints.edits.Edit.derivative`), the displacement of the
+  shape's value for the edits linear in it (radius changes, map amounts,
+  offsets, lattices) and ``phi_k(s) d x (p - a)`` for a twist.
 
 Hard-row kinds this module does not know are differenced centrally in the
 MOVE (step :data:`TARGET_STEP`): exact for kinds linear in the MOVE, such as
@@ -44,8 +48,11 @@ import meshio
 import numpy as np
 
 from ..constraints.assembly import Assembly
+from ..constraints.edit_entries import EDIT_KINDS
+from ..constraints.edits import Edit
 from ..constraints.move import Move
 from ..constraints.rows import Block, block_target
+from ..deform.constraint_set import edit_owner
 from ..deform.deformer import Deformer
 from ..deform.rhs import RightHandSides
 from ..errors import InvalidMeshError
@@ -141,12 +148,26 @@ def rotation_derivative(w: np.ndarray, r: np.ndarray, dr: np.ndarray) -> np.ndar
     return np.cross(left_jacobian(2.0 * np.asarray(r, np.float64), 2.0 * dr), w)
 
 
+def _edit_step(shapes: Shapes, e: Edit, k: int) -> Any:
+    """Shape ``k``'s value of edit ``e`` (None: the shape leaves it at rest)."""
+    steps = shapes.edits.get(e.kind, {}).get(e.name)
+    return None if steps is None else steps[k]
+
+
 def _handle_derivative(deformer: Deformer, shapes: Shapes, mv: Move, ids: np.ndarray, U: np.ndarray,
                        k: int) -> np.ndarray:
-    """Derivative (p, 3) of the targets ``U`` of nodes ``ids`` (``u = c + t + s R (p0 - c)``) along shape ``k``."""
+    """Derivative (p, 3) of the targets ``U`` of nodes ``ids`` along shape ``k``.
+
+    Handle nodes: ``u = c + t + s R (p0 - c)``; edit nodes: as their edits place them.
+    """
     cs = deformer.data.constraints
     out = np.zeros((ids.size, 3))
     own = cs.owner[ids]
+    for j, e in enumerate(cs.edits):
+        step = _edit_step(shapes, e, k)
+        rows = np.flatnonzero(own == edit_owner(j))
+        if step is not None and rows.size:
+            out[rows] = e.derivative(mv.edit(e.kind, e.name), step)[np.searchsorted(e.nodes, ids[rows])]
     for h, name in enumerate(shapes.handles):
         hm = mv.handles.get(name)
         rows = np.flatnonzero(own == h)
@@ -224,10 +245,19 @@ def _d_scaled(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
     return out
 
 
+def _d_edit(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
+    """An edit's corner targets: :meth:`Edit.derivative <solver.constraints.edits.Edit.derivative>`."""
+    assert b.edit is not None
+    step = _edit_step(a.shapes, b.edit, a.k)
+    if step is None:
+        return np.zeros_like(t)
+    return b.edit.derivative(a.move.edit(b.kind, b.name), step)[b.edit.corner]
+
+
 #: Analytic derivative of each hard-row kind's targets (:data:`solver.constraints.rows.TARGETS`).
 ANALYTIC: dict[str, Callable[[Block, np.ndarray, _Along], np.ndarray]] = {
     "fixed": _zero, "tie": _zero, "sliding": _zero, "handle": _d_handle, "point": _d_point,
-    "motion": _d_motion, "relative": _d_scaled, "feature": _d_scaled,
+    "motion": _d_motion, "relative": _d_scaled, "feature": _d_scaled, **{kind: _d_edit for kind in EDIT_KINDS},
 }
 
 

@@ -12,7 +12,11 @@ of the shapes, each weighted by its value:
   (``r_h = sum_k theta_k r_kh``, ``r = (angle / 2) axis``: the quantity the
   rotation field propagates, Masuda & Ogawa eq. 3.5-3.9, ECLS eq. 24-27);
 * handle, feature and relative scales multiply as ``s ** theta``
-  (their logarithms add, as the rotation field's log-scales do).
+  (their logarithms add, as the rotation field's log-scales do);
+* the edits' parameters add: radius changes (a shape's new radius counts as
+  its change from the edit's nominal rest radius), twist rates or twist tables
+  (over every row's position), map amounts, offset distances and control-point
+  displacements.
 
 Every part of the variant is linear in ``theta`` except the exponential maps:
 the rotation matrices of the logarithms and ``exp`` of the log-scales.
@@ -23,7 +27,8 @@ SPEC (an unknown handle or name, a bad number raises
 :class:`~solver.errors.SpecError` naming the shape); shapes that turn or scale
 one handle must do so about one pivot; a relative constraint gets offsets or
 scales, not both. Error codes: ``invalid_shapes`` (the document),
-``pivot_conflict``, ``relative_conflict``, ``rotation_range`` (a variant turns
+``pivot_conflict``, ``relative_conflict``, ``twist_conflict`` (a twist given a
+linear law by one shape and a table by another), ``rotation_range`` (a variant turns
 a handle by 360 degrees or more, which a MOVE cannot express), and the MOVE
 parser's own (``invalid_spec``) with ``details["shape"]``.
 """
@@ -31,11 +36,12 @@ parser's own (``invalid_spec``) with ``details["shape"]``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from ..constraints.edit_values import EditValue, RadiusValue, TwistValue, combined_value
 from ..constraints.move import Move
 from ..deform.deformer import Deformer
 from ..documents.shapes import RESERVED
@@ -98,6 +104,9 @@ class Shapes:
         Logarithms of relative and feature scales per shape.
     target_amount : dict of str to (K,) float array
         Target-surface amounts per shape (MOVE ``targets``).
+    edits : dict of str to dict of str to tuple
+        Per edit kind and name, each shape's value at parameter 1 (None: the shape leaves it at rest);
+        radius values are changes (``delta``).
     """
 
     names: tuple[str, ...]
@@ -115,6 +124,7 @@ class Shapes:
     relative_log_scale: dict[str, np.ndarray]
     feature_log_scale: dict[str, np.ndarray]
     target_amount: dict[str, np.ndarray]
+    edits: dict[str, dict[str, tuple[EditValue | None, ...]]] = field(default_factory=dict)
 
     @property
     def count(self) -> int:
@@ -272,7 +282,28 @@ def parse_shapes(doc: Any, deformer: Deformer) -> Shapes:
     return Shapes(names=names, documents={n: shapes[n].dump() for n in names}, handles=handles, moved=moved,
                   translation=T, log_rotation=R, log_scale=S, pivots=pivots, centroids=centroids, points=points,
                   motion=motion, offsets=offsets, relative_log_scale=rel_scale, feature_log_scale=feat_scale,
-                  target_amount=amounts)
+                  target_amount=amounts, edits=_edit_steps(names, moves, rest.radius))
+
+
+def _edit_steps(names: tuple[str, ...], moves: dict[str, Move], nominal: dict[str, float]
+                ) -> dict[str, dict[str, tuple[EditValue | None, ...]]]:
+    """Each shape's value of every edit some shape names; a new radius as its change from the nominal radius."""
+    steps: dict[str, dict[str, list[EditValue | None]]] = {}
+    for k, name in enumerate(names):
+        for kind, named in moves[name].edits.items():
+            for edit, v in named.items():
+                if isinstance(v, RadiusValue) and v.radius is not None:
+                    v = RadiusValue(delta=v.radius - nominal[edit])
+                steps.setdefault(kind, {}).setdefault(edit, [None] * len(names))[k] = v
+    for edit, values in steps.get("twist", {}).items():
+        laws = [(names[k], "table" if v.rate is None else "linear") for k, v in enumerate(values)
+                if isinstance(v, TwistValue)]
+        if len({law for _, law in laws}) > 1:
+            a = next(n for n, law in laws if law == "linear")
+            b = next(n for n, law in laws if law == "table")
+            raise SpecError(f"shapes {a!r} and {b!r} give twist {edit!r} a linear law and a table; a variant needs "
+                            "one kind of law", code="twist_conflict", shape=b, other=a, twist=edit)
+    return {kind: {edit: tuple(v) for edit, v in named.items()} for kind, named in steps.items()}
 
 
 def _check_theta(shapes: Shapes, theta: Any, where: str) -> np.ndarray:
@@ -342,6 +373,8 @@ def combine(shapes: Shapes, theta: Any, where: str = "variant") -> dict[str, Any
         doc["motion"] = {k: {"point": v.at(th).tolist()} for k, v in shapes.motion.items()}
     if shapes.target_amount:
         doc["targets"] = {k: {"amount": float(th @ v)} for k, v in shapes.target_amount.items()}
+    for kind, named in shapes.edits.items():
+        doc[kind] = {edit: combined_value(kind, list(steps), th).to_dict() for edit, steps in named.items()}
     return doc
 
 

@@ -195,6 +195,7 @@ class ParsePool:
         self._turn: collections.deque[str] = collections.deque()
         self._running: collections.Counter[str] = collections.Counter()
         self._starting = 0
+        self._spawning: set[Any] = set()  # processes started that have not said they are ready
         self._lock = threading.RLock()
         self._closed = False
         self.failed_starts = 0
@@ -207,12 +208,18 @@ class ParsePool:
         p = _SPAWN.Process(target=_serve, args=(child, self.limits.memory_bytes, self.warm), daemon=True,
                            name="tetmorph-parse")
         p.start()
-        child.close()
-        hello = parent.recv() if parent.poll(120) else None
-        if not hello or hello[0] != "ready":
-            p.kill()
-            raise RuntimeError("a parse worker did not start")
-        return _Worker(p, parent)
+        with self._lock:
+            self._spawning.add(p)
+        try:
+            child.close()
+            hello = parent.recv() if parent.poll(120) else None
+            if not hello or hello[0] != "ready":
+                p.kill()
+                raise RuntimeError("a parse worker did not start")
+            return _Worker(p, parent)
+        finally:
+            with self._lock:
+                self._spawning.discard(p)
 
     def _add(self) -> None:
         """Start one worker (in the calling thread: a spawn takes a second or two)."""
@@ -435,9 +442,9 @@ class ParsePool:
     # ------------------------------------------------------------------ state
 
     def pids(self) -> list[int]:
-        """The workers' process ids."""
+        """The workers' process ids (those still starting too)."""
         with self._lock:
-            return [w.process.pid for w in [*self._idle, *self._busy]]
+            return [w.process.pid for w in [*self._idle, *self._busy]] + [p.pid for p in self._spawning]
 
     def health(self) -> dict[str, Any]:
         """Workers idle, busy and starting, calls waiting, the oldest call's age, and whether it is stuck.

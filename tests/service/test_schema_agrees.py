@@ -84,14 +84,18 @@ BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {
     "invalid_request": ("two presets of one name (uniqueItems compares whole items, not one field); or "
                         "relations between the numbers of one array or object: a box's min above its max, a "
                         "zero normal or direction, barycentric coordinates that do not sum to 1, weights that "
-                        "sum to zero, a cyclic angle of whole turns, a twist table's rows in increasing 'at'; "
-                        "a field one value of another requires (a bend's toward); or the pattern of an object's "
-                        "keys (a lattice's control point 'i,j,k': propertyNames, which the generator does not "
-                        "apply)",
+                        "sum to zero, a cyclic angle of whole turns, a twist table's rows in increasing 'at', "
+                        "a bend's toward off its axis, a lattice box of positive extent; fields that one value "
+                        "of another requires or excludes (a bend's toward, an 'along' projection's direction "
+                        "onto a surface, a symmetric offset's other opposite selection, one of two forms of "
+                        "an edit); or the pattern of an object's keys (a lattice's control point 'i,j,k': "
+                        "propertyNames, which the generator does not apply)",
                         lambda e, c: any(t in e["message"] for t in (
                             "names are unique", "exceeds max", "non-zero", "sum to 1", "sum to zero",
-                            "multiple of 360", "strictly increasing 'at'", "needs toward",
-                            "[key]: String should match pattern"))),
+                            "multiple of 360", "strictly increasing 'at'", "needs toward", "runs along the axis",
+                            "goes with mode", "needs a direction", "maps onto a surface", "goes with projection",
+                            "needs an opposite", "another selection than", "positive extent",
+                            "needs exactly one of", "has exactly one of", "[key]: String should match pattern"))),
     # the service's configuration
     "solver_unavailable": ("no FE solver of that name is configured (TETMORPH_STUDY_SOLVERS)", _always),
     "engine_unavailable": ("engine 'ray' without a Ray cluster (TETMORPH_RAY_ADDRESS)", _always),

@@ -1,7 +1,7 @@
 """One tenant's slow or hostile upload never holds up another tenant's upload and MOVE.
 
 Uploads are read in worker processes (service/state/parse_pool.py): while tenant alpha's deck is
-being read (a large deck with every element on five continuation lines, which the reader takes
+being read (a deck of 1M elements, each on five continuation lines, which the reader takes
 line by line), tenant beta uploads a mesh, makes a session and MOVEs, and is answered before
 alpha's read is stopped at its time limit (422 parse_time_limit), after which the service reads
 files again.
@@ -22,7 +22,7 @@ SPEC = {"selections": {"fix": {"set": "FIXED"}, "hole": {"set": "HOLE"}}, "fixed
         "handles": {"hole": "hole"}}
 
 
-def _slow_deck(n_elements: int = 600_000) -> bytes:
+def _slow_deck(n_elements: int = 1_000_000) -> bytes:
     """A legal deck whose element lines are continued over five lines each (read line by line)."""
     rng = np.random.default_rng(0)
     nodes = "".join(f"{k + 1}, {x:.6f}, {y:.6f}, {z:.6f}\n" for k, (x, y, z) in enumerate(rng.random((2000, 3))))
@@ -35,7 +35,7 @@ def test_a_slow_upload_of_one_tenant_does_not_hold_up_another_tenants_upload_and
     deck = _slow_deck()
     done: dict[str, float] = {}
     answers: dict[str, object] = {}
-    with running(tmp_path / "d", api_keys="alpha,beta", parse_time_limit_s=3.0, parse_workers=2) as tc:
+    with running(tmp_path / "d", api_keys="alpha,beta", parse_time_limit_s=5.0, parse_workers=2) as tc:
         def alpha() -> None:
             answers["alpha"] = tc.post("/v1/meshes", files=[("file", ("slow.inp", deck))],
                                        headers={"X-API-Key": "alpha"})

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import UnreadableFileError, UnsupportedElementError
 from .diagnose import check_last_line
 from .element_words import element_words
-from .patch_medit import medit_keywords, medit_point_count, patch_medit
+from .patch_medit import _entry_width, medit_keywords, medit_point_count, patch_medit
 from .patchers import Patcher
 from .read_bounds import ReadBounds, check_bounds, check_holds
 from .registry import FileFormat, register_format
@@ -82,16 +82,7 @@ def _entry_bytes(template: str, dim: int, isize: int, fsize: int) -> int | None:
     >>> _entry_bytes("dri", 3, 4, 8), _entry_bytes("iiiii", 3, 4, 8), _entry_bytes("hr", 3, 4, 8)
     (28, 20, None)
     """
-    width, count = 0, 1
-    for ch in template:
-        if ch == "d":
-            count = dim
-            continue
-        if ch not in "ir":
-            return None
-        width += count * (isize if ch == "i" else fsize)
-        count = 1
-    return width or None
+    return _entry_width(template, dim, isize, fsize) or None
 
 
 def _binary_sizes(path: str, name: str, size: int, bounds: ReadBounds) -> None:

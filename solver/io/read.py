@@ -18,7 +18,6 @@ from .bounds import ReadBounds, check_declared_sizes, check_read_sizes, memory_e
 from .diagnose import check_complete, check_file, diagnose
 from .element_words import cell_counts, element_words
 from .formats import SURFACE_FORMATS, format_of
-from .patch_inp import node_block_sets
 from .patchers import patcher_for
 from .registry import FORMATS
 
@@ -293,11 +292,6 @@ def _read_file(path: str, fmt: str, bounds: ReadBounds) -> meshio.Mesh:
             except (OSError, ValueError):
                 pass
         raise diagnose(path, fmt, e) from e
-    if fmt == "abaqus":  # meshio drops the sets named on *NODE lines; they are sets like any *NSET
-        with open(path, "rb") as fh:
-            for name, ids in node_block_sets(fh.read()).items():
-                if ids.size and ids.max() < len(m.points):
-                    m.point_sets.setdefault(name, ids)
     return m
 
 

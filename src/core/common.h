@@ -43,5 +43,6 @@ void register_multifrontal(nb::module_ &m);
 void register_sweeps(nb::module_ &m);
 void register_products(nb::module_ &m);
 void register_geometry(nb::module_ &m);
+void register_validity(nb::module_ &m);
 
 }  // namespace tmc

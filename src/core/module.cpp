@@ -8,4 +8,5 @@ NB_MODULE(tetmorph_core, m) {
     tmc::register_sweeps(m);
     tmc::register_products(m);
     tmc::register_geometry(m);
+    tmc::register_validity(m);
 }

@@ -9,7 +9,8 @@ Each supernode keeps four dense blocks, row-major: the strictly lower part of
 back-substitution then reads every value once per sweep as a contiguous
 stream (no index per entry) and touches the right-hand side through ``R``
 once per supernode. The sweeps are the kernels of :mod:`solver.linalg.sweeps`;
-this module lays a factor out for them.
+this module lays a factor out for them (its index work in compiled kernels of
+``src/core/sweeps.cpp``).
 
 Why not PARDISO's or CHOLMOD's own solve: their solve phases cost more per
 call than these sweeps at every size measured (``benchmarks/bench_update.py``,
@@ -38,9 +39,9 @@ solves without a lock.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 import scipy.sparse as sp
+import tetmorph_core
 
 from .sweeps import _gather, _scatter, _sweep3, _sweep_wide
 
@@ -88,17 +89,21 @@ def supernode_starts(indptr: np.ndarray, first: np.ndarray, breaks: tuple[int, .
     return np.r_[np.flatnonzero(~join), n].astype(np.int64)
 
 
-@numba.njit(cache=True, nogil=True)
-def _subtrees(parent):  # pragma: no cover - compiled
-    """Size and smallest column of every column's subtree (parents come after their children)."""
-    n = parent.shape[0]
-    size = np.ones(n, np.int64)
-    lo = np.arange(n)
-    for c in range(n):
-        p = parent[c]
-        if p >= 0:
-            size[p] += size[c]
-            lo[p] = min(lo[p], lo[c])
+def _subtrees(parent: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Size and smallest column of every column's subtree (parents come after their children).
+
+    Parameters
+    ----------
+    parent : (n,) int64 array
+        Parent of every column (-1 for a root).
+
+    Returns
+    -------
+    size, lo : (n,) int64 arrays
+    """
+    size = np.empty(parent.size, np.int64)
+    lo = np.empty(parent.size, np.int64)
+    tetmorph_core.supernodal_subtrees(parent, size, lo)
     return size, lo
 
 
@@ -154,110 +159,46 @@ def tree_split(first: np.ndarray, work: np.ndarray) -> tuple[int, int]:
     return m1, top
 
 
-@numba.njit(cache=True, nogil=True)
-def _column_stats(Lp, Li):  # pragma: no cover - compiled
-    """First row below the diagonal of every column (-1 when none) and how many rows lie below it."""
-    n = Lp.shape[0] - 1
-    first = np.full(n, -1, np.int64)
-    below = np.zeros(n, np.int64)
-    for c in range(n):
-        m = n
-        for p in range(Lp[c], Lp[c + 1]):
-            r = Li[p]
-            if r > c:
-                below[c] += 1
-                if r < m:
-                    m = r
-        if m < n:
-            first[c] = m
+def _column_stats(Lp: np.ndarray, Li: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First row below the diagonal of every column (-1 when none) and how many rows lie below it.
+
+    Parameters
+    ----------
+    Lp, Li : int64 arrays
+        CSC column pointers (n + 1,) and row indices of ``L``.
+
+    Returns
+    -------
+    first, below : (n,) int64 arrays
+    """
+    n = Lp.size - 1
+    first = np.empty(n, np.int64)
+    below = np.empty(n, np.int64)
+    tetmorph_core.supernodal_column_stats(Lp, Li, first, below)
     return first, below
 
 
-@numba.njit(cache=True, nogil=True)
-def _rows_below(starts, Lp, Li, rstart, R):  # pragma: no cover - compiled
-    """``R``: for every supernode, the rows below the diagonal of its last column."""
-    for s in range(starts.shape[0] - 1):
-        c = starts[s + 1] - 1
-        k = rstart[s]
-        for p in range(Lp[c], Lp[c + 1]):
-            if Li[p] > c:
-                R[k] = Li[p]
-                k += 1
+def _transpose(Up: np.ndarray, Ui: np.ndarray, Ux: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """CSC of ``U^T`` (the rows of ``U``) from the CSC of ``U``, by a counting sort.
 
+    Parameters
+    ----------
+    Up, Ui : int64 arrays
+        CSC column pointers (n + 1,) and row indices (nnz,) of ``U``.
+    Ux : (nnz,) float64 array
 
-@numba.njit(cache=True, nogil=True)
-def _transpose(Up, Ui, Ux):  # pragma: no cover - compiled
-    """CSC of ``U^T`` (the rows of ``U``) from the CSC of ``U``, by a counting sort."""
-    n = Up.shape[0] - 1
-    nnz = Up[n]
-    Tp = np.zeros(n + 1, np.int64)
-    for p in range(nnz):
-        Tp[Ui[p] + 1] += 1
-    for i in range(n):
-        Tp[i + 1] += Tp[i]
-    nxt = Tp[:-1].copy()
+    Returns
+    -------
+    Tp : (n + 1,) int64 array
+    Ti : (nnz,) int64 array
+    Tx : (nnz,) float64 array
+    """
+    nnz = int(Up[-1])
+    Tp = np.empty(Up.size, np.int64)
     Ti = np.empty(nnz, np.int64)
     Tx = np.empty(nnz, np.float64)
-    for c in range(n):
-        for p in range(Up[c], Up[c + 1]):
-            r = Ui[p]
-            q = nxt[r]
-            Ti[q] = c
-            Tx[q] = Ux[p]
-            nxt[r] = q + 1
+    tetmorph_core.supernodal_transpose(Up, Ui, Ux, Tp, Ti, Tx)
     return Tp, Ti, Tx
-
-
-@numba.njit(cache=True, nogil=True)
-def _fill(starts, Lp, Li, Lx, lower, rstart, R, bstart, dstart, B, D, dinv):  # pragma: no cover - compiled
-    """Scatter one triangle's columns (``lower``: ``L`` by columns; else ``U^T`` by columns) into the blocks.
-
-    Returns False when an entry falls outside its supernode's pattern.
-    """
-    n = Lp.shape[0] - 1
-    where = np.full(n, -1, np.int64)
-    for s in range(starts.shape[0] - 1):
-        c0, c1 = starts[s], starts[s + 1]
-        w = c1 - c0
-        r0, r = rstart[s], rstart[s + 1] - rstart[s]
-        for i in range(r):
-            where[R[r0 + i]] = i
-        for c in range(c0, c1):
-            a = c - c0
-            for p in range(Lp[c], Lp[c + 1]):
-                row = Li[p]
-                v = Lx[p]
-                if row == c:
-                    if v == 0.0:
-                        return False
-                    dinv[c] = 1.0 / v
-                elif row < c:
-                    return False
-                elif row < c1:
-                    e = row - c0
-                    if lower:
-                        D[dstart[s] + e * w + a] = v
-                    else:
-                        D[dstart[s] + a * w + e] = v
-                else:
-                    i = where[row]
-                    if i < 0:
-                        return False
-                    B[bstart[s] + a * r + i] = v
-        for i in range(r):
-            where[R[r0 + i]] = -1
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def _transpose_blocks(starts, dstart, D, out):  # pragma: no cover - compiled
-    """Every supernode's (w, w) diagonal block of ``D``, transposed into ``out``."""
-    for s in range(starts.shape[0] - 1):
-        w = starts[s + 1] - starts[s]
-        d0 = dstart[s]
-        for a in range(w):
-            for e in range(w):
-                out[d0 + a * w + e] = D[d0 + e * w + a]
 
 
 class SupernodalFactor:
@@ -313,7 +254,7 @@ class SupernodalFactor:
         bstart = np.r_[0, np.cumsum(r * w)].astype(np.int64)
         dstart = np.r_[0, np.cumsum(w * w)].astype(np.int64)
         R = np.empty(rstart[-1], np.int64)
-        _rows_below(starts, Lp, Li, rstart, R)
+        tetmorph_core.supernodal_rows_below(starts, Lp, Li, rstart, R)
         split = np.searchsorted(starts, [m1, m2]).astype(np.int64)
         # The tree comes from the stored pattern; an exported factor may have dropped exact zeros, so a
         # column of the first part could still reach into the second. Two threads only when none does.
@@ -331,7 +272,7 @@ class SupernodalFactor:
             B = np.zeros(bstart[-1])
             D = np.zeros(dstart[-1])
             dinv = np.zeros(n)
-            if not _fill(starts, Mp, Mi, Mx, j == 0, rstart, R, bstart, dstart, B, D, dinv):
+            if not tetmorph_core.supernodal_fill(starts, Mp, Mi, Mx, j == 0, rstart, R, bstart, dstart, B, D, dinv):
                 raise Unsuitable("the factor's pattern does not fit its supernodes (an entry of U outside "
                                  "the pattern of L^T, or a zero on the diagonal)")
             if not np.all(dinv != 0.0):
@@ -340,7 +281,7 @@ class SupernodalFactor:
         if U is None:  # Cholesky, U = L^T: the same off-diagonal blocks, the diagonal blocks transposed
             LB, LD, ldinv = blocks
             UD = np.empty_like(LD)
-            _transpose_blocks(starts, dstart, LD, UD)
+            tetmorph_core.supernodal_transpose_blocks(starts, dstart, LD, UD)
             UB, udinv = LB, ldinv
         else:
             LB, LD, ldinv, UB, UD, udinv = blocks

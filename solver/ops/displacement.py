@@ -1,9 +1,12 @@
-"""The largest vertex displacements of a solve, per role, and whether every position is finite, in one pass."""
+"""The largest vertex displacements of a solve, per role, and whether every position is finite, in one pass.
+
+The pass is a compiled kernel in src/core/geometry.cpp.
+"""
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+import tetmorph_core
 
 __all__ = ["max_displacement", "displacement_maxima"]
 
@@ -11,36 +14,16 @@ __all__ = ["max_displacement", "displacement_maxima"]
 FREE, HANDLE, FIXED = 0, 1, 2
 
 
-@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-def _max_disp_kernel(P, V, owner, nch, best, bad):  # pragma: no cover - compiled
-    n = P.shape[0]
-    roles = owner.shape[0] == n
-    for c in numba.prange(nch):
-        m2 = np.zeros(3)
-        nonfinite = 0
-        for i in range(c * n // nch, (c + 1) * n // nch):
-            x, y, z = P[i, 0], P[i, 1], P[i, 2]
-            nonfinite += not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z))
-            dx, dy, dz = x - V[i, 0], y - V[i, 1], z - V[i, 2]
-            g = 0
-            if roles:
-                o = owner[i]
-                g = 1 if o >= 0 else (2 if o == -2 else 0)
-            m2[g] = max(m2[g], dx * dx + dy * dy + dz * dz)
-        for g in range(3):
-            best[c, g] = m2[g]
-        bad[c] = nonfinite
-
-
 def _maxima(P: np.ndarray, V: np.ndarray, owner: np.ndarray) -> tuple[np.ndarray, bool]:
     n = P.shape[0]
     if not n:
         return np.zeros(3), True
-    nch = max(1, min(numba.get_num_threads() * 4, n // 4096 or 1))
+    nch = max(1, min(tetmorph_core.get_num_threads() * 4, n // 4096 or 1))
     best = np.empty((nch, 3))
     bad = np.empty(nch, np.int64)
-    _max_disp_kernel(np.ascontiguousarray(P, dtype=np.float64), np.ascontiguousarray(V, dtype=np.float64),
-                     np.ascontiguousarray(owner, dtype=np.int64), nch, best, bad)
+    tetmorph_core.geometry_max_disp(np.ascontiguousarray(P, dtype=np.float64),
+                                    np.ascontiguousarray(V, dtype=np.float64),
+                                    np.ascontiguousarray(owner, dtype=np.int64), nch, best, bad)
     if bad.any():
         return np.full(3, np.nan), False
     return np.sqrt(best.max(axis=0)), True

@@ -28,8 +28,8 @@ here too so that :func:`element_tables` covers every volume type.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+import tetmorph_core
 
 from ..errors import MAX_IDS
 from .unique import unique
@@ -122,24 +122,6 @@ def element_tables() -> tuple[np.ndarray, np.ndarray]:
     return opp, nodes
 
 
-@numba.njit(parallel=True, cache=True)
-def _corner_kernel(V, E, C, scale, det, sj):  # pragma: no cover - compiled
-    for e in numba.prange(E.shape[0]):
-        for k in range(C.shape[0]):
-            a, b, c, d = E[e, C[k, 0]], E[e, C[k, 1]], E[e, C[k, 2]], E[e, C[k, 3]]
-            ux, uy, uz = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
-            vx, vy, vz = V[c, 0] - V[a, 0], V[c, 1] - V[a, 1], V[c, 2] - V[a, 2]
-            wx, wy, wz = V[d, 0] - V[a, 0], V[d, 1] - V[a, 1], V[d, 2] - V[a, 2]
-            j = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)
-            ll = np.sqrt((ux * ux + uy * uy + uz * uz) * (vx * vx + vy * vy + vz * vz)
-                         * (wx * wx + wy * wy + wz * wz))
-            s = 0.0 if j == 0.0 else min(1.0, max(-1.0, scale * j / ll))
-            if k == 0 or j < det[e]:
-                det[e] = j
-            if k == 0 or s < sj[e]:
-                sj[e] = s
-
-
 def corner_jacobians(V: np.ndarray, E: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
     """Smallest corner Jacobian and scaled Jacobian of each element of one type.
 
@@ -170,7 +152,8 @@ def corner_jacobians(V: np.ndarray, E: np.ndarray, kind: str) -> tuple[np.ndarra
     det = np.empty(E.shape[0])
     sj = np.empty(E.shape[0])
     if E.shape[0]:
-        _corner_kernel(V, E, np.ascontiguousarray(CORNERS[kind], dtype=np.int64), SJ_SCALE[kind], det, sj)
+        tetmorph_core.geometry_corner_jacobians(V, E, np.ascontiguousarray(CORNERS[kind], dtype=np.int64),
+                                                float(SJ_SCALE[kind]), det, sj)
     return det, sj
 
 

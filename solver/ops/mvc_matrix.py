@@ -1,13 +1,16 @@
-"""Mean value coordinates of interior vertices with respect to their local volumes."""
+"""Mean value coordinates of interior vertices with respect to their local volumes.
+
+The row pass is a compiled kernel in src/core/geometry.cpp.
+"""
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 import scipy.sparse as sp
+import tetmorph_core
 
 from .elements import LINEAR_TYPES, element_blocks, element_tables
-from .mean_value_coordinates import MVC_EPS, mvc_pair
+from .mean_value_coordinates import MVC_EPS
 
 __all__ = ["mvc_matrix", "vertex_tets"]
 
@@ -85,13 +88,13 @@ def mvc_matrix(V: np.ndarray, T: np.ndarray, interior: np.ndarray,
     vals = np.empty(slot[-1])
     count = np.zeros(rows.size, np.int64)
     S = np.zeros(n)
-    _fill_rows(V, E, kind, opp, ptr, inc, rows, slot, cols, vals, count, S, MVC_EPS)
+    tetmorph_core.geometry_fill_rows(V, E, kind, opp, ptr, inc, rows, slot, cols, vals, count, S, MVC_EPS)
     indptr = np.zeros(n + 1, np.int64)
     indptr[rows + 1] = count
     indptr = np.cumsum(indptr)
     indices = np.empty(indptr[-1], np.int64)
     data = np.empty(indptr[-1])
-    _compact(rows, slot, cols, vals, count, indptr, indices, data)
+    tetmorph_core.geometry_compact(rows, slot, cols, vals, count, indptr, indices, data)
     W = sp.csr_matrix((data, indices, indptr), shape=(n, n))
     W.eliminate_zeros()
     return W, S
@@ -141,86 +144,6 @@ def vertex_tets(E: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     flat = np.ascontiguousarray(E, dtype=np.int64).ravel()
     ptr = np.zeros(n + 1, np.int64)
     ptr[1:] = np.cumsum(np.bincount(flat[flat >= 0], minlength=n))
-    return ptr, _counting_sort(flat, ptr)
-
-
-@numba.njit(cache=True)
-def _counting_sort(flat, ptr):  # pragma: no cover - compiled
-    nxt = ptr[:-1].copy()
-    out = np.empty(ptr[-1], np.int64)
-    for p in range(flat.size):
-        v = flat[p]
-        if v >= 0:
-            out[nxt[v]] = p
-            nxt[v] += 1
-    return out
-
-
-@numba.njit(cache=True)
-def _neighbours(E, kind, opp, ptr, inc, i):  # pragma: no cover - compiled
-    """Sorted distinct vertices of the faces around ``i`` that do not contain it."""
-    w = E.shape[1]
-    deg = ptr[i + 1] - ptr[i]
-    nb = np.empty(18 * deg, np.int64)
-    c = 0
-    for a in range(deg):
-        p = inc[ptr[i] + a]
-        e, k = p // w, p % w
-        tri = opp[kind[e], k]
-        for t in range(tri.shape[0]):
-            if tri[t, 0] < 0:
-                break
-            for j in range(3):
-                nb[c] = E[e, tri[t, j]]
-                c += 1
-    return np.unique(nb[:c])
-
-
-@numba.njit(parallel=True, cache=True, error_model="numpy")
-def _fill_rows(V, E, kind, opp, ptr, inc, rows, slot, indices, data, count, S, eps):  # pragma: no cover
-    w_ = E.shape[1]
-    for r in numba.prange(rows.size):
-        i = rows[r]
-        cols = _neighbours(E, kind, opp, ptr, inc, i)
-        lo = slot[r]
-        count[r] = cols.size
-        acc = np.zeros(cols.size)
-        w = np.empty(3)
-        wk = np.empty((8, 3))
-        area = 0.0
-        special = False
-        for a in range(ptr[i + 1] - ptr[i]):
-            p = inc[ptr[i] + a]
-            e, k = p // w_, p % w_
-            tri = opp[kind[e], k]
-            for t in range(tri.shape[0]):
-                if tri[t, 0] < 0:
-                    break
-                f0, f1, f2 = E[e, tri[t, 0]], E[e, tri[t, 1]], E[e, tri[t, 2]]
-                ux, uy, uz = V[f1, 0] - V[f0, 0], V[f1, 1] - V[f0, 1], V[f1, 2] - V[f0, 2]
-                vx, vy, vz = V[f2, 0] - V[f0, 0], V[f2, 1] - V[f0, 1], V[f2, 2] - V[f0, 2]
-                area += 0.5 * np.sqrt((uy * vz - uz * vy) ** 2 + (uz * vx - ux * vz) ** 2
-                                      + (ux * vy - uy * vx) ** 2)
-                if special:
-                    continue
-                on = mvc_pair(V[i], V[f0], V[f1], V[f2], eps, w, wk)
-                if on:  # near-face case: this face's weights alone
-                    acc[:] = 0.0
-                    special = True
-                acc[np.searchsorted(cols, f0)] += w[0]
-                acc[np.searchsorted(cols, f1)] += w[1]
-                acc[np.searchsorted(cols, f2)] += w[2]
-        tot = acc.sum()
-        for c in range(cols.size):
-            indices[lo + c] = cols[c]
-            data[lo + c] = acc[c] / tot if tot != 0.0 else 0.0
-        S[i] = area
-
-
-@numba.njit(parallel=True, cache=True)
-def _compact(rows, slot, cols, vals, count, indptr, indices, data):  # pragma: no cover - compiled
-    for r in numba.prange(rows.size):
-        a, b = slot[r], indptr[rows[r]]
-        for c in range(count[r]):
-            indices[b + c] = cols[a + c]
-            data[b + c] = vals[a + c]
+    inc = np.empty(ptr[-1], np.int64)
+    tetmorph_core.geometry_counting_sort(flat, ptr, inc)
+    return ptr, inc

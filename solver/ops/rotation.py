@@ -1,9 +1,9 @@
-"""Rotations given as quaternion logarithms."""
+"""Rotations given as quaternion logarithms (the batch rotation: a compiled kernel in src/core/geometry.cpp)."""
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+import tetmorph_core
 
 __all__ = ["rotate_by_log", "log_to_matrix"]
 
@@ -38,25 +38,8 @@ def rotate_by_log(v: np.ndarray, r: np.ndarray, scale: np.ndarray | None = None)
         f = np.ones(1) if ones else np.ascontiguousarray(scale, dtype=np.float64)
         if not ones and f.shape != (len(v),):
             raise ValueError(f"rotate_by_log: scale {f.shape} does not match {len(v)} vectors")
-        _rotate_kernel(v, r, f, ones, out)
+        tetmorph_core.geometry_rotate_by_log(v, r, f, ones, out)
     return out
-
-
-@numba.njit(parallel=True, cache=True)
-def _rotate_kernel(v, r, scale, ones, out):  # pragma: no cover - compiled
-    for i in numba.prange(v.shape[0]):
-        f = 1.0 if ones else scale[i]
-        half = np.sqrt(r[i, 0] ** 2 + r[i, 1] ** 2 + r[i, 2] ** 2)
-        if half == 0.0:
-            out[i, 0], out[i, 1], out[i, 2] = f * v[i, 0], f * v[i, 1], f * v[i, 2]
-            continue
-        ax, ay, az = r[i, 0] / half, r[i, 1] / half, r[i, 2] / half
-        c, s = np.cos(2.0 * half), np.sin(2.0 * half)
-        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
-        k = (ax * vx + ay * vy + az * vz) * (1.0 - c)
-        out[i, 0] = f * (vx * c + (ay * vz - az * vy) * s + ax * k)
-        out[i, 1] = f * (vy * c + (az * vx - ax * vz) * s + ay * k)
-        out[i, 2] = f * (vz * c + (ax * vy - ay * vx) * s + az * k)
 
 
 def log_to_matrix(r: np.ndarray) -> np.ndarray:

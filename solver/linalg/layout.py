@@ -6,31 +6,26 @@ position array). numpy's ``asfortranarray`` of a tall (n, k) C-order array
 walks one of the two arrays with a stride of k (or n) elements per step, a
 cache miss per element on a DOE block. The kernels here copy tiles of rows, so
 both arrays are read and written in runs of at least a cache line (``python
-benchmarks/measure_choices.py --only layout`` has the figures).
+benchmarks/measure_choices.py --only layout`` has the figures). Compiled kernel in
+src/core/products.cpp (``products_copy_tiles``, one overload per pair of float32 and float64;
+other dtypes take numpy's copy).
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+import tetmorph_core
 
 __all__ = ["fortran_copy", "c_copy"]
 
 #: Rows per tile: a tile of 48 double columns is 96 KB, within a core's L2.
 _TILE = 256
+_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 
 
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _copy_tiles(src, dst, tile):  # pragma: no cover - compiled
-    # compiled per layout pair: C to F and F to C; within a tile one array is walked along its
-    # columns and the other stays in cache
-    n, k = src.shape
-    for q in numba.prange((n + tile - 1) // tile):
-        lo = q * tile
-        hi = min(lo + tile, n)
-        for j in range(k):
-            for i in range(lo, hi):
-                dst[i, j] = src[i, j]
+def _tiled(a: np.ndarray, out: np.ndarray) -> bool:
+    """Whether the compiled tiled copy takes this pair (float32 and float64 of two or more columns)."""
+    return a.shape[1] >= 2 and a.dtype in _FLOATS and out.dtype in _FLOATS
 
 
 def fortran_copy(b: np.ndarray, dtype: type) -> np.ndarray:
@@ -53,10 +48,10 @@ def fortran_copy(b: np.ndarray, dtype: type) -> np.ndarray:
     (True, 'float32', True)
     """
     out: np.ndarray = np.empty(b.shape, dtype=dtype, order="F")
-    if b.shape[1] < 2 or not b.flags.c_contiguous:
+    if not b.flags.c_contiguous or not _tiled(b, out):
         out[...] = b
     else:
-        _copy_tiles(b, out, _TILE)
+        tetmorph_core.products_copy_tiles(b, out, _TILE)
     return out
 
 
@@ -71,8 +66,8 @@ def c_copy(x: np.ndarray, dtype: type) -> np.ndarray:
     (True, 'float64', [[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]])
     """
     out: np.ndarray = np.empty(x.shape, dtype=dtype)
-    if x.shape[1] < 2 or not x.flags.f_contiguous:
+    if not x.flags.f_contiguous or not _tiled(x, out):
         out[...] = x
     else:
-        _copy_tiles(x, out, _TILE)
+        tetmorph_core.products_copy_tiles(x, out, _TILE)
     return out

@@ -7,105 +7,29 @@ into a new array, and the surrounding subtractions and gathers are further
 passes; at the 107k-tet bracket that is a few tenths of a millisecond per
 update out of about five. The kernels here do each in one parallel pass over
 the rows, with the same sums in the same order per row (results equal
-scipy's to round-off).
+scipy's to round-off): compiled kernels in src/core/products.cpp (``products_*``,
+for int32 and int64 indices).
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 import scipy.sparse as sp
+import tetmorph_core
 
 __all__ = ["gradient", "product", "combination", "shifted_product", "offset_product", "stacked_differences"]
 
 
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _residual_rows_stacked(indptr, indices, data, c, x, out):  # pragma: no cover - compiled
-    """``out[:, block j] = c[j] - A x[:, block j]`` row by row, ``c`` of shape (k, l, w)."""
-    n, m = out.shape
-    k, _, w = c.shape
-    for i in numba.prange(n):
-        for j in range(k):
-            for q in range(w):
-                out[i, j * w + q] = c[j, i, q]
-        for p in range(indptr[i], indptr[i + 1]):
-            v = data[p]
-            col = indices[p]
-            for q in range(m):
-                out[i, q] -= v * x[col, q]
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _product_rows(indptr, indices, data, x, out):  # pragma: no cover - compiled
-    """``out = A x`` row by row."""
-    n, k = out.shape
-    for i in numba.prange(n):
-        for q in range(k):
-            out[i, q] = 0.0
-        for p in range(indptr[i], indptr[i + 1]):
-            v = data[p]
-            j = indices[p]
-            for q in range(k):
-                out[i, q] += v * x[j, q]
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _shifted_rows(indptr, indices, data, cols, P, rest, r0, out):  # pragma: no cover - compiled
-    """``out = r0 + M (P[cols] - rest)`` row by row."""
-    n, k = out.shape
-    for i in numba.prange(n):
-        for q in range(k):
-            out[i, q] = r0[i, q]
-        for p in range(indptr[i], indptr[i + 1]):
-            v = data[p]
-            j = indices[p]
-            g = cols[j]
-            for q in range(k):
-                out[i, q] += v * (P[g, q] - rest[j, q])
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _offset_rows(indptr, indices, data, D, r0, out):  # pragma: no cover - compiled
-    """``out[:, block j] = r0 + M D[:, block j]`` row by row, blocks of ``r0``'s width."""
-    n, m = out.shape
-    w = r0.shape[1]
-    for i in numba.prange(n):
-        for q in range(m):
-            out[i, q] = r0[i, q % w]
-        for p in range(indptr[i], indptr[i + 1]):
-            v = data[p]
-            j = indices[p]
-            for q in range(m):
-                out[i, q] += v * D[j, q]
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _differences_into(P, cols, rest, D, col):  # pragma: no cover - compiled
-    """``D[:, col:col + w] = P[cols] - rest``."""
-    w = rest.shape[1]
-    for i in numba.prange(cols.shape[0]):
-        g = cols[i]
-        for q in range(w):
-            D[i, col + q] = P[g, q] - rest[i, q]
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _combine_rows(W, C, out):  # pragma: no cover - compiled
-    """``out = W C`` row by row, summed in float64 whatever ``W``'s and ``out``'s precision."""
-    n, m = out.shape
-    r = W.shape[1]
-    for i in numba.prange(n):
-        acc = np.zeros(m)
-        for t in range(r):
-            w = np.float64(W[i, t])
-            for q in range(m):
-                acc[q] += w * C[t, q]
-        for q in range(m):
-            out[i, q] = acc[q]
-
-
 def _f64(x: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(x, dtype=np.float64)
+
+
+def _csr(M: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``M``'s index arrays in one index type the kernels take (int32 or int64), and its values as float64."""
+    ip, ix = M.indptr, M.indices
+    if ip.dtype != ix.dtype or ip.dtype not in (np.int32, np.int64):
+        ip, ix = ip.astype(np.int64), ix.astype(np.int64)
+    return ip, ix, _f64(M.data)
 
 
 def gradient(A: sp.csr_matrix, At: sp.csr_matrix, c: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -137,9 +61,9 @@ def gradient(A: sp.csr_matrix, At: sp.csr_matrix, c: np.ndarray, x: np.ndarray) 
     if A.shape != (rows, x.shape[0]) or At.shape != (A.shape[1], A.shape[0]) or x.ndim != 2 or cols != x.shape[1]:
         raise ValueError(f"gradient: A {A.shape}, At {At.shape}, c {c.shape}, x {x.shape} do not agree")
     t = np.empty((rows, cols))
-    _residual_rows_stacked(A.indptr, A.indices, _f64(A.data), c if stacked else c[None], x, t)
+    tetmorph_core.products_residual_rows_stacked(*_csr(A), c if stacked else c[None], x, t)
     out = np.empty(x.shape)
-    _product_rows(At.indptr, At.indices, _f64(At.data), t, out)
+    tetmorph_core.products_product_rows(*_csr(At), t, out)
     return out
 
 
@@ -172,7 +96,7 @@ def shifted_product(M: sp.csr_matrix, cols: np.ndarray, P: np.ndarray, rest: np.
         raise ValueError(f"shifted_product: M {M.shape}, {cols.size} cols, P {P.shape}, rest {rest.shape}, "
                          f"r0 {r0.shape} do not agree")
     out = np.empty(r0.shape)
-    _shifted_rows(M.indptr, M.indices, _f64(M.data), np.ascontiguousarray(cols, dtype=np.int64), P, rest, r0, out)
+    tetmorph_core.products_shifted_rows(*_csr(M), np.ascontiguousarray(cols, dtype=np.int64), P, rest, r0, out)
     return out
 
 
@@ -197,7 +121,7 @@ def product(M: sp.csr_matrix, X: np.ndarray) -> np.ndarray:
     if X.ndim != 2 or M.shape[1] != X.shape[0]:
         raise ValueError(f"product: M {M.shape}, X {X.shape} do not agree")
     out = np.empty((M.shape[0], X.shape[1]))
-    _product_rows(M.indptr, M.indices, _f64(M.data), X, out)
+    tetmorph_core.products_product_rows(*_csr(M), X, out)
     return out
 
 
@@ -227,7 +151,7 @@ def combination(W: np.ndarray, C: np.ndarray, dtype: type = np.float64) -> np.nd
         raise ValueError(f"combination: W {W.shape}, C {C.shape} do not agree")
     Wc = np.ascontiguousarray(W, dtype=np.float32 if W.dtype == np.float32 else np.float64)
     out: np.ndarray = np.empty((W.shape[0], C.shape[1]), dtype=np.dtype(dtype))
-    _combine_rows(Wc, _f64(C), out)
+    tetmorph_core.products_combine_rows(Wc, _f64(C), out)
     return out
 
 
@@ -254,7 +178,7 @@ def offset_product(M: sp.csr_matrix, D: np.ndarray, r0: np.ndarray) -> np.ndarra
     if M.shape != (r0.shape[0], D.shape[0]) or r0.shape[1] < 1 or D.shape[1] % r0.shape[1]:
         raise ValueError(f"offset_product: M {M.shape}, D {D.shape}, r0 {r0.shape} do not agree")
     out = np.empty((M.shape[0], D.shape[1]))
-    _offset_rows(M.indptr, M.indices, _f64(M.data), D, r0, out)
+    tetmorph_core.products_offset_rows(*_csr(M), D, r0, out)
     return out
 
 
@@ -276,6 +200,5 @@ def stacked_differences(Ps: list[np.ndarray], cols: np.ndarray, rest: np.ndarray
         raise ValueError(f"stacked_differences: {c.size} cols, rest {rest.shape}, arrays "
                          f"{[P.shape for P in Ps][:3]} do not agree")
     D = np.empty((c.size, w * len(Ps)), order="F" if order == "F" else "C")
-    for j, P in enumerate(Ps):
-        _differences_into(_f64(P), c, rest, D, w * j)
+    tetmorph_core.products_stacked_differences([_f64(P) for P in Ps], c, rest, D)
     return D

@@ -6,115 +6,19 @@ checks its single-precision solution ``X`` of ``A X = B`` in double precision:
 largest row norm of ``R`` and of ``X``. With many blocks (a DOE's stacked rows)
 this is a sparse matrix times a wide dense matrix, which scipy computes on one
 thread, followed by two norm passes over strided column slices; the kernel
-here does all of it in one parallel sweep over the rows.
+here does all of it in one parallel sweep over the rows (compiled kernels in
+src/core/products.cpp: ``products_residual``, ``products_residual3``,
+``products_coupled_residual``, ``products_subtract_rows``; float32 or float64 ``X``,
+int32 or int64 indices).
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 import scipy.sparse as sp
+import tetmorph_core
 
 __all__ = ["block_residual", "coupled_residual_norms", "corrected"]
-
-
-@numba.njit(inline="always", cache=True, nogil=True)
-def _axpy_row(indptr, indices, data, X, i, sign, acc):  # pragma: no cover - compiled
-    """``acc += sign * A[i] X``: one sparse row times the dense block."""
-    m = acc.shape[0]
-    for p in range(indptr[i], indptr[i + 1]):
-        a = sign * data[p]
-        k = indices[p]
-        for j in range(m):
-            acc[j] += a * X[k, j]
-
-
-@numba.njit(inline="always", cache=True, nogil=True)
-def _tally_row(acc, X, i, width, c, store, R, rmax, xmax):  # pragma: no cover - compiled
-    """Row ``i``'s residual ``acc`` (stored in ``R`` if asked): the largest squared norms per block so far."""
-    for b in range(acc.shape[0] // width):
-        r2 = 0.0
-        x2 = 0.0
-        for q in range(b * width, (b + 1) * width):
-            if store:
-                R[i, q] = acc[q]
-            r2 += acc[q] * acc[q]
-            x2 += X[i, q] * X[i, q]
-        if not r2 <= rmax[c, b]:  # NaN propagates: a NaN row is the largest
-            rmax[c, b] = r2
-        if not x2 <= xmax[c, b]:
-            xmax[c, b] = x2
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _residual_kernel(indptr, indices, data, B, X, width, store, R, rmax, xmax):  # pragma: no cover - compiled
-    n, m = B.shape
-    nch = rmax.shape[0]
-    for c in numba.prange(nch):
-        acc = np.empty(m)
-        for i in range(c * n // nch, (c + 1) * n // nch):
-            for j in range(m):
-                acc[j] = B[i, j]
-            _axpy_row(indptr, indices, data, X, i, -1.0, acc)
-            _tally_row(acc, X, i, width, c, store, R, rmax, xmax)
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _coupled_residual_kernel(ai, aj, ax, mi, mj, mx, r0, D, X, width, R, rmax, xmax):  # pragma: no cover - compiled
-    """:func:`_residual_kernel` norms for ``B = r0 + M D`` (``r0`` in every block), ``B`` never stored."""
-    n, m = X.shape[0], D.shape[1]
-    nch = rmax.shape[0]
-    for c in numba.prange(nch):
-        acc = np.empty(m)
-        for i in range(c * n // nch, (c + 1) * n // nch):
-            for j in range(m):
-                acc[j] = r0[i, j % width]
-            _axpy_row(mi, mj, mx, D, i, 1.0, acc)
-            _axpy_row(ai, aj, ax, X, i, -1.0, acc)
-            _tally_row(acc, X, i, width, c, False, R, rmax, xmax)
-
-
-@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-def _residual3_kernel(indptr, indices, data, B, X, store, R, rmax, xmax):  # pragma: no cover - compiled
-    """:func:`_residual_kernel` for one block of three columns (one update), with the sums in registers."""
-    n = B.shape[0]
-    nch = rmax.shape[0]
-    for c in numba.prange(nch):
-        lo = c * n // nch
-        hi = (c + 1) * n // nch
-        rm = 0.0
-        xm = 0.0
-        for i in range(lo, hi):
-            a0 = B[i, 0]
-            a1 = B[i, 1]
-            a2 = B[i, 2]
-            for p in range(indptr[i], indptr[i + 1]):
-                v = data[p]
-                k = indices[p]
-                a0 -= v * X[k, 0]
-                a1 -= v * X[k, 1]
-                a2 -= v * X[k, 2]
-            if store:
-                R[i, 0] = a0
-                R[i, 1] = a1
-                R[i, 2] = a2
-            r2 = a0 * a0 + a1 * a1 + a2 * a2
-            x2 = X[i, 0] * X[i, 0] + X[i, 1] * X[i, 1] + X[i, 2] * X[i, 2]
-            if not r2 <= rm:  # NaN propagates: a NaN row is the largest
-                rm = r2
-            if not x2 <= xm:
-                xm = x2
-        rmax[c, 0] = rm
-        xmax[c, 0] = xm
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _subtract_rows(Q, rows, X, col):  # pragma: no cover - compiled
-    w = Q.shape[1]
-    for r in numba.prange(rows.size):
-        i = rows[r]
-        for a in range(w):
-            Q[i, a] -= X[r, col + a]
 
 
 def corrected(P: np.ndarray, rows: np.ndarray, X: np.ndarray, col: int, overwrite: bool = False) -> np.ndarray:
@@ -147,8 +51,16 @@ def corrected(P: np.ndarray, rows: np.ndarray, X: np.ndarray, col: int, overwrit
         raise ValueError(f"corrected: P {P.shape}, {rows.size} rows, X {X.shape}, column {col} do not agree")
     own = overwrite and P.dtype == np.float64 and P.flags.c_contiguous and P.flags.writeable
     Q = P if own else np.array(P, dtype=np.float64, order="C")
-    _subtract_rows(Q, np.ascontiguousarray(rows, dtype=np.int64), _values(X), col)
+    tetmorph_core.products_subtract_rows(Q, np.ascontiguousarray(rows, dtype=np.int64), _values(X), col)
     return Q
+
+
+def _csr(A: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``A``'s index arrays in one index type the kernels take (int32 or int64), and its values as float64."""
+    ip, ix = A.indptr, A.indices
+    if ip.dtype != ix.dtype or ip.dtype not in (np.int32, np.int64):
+        ip, ix = ip.astype(np.int64), ix.astype(np.int64)
+    return ip, ix, np.ascontiguousarray(A.data, dtype=np.float64)
 
 
 def _values(X: np.ndarray) -> np.ndarray:
@@ -194,13 +106,13 @@ def block_residual(A: sp.csr_matrix, B: np.ndarray, X: np.ndarray,
     Bc = np.ascontiguousarray(B, dtype=np.float64)
     Xc = _values(X)  # a float32 solution as it is: exact when widened, half the bytes to gather
     R = np.empty((n, m) if store else (0, 0))
-    nch = max(1, min(numba.get_num_threads(), n))
+    nch = max(1, min(tetmorph_core.get_num_threads(), n))
     rmax = np.zeros((nch, m // width))
     xmax = np.zeros((nch, m // width))
     if m == 3 and width == 3:
-        _residual3_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, store, R, rmax, xmax)
+        tetmorph_core.products_residual3(*_csr(A), Bc, Xc, store, R, rmax, xmax)
     else:
-        _residual_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), Bc, Xc, width, store, R, rmax, xmax)
+        tetmorph_core.products_residual(*_csr(A), Bc, Xc, width, store, R, rmax, xmax)
     return (R if store else None), np.sqrt(rmax.max(axis=0)), np.sqrt(xmax.max(axis=0))
 
 
@@ -246,11 +158,9 @@ def coupled_residual_norms(A: sp.csr_matrix, M: sp.csr_matrix, r0: np.ndarray, D
                          f"X {X.shape}, width {width} do not agree")
     A = A.tocsr() if not sp.isspmatrix_csr(A) else A
     M = M.tocsr() if not sp.isspmatrix_csr(M) else M
-    nch = max(1, min(numba.get_num_threads(), n))
+    nch = max(1, min(tetmorph_core.get_num_threads(), n))
     rmax = np.zeros((nch, m // width))
     xmax = np.zeros((nch, m // width))
-    _coupled_residual_kernel(A.indptr, A.indices, np.asarray(A.data, np.float64), M.indptr, M.indices,
-                             np.asarray(M.data, np.float64), np.ascontiguousarray(r0, dtype=np.float64),
-                             np.ascontiguousarray(D, dtype=np.float64), _values(X), width, np.empty((0, 0)), rmax,
-                             xmax)
+    tetmorph_core.products_coupled_residual(*_csr(A), *_csr(M), np.ascontiguousarray(r0, dtype=np.float64),
+                                            np.ascontiguousarray(D, dtype=np.float64), _values(X), width, rmax, xmax)
     return np.sqrt(rmax.max(axis=0)), np.sqrt(xmax.max(axis=0))

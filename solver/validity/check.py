@@ -2,17 +2,19 @@
 
 :class:`ElementCheck` is built once from the rest mesh and is immutable;
 :meth:`ElementCheck.check` is a pure function of the positions. For meshes of
-linear tetrahedra the check is three compiled, multi-threaded passes:
+linear tetrahedra the check is three compiled, multi-threaded passes
+(src/core/validity.cpp):
 
-1. :func:`_sj_kernel`, the scaled Jacobian of every tet (its sign is the
-   sign of the volume), a loop without branches over the corners stored as
-   four rows, which LLVM vectorizes with gathers from the positions;
-2. :func:`_tally_kernel`, per chunk of tets, the counts of bad and
+1. ``validity_sj`` (:func:`_sj_kernel`), the scaled Jacobian of every tet (its
+   sign is the sign of the volume), a loop without branches over the corners
+   stored as four rows, which the compiler vectorizes with gathers from the
+   positions;
+2. ``validity_tally``, per chunk of tets, the counts of bad and
    degenerate tets, the first bad ids, and how many
    values fall below and inside a bracket of the 1st percentile taken from a
    strided sample (:func:`_bracket`);
-3. :func:`_gather_between`, the values inside the bracket, from which the
-   1st percentile is selected exactly (:func:`_select`).
+3. ``validity_gather_between`` (:func:`_gather_between`), the values inside the
+   bracket, from which the 1st percentile is selected exactly (:func:`_select`).
 
 Three light passes beat one fused pass that keeps a histogram, because the
 histogram's scattered increments serialize (``python
@@ -24,12 +26,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
+import tetmorph_core
 
 from ..errors import MAX_IDS as REPORT_IDS
 from .midside import Placement, node_jacobians
-from .quality import DEGENERATE_TOL, edge_det_sj, element_jacobians, first_percentile
+from .quality import DEGENERATE_TOL, element_jacobians, first_percentile
 
 __all__ = ["ElementCheck", "SurfaceCheck", "CheckResult", "tet_check", "triangle_quality"]
 
@@ -81,73 +83,20 @@ class CheckResult:
         return out
 
 
-@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
-def _sj_kernel(F, TC, sj):  # pragma: no cover - compiled
-    """Scaled Jacobian of every tet: ``F`` the (3 n,) flat coordinates, ``TC`` the (4, m) corner rows.
+def _sj_kernel(F: np.ndarray, TC: np.ndarray, sj: np.ndarray) -> None:
+    """Scaled Jacobian of every tet into ``sj``, (m,) float64: the compiled kernel ``validity_sj``.
 
-    No branch depends on the data and the corners are contiguous rows, so LLVM vectorizes the loop
-    with gathers from ``F``.
+    ``F`` is the (3 n,) float64 flat coordinates, ``TC`` the (4, m) int32 or int64 corner rows.
     """
-    A, B, C, D = TC[0], TC[1], TC[2], TC[3]
-    for t in numba.prange(A.shape[0]):
-        a, b, c, d = 3 * A[t], 3 * B[t], 3 * C[t], 3 * D[t]
-        x0, y0, z0 = F[a], F[a + 1], F[a + 2]
-        sj[t] = edge_det_sj(F[b] - x0, F[b + 1] - y0, F[b + 2] - z0, F[c] - x0, F[c + 1] - y0, F[c + 2] - z0,
-                            F[d] - x0, F[d + 1] - y0, F[d + 2] - z0)[1]
+    tetmorph_core.validity_sj(F, TC, sj)
 
 
-@numba.njit(parallel=True, cache=True, nogil=True, error_model="numpy")
-def _tally_kernel(sj, tol, flat, lo_v, hi_v, counts, first):  # pragma: no cover - compiled
-    """Per chunk: bad and degenerate counts, the first bad positions, and the values below and in a bracket.
+def _gather_between(sj: np.ndarray, lo_v: float, hi_v: float, start: np.ndarray, out: np.ndarray) -> None:
+    """The values of ``sj`` in ``[lo_v, hi_v]`` into ``out``: the compiled kernel ``validity_gather_between``.
 
-    ``counts[c] = (bad, degenerate, below lo_v, in [lo_v, hi_v])``.
-
-    A tet is bad when ``sj <= tol`` (inverted or degenerate; ``sj`` has the sign of its volume), or,
-    flat at rest, when ``sj < -tol``; NaN is never bad. The counting loop has no branches, so it
-    vectorizes; the bad positions take a second loop over the chunks that have any.
+    ``sj`` is cut into ``start.size`` equal chunks; chunk ``c``'s values go to ``out[start[c]:]``.
     """
-    m = sj.shape[0]
-    nch = counts.shape[0]
-    cap = first.shape[1]
-    for c in numba.prange(nch):
-        lo = c * m // nch
-        hi = (c + 1) * m // nch
-        nbad = 0
-        ndeg = 0
-        below = 0
-        inside = 0
-        for t in range(lo, hi):
-            s = sj[t]
-            ndeg += abs(s) <= tol
-            nbad += (s <= tol) & ((flat[t] == 0) | (s < -tol))
-            below += s < lo_v
-            inside += (s >= lo_v) & (s <= hi_v)
-        if nbad:
-            n = 0
-            for t in range(lo, hi):
-                s = sj[t]
-                if (s <= tol) & ((flat[t] == 0) | (s < -tol)):
-                    first[c, n] = t
-                    n += 1
-                    if n == cap:
-                        break
-        counts[c, 0] = nbad
-        counts[c, 1] = ndeg
-        counts[c, 2] = below
-        counts[c, 3] = inside
-
-
-@numba.njit(parallel=True, cache=True, nogil=True)
-def _gather_between(sj, lo_v, hi_v, start, out):  # pragma: no cover - compiled
-    m = sj.shape[0]
-    nch = start.shape[0]
-    for c in numba.prange(nch):
-        n = start[c]
-        for t in range(c * m // nch, (c + 1) * m // nch):
-            s = sj[t]
-            if s >= lo_v and s <= hi_v:
-                out[n] = s
-                n += 1
+    tetmorph_core.validity_gather_between(sj, lo_v, hi_v, start, out)
 
 
 def _bracket(sj: np.ndarray, k: int) -> tuple[float, float]:
@@ -215,14 +164,17 @@ def _check_columns(V: np.ndarray, TC: np.ndarray, tol: float, rest_flat: np.ndar
     sj = np.empty(m)
     if not m:
         return CheckResult(0, np.zeros(0, np.int64), 0, None, None, sj)
+    if TC.dtype not in (np.int32, np.int64):
+        TC = TC.astype(np.int64)
     _sj_kernel(np.ascontiguousarray(V, dtype=np.float64).reshape(-1), TC, sj)
     k = m // 100
     lo, hi = _bracket(sj, k)
-    nch = max(1, min(numba.get_num_threads() * 4, m // 1024 or 1))
+    nch = max(1, min(tetmorph_core.get_num_threads() * 4, m // 1024 or 1))
     counts = np.zeros((nch, 4), np.int64)
     first = np.empty((nch, REPORT_IDS), np.int64)
     flat = np.zeros(m, np.uint8) if rest_flat is None else rest_flat.view(np.uint8)
-    _tally_kernel(sj, tol, flat, lo, hi, counts, first)
+    # bad: sj <= tol (inverted or degenerate), or, flat at rest, sj < -tol; NaN is never bad
+    tetmorph_core.validity_tally(sj, tol, flat, lo, hi, counts, first)
     count = int(counts[:, 0].sum())
     if order is None:
         ids = np.concatenate([first[c, :min(int(counts[c, 0]), REPORT_IDS)] for c in range(nch)])[:REPORT_IDS]

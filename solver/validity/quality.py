@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+import tetmorph_core
 
 from ..ops.elements import corner_jacobians, element_blocks, element_volumes
 
@@ -57,51 +57,16 @@ def _edges2(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return jac, e2
 
 
-
-
-@numba.njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def edge_det_sj(ux, uy, uz, vx, vy, vz, wx, wy, wz):  # pragma: no cover - compiled
-    """Six times the signed volume and the scaled Jacobian of the tet with edges ``u, v, w`` from one corner.
-
-    ``sj = sqrt(2) det / sqrt(max over corners of the product of its three squared edge lengths)``,
-    clipped to [-1, 1]; 0 for a flat tet. Compiled inline into the kernels that call it; written
-    without branches on the data, so that a loop of it vectorizes. Those kernels allow fused
-    multiply-adds (``fastmath={"contract"}``, one rounding instead of two: no less accurate), so
-    the check and :func:`tet_quality` agree bit for bit.
-    """
-    det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)
-    l01 = ux * ux + uy * uy + uz * uz
-    l02 = vx * vx + vy * vy + vz * vz
-    l03 = wx * wx + wy * wy + wz * wz
-    l12 = (vx - ux) ** 2 + (vy - uy) ** 2 + (vz - uz) ** 2
-    l13 = (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
-    l23 = (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
-    corner = max(max(l01 * l02 * l03, l01 * l12 * l13), max(l02 * l12 * l23, l03 * l13 * l23))
-    s = min(1.0, max(-1.0, 1.4142135623730951 * det / np.sqrt(corner)))
-    return det, s if det != 0.0 else 0.0
-
-
-@numba.njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def tet_det_sj(V, a, b, c, d):  # pragma: no cover - compiled
-    """:func:`edge_det_sj` of the tet ``(a, b, c, d)`` of ``V``, (n, 3)."""
-    x0, y0, z0 = V[a, 0], V[a, 1], V[a, 2]
-    return edge_det_sj(V[b, 0] - x0, V[b, 1] - y0, V[b, 2] - z0, V[c, 0] - x0, V[c, 1] - y0, V[c, 2] - z0,
-                       V[d, 0] - x0, V[d, 1] - y0, V[d, 2] - z0)
-
-
-@numba.njit(parallel=True, cache=True, nogil=True, fastmath={"contract"})  # FMA, as the check kernel
-def _tet_quality_kernel(V, T, vol6, sj):  # pragma: no cover - compiled
-    for t in numba.prange(T.shape[0]):
-        vol6[t], sj[t] = tet_det_sj(V, T[t, 0], T[t, 1], T[t, 2], T[t, 3])
-
-
 def tet_quality(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Six times the signed volume and the scaled Jacobian of every tet, fused.
 
     The per-update check: one compiled, multi-threaded pass over the tets
-    (numba), where the same formulas as numpy array expressions make a
-    temporary array per operation (``python benchmarks/measure_choices.py
-    --only kernels`` compares them).
+    (``validity_tet_quality`` in src/core/validity.cpp), where the same formulas
+    as numpy array expressions make a temporary array per operation (``python
+    benchmarks/measure_choices.py --only kernels`` compares them). The scaled
+    Jacobian is ``sqrt(2) det / sqrt(max over corners of the product of its three
+    squared edge lengths)``, clipped to [-1, 1], 0 for a flat tet; it rounds as the
+    element check's (:func:`solver.validity.check.tet_check`), bit for bit.
 
     Parameters
     ----------
@@ -129,7 +94,7 @@ def tet_quality(V: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     vol6 = np.empty(T.shape[0])
     sj = np.empty(T.shape[0])
     if T.shape[0]:
-        _tet_quality_kernel(V, T, vol6, sj)
+        tetmorph_core.validity_tet_quality(V, T, vol6, sj)
     return vol6, sj
 
 

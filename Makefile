@@ -12,7 +12,7 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
-SYSDEPS := libsuitesparse-dev libopenblas0-pthread
+SYSDEPS := g++ cmake libsuitesparse-dev libopenblas0-pthread
 
 .PHONY: test-latest constraints nastrandeps run morph-demo test check docs docs-img gldeps docs-pictures docs-serve bench compare sysdeps install web browser calculix lint clean cluster cluster-down clusterdeps
 
@@ -43,7 +43,7 @@ test-latest: install web browser calculix clusterdeps gldeps nastrandeps
 	@$(LATEST)/bin/python -m pip freeze --exclude-editable | grep -v '^-e' | sort > $(LATEST)/freeze.txt
 	@echo "packages that differ from constraints.txt (< pinned, > newest):"
 	@grep -v '^#' constraints.txt | sort | diff - $(LATEST)/freeze.txt | grep '^[<>]' || echo "  none"
-	-$(LATEST)/bin/python -m solver.kernels && $(LATEST)/bin/python -m pytest -q -p no:cacheprovider
+	-$(LATEST)/bin/python -m pytest -q -p no:cacheprovider
 
 # Rewrite constraints.txt from .venv (after make install with newer pins, or make test-latest passing)
 constraints:
@@ -161,9 +161,9 @@ calculix:
 	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq calculix-ccx >/dev/null; \
 	  else echo "ERROR: the solver-in-the-loop tests need ccx (apt install calculix-ccx)"; exit 1; fi; }
 
-# System libraries for the CHOLMOD backend. Installed with apt when we are
-# root on a Debian-like machine; elsewhere tetmorph falls back to a pip-only
-# solver backend and says so.
+# The C++ compiler and CMake that build the compiled core (src/core), and the system libraries of the
+# CHOLMOD backend. Installed with apt when we are root on a Debian-like machine; elsewhere the
+# machine's own compiler must do, and tetmorph falls back to a pip-only solver backend and says so.
 sysdeps:
 	@missing=""; for p in $(SYSDEPS); do \
 	  dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -174,13 +174,12 @@ sysdeps:
 	  || echo "WARNING: apt-get failed; continuing with the pip-only solver backend"; \
 	else echo "WARNING: not root or no apt-get; missing$$missing; the pip-only solver backend will be used"; fi
 
-$(STAMP): pyproject.toml constraints.txt | sysdeps
+$(STAMP): pyproject.toml constraints.txt CMakeLists.txt $(wildcard src/core/*) | sysdeps
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -c constraints.txt -e ".[dev,service,cholmod]" \
 	  || { echo "WARNING: CHOLMOD extra failed to build; installing without it"; \
 	       $(BIN)/python -m pip install -q -c constraints.txt -e ".[dev,service]"; }
-	$(BIN)/python -m solver.kernels
 	touch $(STAMP)
 
 install: sysdeps $(STAMP)

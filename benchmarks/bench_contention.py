@@ -53,13 +53,14 @@ LOADS = ("quiet", "busy", "s2", "s4")
 BUSY = {
     # a single-threaded compute job
     "spin": "import sys, time\nend = time.monotonic() + float(sys.argv[1])\nwhile time.monotonic() < end:\n    pass\n",
-    # a multi-threaded OpenMP job with libgomp's default spin waits (another numba or MKL program)
+    # a multi-threaded OpenMP job with libgomp's default spin waits (another OpenMP or MKL program): the
+    # compiled core's rotation loop, imported without solver (whose import bounds the spin waits)
     "omp": ("import os, sys, time\nfor k in ('GOMP_SPINCOUNT', 'OMP_WAIT_POLICY'):\n    os.environ.pop(k, None)\n"
-            "import numba, numpy as np\n"
-            "@numba.njit(parallel=True)\ndef work(x):\n    s = 0.0\n    for i in numba.prange(x.size):\n"
-            "        s += np.sin(x[i])\n    return s\n"
-            "x = np.random.rand(200_000)\nend = time.monotonic() + float(sys.argv[1])\n"
-            "while time.monotonic() < end:\n    work(x)\n    time.sleep(0.0005)\n"),
+            "import numpy as np, tetmorph_core\n"
+            "v = np.random.rand(200_000, 3); r = 0.1 * np.random.rand(200_000, 3); out = np.empty_like(v)\n"
+            "f = np.ones(1)\nend = time.monotonic() + float(sys.argv[1])\n"
+            "while time.monotonic() < end:\n    tetmorph_core.geometry_rotate_by_log(v, r, f, True, out)\n"
+            "    time.sleep(0.0005)\n"),
     # a memory-bandwidth job (array copies of 256 MB)
     "memory": ("import sys, time\nimport numpy as np\na = np.ones(2**25)\nb = np.empty_like(a)\n"
                "end = time.monotonic() + float(sys.argv[1])\nwhile time.monotonic() < end:\n    np.copyto(b, a)\n"),
@@ -119,7 +120,7 @@ def measure(size: float, case: str, loads: list[str], moves: int, passes: int, b
         procs = []
         if load == "busy":
             procs = [subprocess.Popen([sys.executable, "-c", BUSY[kind], str(limit)]) for _ in range(busy)]
-            time.sleep(1.0 if kind == "omp" else 0.3)  # let them reach the loop (numba compiles first)
+            time.sleep(0.3)  # let them reach the loop
         if case != "harmonic" and hasattr(th, "in_flight_reset"):  # (older tetmorph: no counter)
             th.in_flight_reset()
         try:

@@ -60,8 +60,8 @@ import tempfile
 import time
 from pathlib import Path
 
-import numba
 import numpy as np
+import tetmorph_core
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -548,7 +548,7 @@ def check() -> None:
             t = time.perf_counter()
             f()
             out.append(1e3 * (time.perf_counter() - t))
-    print(f"{len(T):,} tets, {numba.get_num_threads()} threads")
+    print(f"{len(T):,} tets, {tetmorph_core.get_num_threads()} threads")
     print("| step | ms, median [min-max] |")
     print("|---|---:|")
     for name, v in (("ElementCheck.check (the REPORT's check)", full), ("tet_quality (volumes and scaled Jacobians)",

@@ -22,8 +22,7 @@ from fastapi import Depends, FastAPI
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
 
-from solver import load_kernels
-from solver.kernels import announced
+from solver.kernels import announced, load_kernels
 from solver.linalg import threads
 
 from .api import batch, health, history, meshes, sessions, stream, study, tetrahedralize
@@ -61,8 +60,7 @@ elements. Every error has the body
 
 def _load_kernels() -> None:
     """Load the solver's kernels, saying so on standard error when it takes more than a second."""
-    with announced("loading the solver's compiled kernels (the first start after an install compiles them: "
-                   "minutes)"):
+    with announced("loading the solver's compiled kernels"):
         load_kernels()
 
 

@@ -14,7 +14,9 @@ Examples
 0
 """
 
-from . import environment  # noqa: F401, I001 - first: spin settings before numba, MKL and OpenBLAS load
+from typing import TYPE_CHECKING, Any
+
+from . import environment  # noqa: F401, I001 - first: spin settings before OpenMP, MKL and OpenBLAS load
 from .constraints import Move, Spec, parse_move, parse_spec
 from .deform import Deformer, DeformResult, precompute
 from .errors import (
@@ -26,8 +28,6 @@ from .errors import (
     SpecError,
     UnsupportedElementError,
 )
-from .io import mesh_from_meshio, read_mesh, write_mesh
-from .kernels import load_kernels
 from .mesh import Mesh, mesh_from_arrays
 from .options import SolveOptions
 
@@ -38,3 +38,22 @@ __all__ = [
     "FactorizationError", "InversionError", "load_kernels", "SolveOptions",
 ]
 __version__ = "0.1.0"
+
+
+#: Names loaded on first use: the file formats (meshio among them) when a file is read or written, and
+#: ``load_kernels`` (``python -m solver.kernels`` runs that module as the main one).
+_ON_FIRST_USE = {"read_mesh": ".io", "write_mesh": ".io", "mesh_from_meshio": ".io", "load_kernels": ".kernels"}
+
+
+def __getattr__(name: str) -> Any:
+    """The names of :data:`_ON_FIRST_USE`, imported when first asked for."""
+    if name in _ON_FIRST_USE:
+        import importlib
+
+        return getattr(importlib.import_module(_ON_FIRST_USE[name], __name__), name)
+    raise AttributeError(f"module 'solver' has no attribute {name!r}")
+
+
+if TYPE_CHECKING:
+    from .io import mesh_from_meshio, read_mesh, write_mesh
+    from .kernels import load_kernels

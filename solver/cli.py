@@ -309,8 +309,7 @@ def main(argv: list[str] | None = None, extend: Callable[[Any], None] | None = N
         if getattr(args, "kernels", False):  # commands that factor: never a silent minute on a cold install
             from .kernels import announced, load_kernels
 
-            with announced("loading the solver's compiled kernels (the first run after an install compiles "
-                           "them: minutes)"):
+            with announced("loading the solver's compiled kernels"):
                 load_kernels()
         return int(args.func(args))
     except SolverError as e:

@@ -1,10 +1,10 @@
 """The process environment, read here once, when :mod:`solver` is imported.
 
-Two things happen at start-up, before numba, MKL and OpenBLAS load:
+Two things happen at start-up, before OpenMP, MKL and OpenBLAS load:
 
 * :func:`apply_spin_settings` bounds the spin waits of the threading
-  runtimes. OpenMP (GNU libgomp, which numba's ``omp`` threading layer and
-  MKL's ``gnu_thread`` layer share) lets a thread that reaches a barrier or
+  runtimes. OpenMP (GNU libgomp, which the compiled kernels of
+  ``tetmorph_core`` and MKL's ``gnu_thread`` layer share) lets a thread that reaches a barrier or
   ends a parallel region spin for a long while before it sleeps. On idle
   cores that saves a wake-up; on shared cores the spinning thread takes the
   core that another process or another of this process's solves needs, and
@@ -20,8 +20,7 @@ Two things happen at start-up, before numba, MKL and OpenBLAS load:
   looks at ``os.environ`` itself: :data:`solver.options.ENVIRONMENT` (the
   solve options of a caller that passes none), the MKL library
   (:func:`solver.linalg.pardiso.mkl_runtime`), the allocator of batch runs
-  (:func:`solver.workflows.batch_memory.keep_freed_memory`) and numba's
-  threading layer (:mod:`solver.ops`).
+  (:func:`solver.workflows.batch_memory.keep_freed_memory`).
 """
 
 from __future__ import annotations
@@ -66,8 +65,6 @@ class Environment:
         not the one installed beside Python.
     batch_malloc : bool
         False when ``TETMORPH_BATCH_MALLOC=0``: batch runs leave glibc's allocator as it is.
-    numba_threading_layer : str or None
-        ``NUMBA_THREADING_LAYER``; unset, :mod:`solver.ops` asks numba for a thread-safe layer.
     """
 
     backend: str = "auto"
@@ -75,7 +72,6 @@ class Environment:
     basis: bool = True
     mkl_rt: str | None = None
     batch_malloc: bool = True
-    numba_threading_layer: str | None = None
 
 
 def read(env: Mapping[str, str] | None = None) -> Environment:
@@ -88,8 +84,7 @@ def read(env: Mapping[str, str] | None = None) -> Environment:
     return Environment(backend=env.get("TETMORPH_SOLVER", "").strip().lower() or "auto",
                        sweeps=on("TETMORPH_SUPERNODAL"), basis=on("TETMORPH_COLUMN_BASIS"),
                        mkl_rt=env.get("PYPARDISO_MKL_RT") or env.get("TETMORPH_MKL_RT") or None,
-                       batch_malloc=on("TETMORPH_BATCH_MALLOC"),
-                       numba_threading_layer=env.get("NUMBA_THREADING_LAYER") or None)
+                       batch_malloc=on("TETMORPH_BATCH_MALLOC"))
 
 
 apply_spin_settings()

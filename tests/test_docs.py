@@ -247,7 +247,7 @@ def test_every_environment_variable_the_code_reads_is_on_the_settings_page(site)
     for source in sorted((ROOT / "solver").rglob("*.py")) + sorted((ROOT / "service").rglob("*.py")):
         for groups in ENV_READ.findall(source.read_text()):
             read.setdefault(next(g for g in groups if g), source.relative_to(ROOT).as_posix())
-    assert {"TETMORPH_SOLVER", "TETMORPH_DATABASE_URL", "NUMBA_THREADING_LAYER"} <= set(read)
+    assert {"TETMORPH_SOLVER", "TETMORPH_DATABASE_URL", "TETMORPH_MKL_RT"} <= set(read)
     missing = sorted(f"{name} ({where})" for name, where in read.items() if not re.search(rf"\b{name}\b", page))
     assert not missing, f"read by the code, not on the settings page: {missing}"
 

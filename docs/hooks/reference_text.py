@@ -66,10 +66,8 @@ SOLVER_ENVIRONMENT = {
     "GOMP_SPINCOUNT, OMP_WAIT_POLICY, OPENBLAS_THREAD_TIMEOUT": "Set at import to bounded spin waits "
                                                                "(`GOMP_SPINCOUNT=10000`, `OPENBLAS_THREAD_TIMEOUT=16`) "
                                                                "unless already set (`solver/environment.py`).",
-    "NUMBA_THREADING_LAYER": "numba's threading layer. Unset, `solver.ops` asks for a thread-safe one (TBB or "
-                             "OpenMP, installed with MKL): solves run in concurrent threads, and numba's "
-                             "`workqueue` layer aborts on concurrent parallel launches. Set it only to another "
-                             "thread-safe layer.",
+    "OMP_NUM_THREADS": "The most threads a compiled kernel's loop uses (OpenMP's own setting; the solver then "
+                       "gives each solve the cores that are free, `solver/linalg/threads.py`).",
 }
 
 # -------------------------------------------------------------------------------------------- error codes

@@ -15,7 +15,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import MAX_IDS, ConstraintError, format_ids
 from ..ops.closest_point import TriangleSurface
@@ -107,6 +106,8 @@ def match(V: np.ndarray, slaves: np.ndarray, master_nodes: np.ndarray, master_fa
     gap = np.full(s, np.inf)
     done = np.zeros(s, bool)
     if s and master_nodes.size:
+        from scipy.spatial import cKDTree  # scipy.spatial loads on first use
+
         d, k = cKDTree(V[master_nodes]).query(pre)
         hit = d <= tol
         masters[hit] = master_nodes[k[hit], None]

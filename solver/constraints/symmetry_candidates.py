@@ -14,7 +14,6 @@ import re
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..mesh import Mesh
 from ..ops.closest_point import TriangleSurface
@@ -60,6 +59,8 @@ def symmetry_candidates(mesh: Mesh, tol: float = 1e-3, min_fraction: float = 0.9
     diag = float(np.linalg.norm(P.max(0) - P.min(0)))
     _, _, vt = np.linalg.svd(P - c, full_matrices=False)
     normals: list[np.ndarray] = [np.eye(3)[k] for k in range(3)] + [v / np.linalg.norm(v) for v in vt]
+    from scipy.spatial import cKDTree  # scipy.spatial loads on first use
+
     tree = cKDTree(P)
     surf = TriangleSurface(mesh.V, mesh.F)
     out: list[dict[str, Any]] = []
@@ -159,6 +160,8 @@ def resolve_cyclic(mesh: Mesh, entry: dict[str, Any]) -> dict[str, Any]:
     b = mesh.sets.get(entry["faces"][1])
     if a is None or b is None or not len(a) or not len(b):
         return entry
+    from scipy.spatial import cKDTree  # scipy.spatial loads on first use
+
     tree = cKDTree(mesh.V[b])
     best = None
     for sign in (1.0, -1.0):

@@ -29,11 +29,12 @@ def tie_pairs(mesh: Mesh, ties: Any) -> np.ndarray:
         pairs = np.asarray(ties, np.int64).reshape(-1, 2)
         check_ids(pairs.ravel().tolist(), mesh.n, "SPEC.ties", mesh.referenced)
         return pairs
-    from scipy.spatial import cKDTree
-
     ref = np.flatnonzero(mesh.referenced)
-    if not ref.size:
+    lab = mesh.body_labels
+    if not ref.size or lab[ref].min() == lab[ref].max():  # one body: no node of another body to tie to
         return np.zeros((0, 2), np.int64)
+    from scipy.spatial import cKDTree  # loaded for meshes of several bodies only
+
     V = mesh.V[ref]
     diag = float(np.linalg.norm(V.max(0) - V.min(0)))
     tol = float(ties.get("tolerance", TIE_TOL * diag)) if isinstance(ties, dict) else TIE_TOL * diag
@@ -41,7 +42,6 @@ def tie_pairs(mesh: Mesh, ties: Any) -> np.ndarray:
     if not len(pairs):
         return np.zeros((0, 2), np.int64)
     pairs = ref[pairs]
-    lab = mesh.body_labels
     return np.sort(pairs[lab[pairs[:, 0]] != lab[pairs[:, 1]]], axis=1)
 
 

@@ -189,7 +189,7 @@ def _quiet_system_blas() -> None:
     """One thread for the system OpenBLAS that CHOLMOD links (Debian's openblas-pthread).
 
     OpenBLAS threads busy-wait after every call. On two cores they take cycles
-    from PARDISO's and numba's threads in the next step of the update, while
+    from PARDISO's threads and the compiled kernels' in the next step of the update, while
     CHOLMOD's small dense blocks gain little from a second thread (compare
     ``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_solver.py --case
     bracket:0.95:split --updates 60`` with the default). Only libraries outside the

@@ -2,7 +2,7 @@
 
 An update reads factors and arrays once; it is bound by memory bandwidth and
 by the barriers of its parallel kernels. On idle cores a second thread helps
-the kernels (numba's ``prange`` loops, the two-subtree supernodal sweeps).
+the compiled kernels (``tetmorph_core``'s OpenMP loops, the two-subtree supernodal sweeps).
 When the cores are shared, by another process or by other solves of this
 one, a thread that waits at a barrier for a descheduled partner costs far
 more than the second thread saved. So every solve asks :func:`solving` for
@@ -16,13 +16,14 @@ its threads when it starts:
   process's solves (the kernel's count of runnable tasks, ``/proc/loadavg``);
 * shared among this process's solves in flight.
 
-Numba's kernels of the calling thread get that count
-(``numba.set_num_threads`` is per calling thread), and so do MKL's stacked
+The compiled kernels started by the calling thread get that count
+(``tetmorph_core.set_num_threads`` sets OpenMP's count of the calling thread
+only), and so do MKL's stacked
 back-substitutions (``MKL_Set_Num_Threads_Local``). A narrow PARDISO
 back-substitution (a single update) stays on one thread, as before.
 
 Spinning waits are bounded at import of :mod:`solver` (:mod:`solver.environment`):
-OpenMP's (libgomp, shared by numba and MKL) and OpenBLAS's helper threads
+OpenMP's (libgomp, the compiled kernels') and OpenBLAS's helper threads
 would otherwise spin on cores that other work needs.
 ``benchmarks/bench_contention.py`` measures all of it against the harmonic peer.
 """
@@ -37,7 +38,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-import numba
+import tetmorph_core
 
 from ..options import current as current_options
 
@@ -125,7 +126,7 @@ def current_threads() -> int:
 
 @contextmanager
 def solving() -> Iterator[int]:
-    """One solve: counted in flight, its numba kernels on the threads free now; yields the count.
+    """One solve: counted in flight, its compiled kernels on the threads free now; yields the count.
 
     NumPy's and SciPy's OpenBLAS run on one thread while any solve is in flight
     (:func:`one_blas_thread`).
@@ -140,19 +141,19 @@ def solving() -> Iterator[int]:
         _IN_FLIGHT += 1
         _PEAK = max(_PEAK, _IN_FLIGHT)
         share = _IN_FLIGHT
-    k = min(free_threads(share), numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
+    k = min(free_threads(share), tetmorph_core.max_threads())
     cap = current_options().threads  # the precompute's own cap (SolveOptions.threads)
     if cap:
         k = min(k, cap)
-    prev = numba.get_num_threads()
-    numba.set_num_threads(k)
+    prev = tetmorph_core.get_num_threads()
+    tetmorph_core.set_num_threads(k)
     _LOCAL.threads = k
     try:
         with one_blas_thread():  # an update's dense products are small; no helper left spinning after them
             yield k
     finally:
         _LOCAL.threads = 0
-        numba.set_num_threads(prev)
+        tetmorph_core.set_num_threads(prev)
         with _FLIGHT:
             _IN_FLIGHT -= 1
 
@@ -287,7 +288,7 @@ def one_blas_thread() -> Iterator[None]:
     """NumPy's and SciPy's OpenBLAS on one thread inside the block (process-wide while any thread is inside).
 
     OpenBLAS's helper threads keep spinning for a while after each call. On two
-    cores a spinning helper takes a core from the numba kernel that follows (in a
+    cores a spinning helper takes a core from the compiled kernel that follows (in a
     DOE block at 1M tets, the residual check after the column basis's small
     products, seen in a throw-away script timing the stages), and the products
     themselves ran no faster on two threads. For short runs of small dense products. Nested and concurrent

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import meshio
 import numpy as np
 
 from ..errors import InvalidMeshError
@@ -21,6 +20,9 @@ from ..ops.boundary_facets import boundary_facets, simplex_edges
 from ..ops.elements import LINEAR_TYPES, boundary_faces, element_blocks, element_edges
 from ..ops.unique import unique
 from .validate import component_labels, validate
+
+if TYPE_CHECKING:  # meshio loads when a file is read or written (solver.io), not with the mesh
+    import meshio
 
 __all__ = ["Mesh", "mesh_from_arrays", "VOLUME_TYPES", "MIXED_TYPES", "IGNORED_TYPES"]
 

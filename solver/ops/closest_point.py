@@ -16,7 +16,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import tetmorph_core
-from scipy.spatial import cKDTree
 
 from .unique import unique
 
@@ -58,6 +57,8 @@ class TriangleSurface:
         self.F = np.ascontiguousarray(F, dtype=np.int64)
         used = unique(self.F)
         self._used = used
+        from scipy.spatial import cKDTree  # scipy.spatial loads on first use
+
         self._tree = cKDTree(self.V[used])
         k = self.F.shape[0]
         self._vt = sp.csr_matrix((np.ones(3 * k), (self.F.ravel(), np.repeat(np.arange(k), 3))),

@@ -25,7 +25,6 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import minimize
 
 from ..errors import MAX_IDS
 from .quality import DEGENERATE_TOL, signed_volumes, tet_quality
@@ -137,6 +136,8 @@ def repair_inverted(V0: np.ndarray, P: np.ndarray, T: np.ndarray, movable: np.nd
         if idx.size:
             ring = (inc[idx].sum(axis=0).A1 > 0)  # every tet that a moving vertex touches
             Tp = T[ring]
+            from scipy.optimize import minimize  # loaded only when a repair runs (about 0.1 s)
+
             res = minimize(_energy, cur[idx].ravel(), args=(cur, Tp, idx, vol_rest[ring]), jac=True,
                            method="L-BFGS-B", options={"maxiter": max_iter})
             trial = cur.copy()

@@ -9,9 +9,9 @@ import threading
 from dataclasses import replace
 from pathlib import Path
 
-import numba
 import numpy as np
 import pytest
+import tetmorph_core
 
 from solver import SolveOptions, SpecError, parse_spec, precompute, read_mesh
 from solver.deform.positions import MIXED_TOL
@@ -170,7 +170,7 @@ def test_a_solve_keeps_to_its_precomputes_thread_cap(monkeypatch):
     move = {"handles": {"b": {"translation": [0, 0, 1]}}}
     one.solve(move)
     free.solve(move)
-    assert seen == [1, min(2, numba.config.NUMBA_NUM_THREADS)]
+    assert seen == [1, min(2, tetmorph_core.max_threads())]
 
 
 def test_the_command_line_caps_the_threads(tmp_path):

@@ -125,13 +125,13 @@ def test_busy_processes_leave_one_thread():
     assert max(seen) == 1 or threads.cores() == 1, seen
 
 
-def test_solving_counts_solves_and_sets_numba_threads_for_the_caller_only(monkeypatch):
+def test_solving_counts_solves_and_sets_the_kernels_threads_for_the_caller_only(monkeypatch):
     import threading
 
-    import numba
+    import tetmorph_core
 
     monkeypatch.setattr(threads, "_running_tasks", lambda: threads.in_flight())
-    before = numba.get_num_threads()
+    before = tetmorph_core.get_num_threads()
     threads.in_flight_reset()
     seen = {}
     inside = threading.Event()
@@ -139,7 +139,7 @@ def test_solving_counts_solves_and_sets_numba_threads_for_the_caller_only(monkey
 
     def other():
         with threads.solving() as k:
-            seen["other"] = (k, numba.get_num_threads())
+            seen["other"] = (k, tetmorph_core.get_num_threads())
             inside.set()
             leave.wait(10)
 
@@ -148,16 +148,16 @@ def test_solving_counts_solves_and_sets_numba_threads_for_the_caller_only(monkey
     inside.wait(10)
     try:
         with threads.solving() as k:
-            seen["main"] = (k, numba.get_num_threads(), threads.in_flight())
+            seen["main"] = (k, tetmorph_core.get_num_threads(), threads.in_flight())
             with threads.solving() as k2:  # nested: the outer count
                 assert k2 == k and threads.in_flight() == 2
     finally:
         leave.set()
         t.join()
-    assert seen["other"][0] == seen["other"][1] == min(threads.cores(), numba.config.NUMBA_NUM_THREADS)
+    assert seen["other"][0] == seen["other"][1] == min(threads.cores(), tetmorph_core.max_threads())
     assert seen["main"][:2] == (max(1, threads.cores() // 2),) * 2 and seen["main"][2] == 2
     assert threads.in_flight() == 0 and threads.in_flight_peak() == 2
-    assert numba.get_num_threads() == before
+    assert tetmorph_core.get_num_threads() == before
 
 
 def test_configure_caps_every_solve():

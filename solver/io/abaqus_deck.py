@@ -254,12 +254,17 @@ def _sets(deck: Deck, res: _Resolver, cells: list[meshio.CellBlock], cell_labels
                    for b in range(len(cells))]
             cell_sets[prefix + written] = per
 
-    add("", deck.model, None)
-    for inst in deck.instances:
-        add(inst.name + ".", deck.parts[inst.part.upper()], inst)
-        add(inst.name + ".", inst.own, inst)
-    add("", deck.assembly, None)
-    return point_sets, cell_sets
+    try:
+        add("", deck.model, None)
+        for inst in deck.instances:
+            add(inst.name + ".", deck.parts[inst.part.upper()], inst)
+            add(inst.name + ".", inst.own, inst)
+        add("", deck.assembly, None)
+        return point_sets, cell_sets
+    finally:
+        # resolve calls itself through its closure cell, a cycle that would hold the whole parsed deck (a
+        # tuple per line) until the next full garbage collection: cleared, the deck is freed on return
+        resolve = None  # type: ignore[assignment]
 
 
 # --------------------------------------------------------------------------- reading

@@ -226,3 +226,20 @@ def test_an_lsdyna_deck_named_inp_is_named_for_what_it_is(tmp_path):
     with pytest.raises(UnreadableFileError) as e:
         read_mesh(p)
     assert e.value.code == "wrong_format" and e.value.details["detected"] == "lsdyna" and ".k" in e.value.message
+
+
+def test_reading_a_deck_leaves_no_reference_cycle_holding_its_lines(tmp_path):
+    """The parsed deck (a tuple per line) is freed when the read returns, not at the next full collection:
+    at 1M tets it held about 0.3 GB through the set-up that followed."""
+    import gc
+
+    (tmp_path / "a.inp").write_text(assembly_deck())
+    for path in (DATA / "bracket.inp", tmp_path / "a.inp"):
+        gc.collect()
+        gc.disable()
+        try:
+            mesh = read_mesh(path)
+            found = gc.collect()
+        finally:
+            gc.enable()
+        assert mesh.n > 0 and found == 0, (path.name, found)

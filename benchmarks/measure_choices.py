@@ -44,6 +44,12 @@ Sections (all by default, or pick with --only):
                and SuperLU, each in single and double precision, and CHOLMOD on the pattern
                symmetrised as the floor of a direct solve: factor time, factor entries, solve
                time, residual.
+``library``    each home-made piece against the library that could do its job, in the same run, on the
+               bracket's interior mean-value system at 107k and 1M tets: the multifrontal LU with the
+               supernodal sweeps and the ctypes PARDISO binding (single and double) against pypardiso's
+               factorize and solve (double; it refuses float32); and OpenBLAS's thread count set for a
+               block by ``solver.linalg.threads`` against threadpoolctl: cost, and whether a block on a
+               second thread takes effect once a first thread has set OpenBLAS.
 ``distinct``   sorted distinct ids of the bracket's edges (107k and 1M tets): numpy's ``np.unique``
                (a hash table since numpy 2.3) against one sort (``solver/ops/unique.py``).
 
@@ -606,6 +612,118 @@ def interior_1m() -> None:
           f"{_median_ms(lambda: C.solve(B), 9)} | (another matrix) |")
 
 
+def _interior_system(size: float):
+    """The interior mean-value system of the bracket at gmsh ``size`` (CSC) and 3 right-hand sides."""
+    from solver import precompute, read_mesh
+
+    mesh = read_mesh(deck("bracket", size))
+    d = precompute(mesh, end_spec(mesh))
+    M = d.data.positions.Mff.tocsc()
+    return M, np.random.default_rng(0).standard_normal((M.shape[0], 3)), len(mesh.T)
+
+
+def _library_rows(size: float) -> None:
+    """:func:`library`'s solver rows at one bracket size."""
+    import pypardiso
+
+    from solver.linalg import pardiso as pm
+    from solver.linalg.multifrontal import lu_multifrontal
+
+    M, B, tets = _interior_system(size)
+    Mr = M.tocsr()
+    name = f"{tets:,} tets"
+
+    def row(path, single, build, solve, release=None):
+        t = time.perf_counter()
+        F = build()
+        tf = time.perf_counter() - t
+        res = float(np.abs(M @ np.asarray(solve(F), np.float64) - B).max() / np.abs(B).max())
+        print(f"| {name} | {path} | {'single' if single else 'double'} | {tf:.2f} | "
+              f"{_median_ms(lambda: solve(F), 9)} | {res:.1e} |", flush=True)
+        if release is not None:
+            release(F)
+
+    for single in (True, False):
+        row("multifrontal LU + supernodal sweeps (tetmorph)", single,
+            lambda s=single: lu_multifrontal(M, s), lambda F: F.solve(B))
+    for single in (True, False):
+        row("PARDISO through solver/linalg/pardiso.py (ctypes)", single,
+            lambda s=single: pm.PardisoFactor(M, "interior", mtype=11, single=s),
+            lambda F: F.solve(B), lambda F: F.release())
+
+    def pypardiso_factor():
+        ps = pypardiso.PyPardisoSolver()
+        ps.factorize(Mr)
+        return ps
+
+    row("pypardiso (factorize, solve)", False, pypardiso_factor, lambda ps: ps.solve(Mr, B),
+        lambda ps: ps.free_memory(everything=True))
+    try:
+        pypardiso.PyPardisoSolver().factorize(Mr.astype(np.float32))
+        print(f"| {name} | pypardiso | single | took float32 | | |")
+    except (TypeError, ValueError) as e:
+        print(f"| {name} | pypardiso | single | refused: {str(e)[:70]} | | |")
+
+
+def library() -> None:
+    """Each home-made piece against the library that could do its job, 107k and 1M, in this run."""
+    from threadpoolctl import threadpool_limits
+
+    from solver.linalg import threads
+
+    print("interior mean-value system, 3 right-hand sides: factor s, solve ms median [min-max] of 9")
+    print("| bracket | path | precision | factor s | solve ms | relative residual |")
+    print("|---|---|---|---:|---:|---:|")
+    for size in (0.95, 0.44):
+        _library_rows(size)
+    print()
+    print("OpenBLAS on one thread for a block: enter + exit, median [min-max] of 200 (microseconds), and whether")
+    print("a block on a second thread takes effect once a first, still living thread has set OpenBLAS")
+    print("| path | enter + exit us | effective from a second thread |")
+    print("|---|---:|---|")
+    import threading
+
+    def cost(block) -> str:
+        ts = []
+        for _ in range(200):
+            t = time.perf_counter()
+            with block():
+                pass
+            ts.append(1e6 * (time.perf_counter() - t))
+        return f"{np.median(ts):.1f} [{min(ts):.1f}-{max(ts):.1f}]"
+
+    def effective(block) -> bool:
+        from threadpoolctl import ThreadpoolController
+
+        set_first, leave, seen = threading.Event(), threading.Event(), []
+
+        def first():  # a long-lived thread (a service's pool) that set OpenBLAS through threadpoolctl first
+            for c in ThreadpoolController().lib_controllers:
+                if c.internal_api == "openblas":
+                    c.set_num_threads(c.get_num_threads())
+            set_first.set()
+            leave.wait(30)
+
+        def second():
+            with block():
+                seen.append([c.get_num_threads() for c in threads._own_openblas()])
+
+        t1 = threading.Thread(target=first)
+        t1.start()
+        set_first.wait(30)
+        t2 = threading.Thread(target=second)
+        t2.start()
+        t2.join()
+        leave.set()
+        t1.join()
+        return bool(seen) and all(n == 1 for n in seen[0])
+
+    for label, block in (("threads.one_blas_thread (OpenBLAS's own functions)", threads.one_blas_thread),
+                         ("threadpoolctl.threadpool_limits(1, 'blas')",
+                          lambda: threadpool_limits(1, user_api="blas"))):
+        print(f"| {label} | {cost(block)} | {'yes' if effective(block) else 'no'} |", flush=True)
+
+
 def distinct() -> None:
     from solver import read_mesh
     from solver.ops.unique import unique
@@ -624,7 +742,7 @@ def distinct() -> None:
 SECTIONS = {"orderings": orderings, "small-lu": small_lu, "penalty": penalty, "refine": refine, "midside": midside,
             "constraints": constraints, "pardiso": pardiso, "interior": interior, "layout": layout, "kernels": kernels,
             "check": check, "supernodal": supernodal,
-            "interior-1m": interior_1m, "distinct": distinct}
+            "interior-1m": interior_1m, "distinct": distinct, "library": library}
 
 
 def main() -> None:

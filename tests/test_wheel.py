@@ -35,7 +35,11 @@ print(json.dumps([solver.__file__, tetmorph_core.__file__, "numba" in sys.module
 
 
 def _run(cmd: list[str], cwd: Path, timeout: float) -> subprocess.CompletedProcess[str]:
+    from solver.linalg.pardiso import mkl_runtime
+
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")}
+    if mkl_runtime():  # MKL's library lies in this virtualenv's prefix, not the new one's: say where
+        env["TETMORPH_MKL_RT"] = str(mkl_runtime())
     out = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
     assert out.returncode == 0, f"{' '.join(cmd)} failed:\n{out.stdout[-4000:]}\n{out.stderr[-4000:]}"
     return out

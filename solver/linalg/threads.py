@@ -33,6 +33,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import os
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -219,21 +220,30 @@ class OpenBLAS:
         self._set(int(n))
 
 
-def openblas(own: bool = True) -> list[OpenBLAS]:
-    """The OpenBLAS libraries loaded in this process, inside or outside this Python's prefix.
+def _package_homes() -> tuple[str, ...]:
+    """The prefix of this Python and the folders numpy and scipy are installed in (their wheels' libraries)."""
+    import numpy
+    import scipy
 
-    ``own``: inside it (numpy's and scipy's wheels); ``own=False``: outside it (the system one CHOLMOD links).
+    return tuple(os.path.realpath(p) + os.sep for p in
+                 (sys.prefix, *(os.path.dirname(os.path.dirname(m.__file__ or "")) for m in (numpy, scipy))))
+
+
+def openblas(own: bool = True) -> list[OpenBLAS]:
+    """The OpenBLAS libraries loaded in this process: numpy's and scipy's own, or the others.
+
+    ``own``: those inside this Python's prefix or numpy's and scipy's install folders (their
+    wheels'; the folders count too when the packages come from another environment, through a
+    path file or ``PYTHONPATH``); ``own=False``: the others (the system one CHOLMOD links).
     """
     try:
-        import sys
-
         from threadpoolctl import ThreadpoolController
     except ImportError:  # pragma: no cover - a dependency; only speed is at stake
         return []
-    prefix = os.path.realpath(sys.prefix)
     found = []
+    homes = _package_homes()
     for c in ThreadpoolController().lib_controllers:
-        if c.internal_api == "openblas" and os.path.realpath(c.filepath).startswith(prefix) == own:
+        if c.internal_api == "openblas" and os.path.realpath(c.filepath).startswith(homes) == own:
             try:
                 found.append(OpenBLAS(c.filepath))
             except OSError:  # pragma: no cover - an OpenBLAS without the thread API

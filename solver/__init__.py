@@ -17,7 +17,7 @@ Examples
 from typing import TYPE_CHECKING, Any
 
 from . import environment  # noqa: F401, I001 - first: spin settings before OpenMP, MKL and OpenBLAS load
-from .constraints import Move, Spec, parse_move, parse_spec
+from .constraints import ResolvedMove, ResolvedSpec, parse_move, parse_spec
 from .deform import Deformer, DeformResult, precompute
 from .errors import (
     ConstraintError,
@@ -33,16 +33,20 @@ from .options import SolveOptions
 
 __all__ = [
     "Deformer", "DeformResult", "precompute", "Mesh", "mesh_from_arrays", "mesh_from_meshio",
-    "read_mesh", "write_mesh", "Move", "Spec", "parse_move", "parse_spec", "SolverError",
+    "read_mesh", "write_mesh", "Move", "Spec", "ResolvedMove", "ResolvedSpec", "parse_move", "parse_spec",
+    "SolverError",
     "InvalidMeshError", "UnsupportedElementError", "SpecError", "ConstraintError",
     "FactorizationError", "InversionError", "load_kernels", "SolveOptions",
 ]
 __version__ = "0.1.0"
 
 
-#: Names loaded on first use: the file formats (meshio among them) when a file is read or written, and
-#: ``load_kernels`` (``python -m solver.kernels`` runs that module as the main one).
-_ON_FIRST_USE = {"read_mesh": ".io", "write_mesh": ".io", "mesh_from_meshio": ".io", "load_kernels": ".kernels"}
+#: Names loaded on first use: the file formats (meshio among them) when a file is read or written, the
+#: document models ``Spec`` and ``Move`` (pydantic's; :func:`parse_spec` and :func:`parse_move` give the
+#: resolved :class:`ResolvedSpec` and :class:`ResolvedMove`), and ``load_kernels`` (``python -m
+#: solver.kernels`` runs that module as the main one).
+_ON_FIRST_USE = {"read_mesh": ".io", "write_mesh": ".io", "mesh_from_meshio": ".io", "load_kernels": ".kernels",
+                 "Spec": ".documents.spec", "Move": ".documents.move"}
 
 
 def __getattr__(name: str) -> Any:
@@ -55,5 +59,7 @@ def __getattr__(name: str) -> Any:
 
 
 if TYPE_CHECKING:
+    from .documents.move import Move
+    from .documents.spec import Spec
     from .io import mesh_from_meshio, read_mesh, write_mesh
     from .kernels import load_kernels

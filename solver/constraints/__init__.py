@@ -1,7 +1,8 @@
 """Constraints: the SPEC and MOVE documents, selections, features, ties and constraint rows."""
 
-from .move import HandleMove, Move, MoveBounds, parse_move, scaled_move
+from .move import HandleMove, MoveBounds, ResolvedMove, parse_move, scaled_move
 from .selection import select
-from .spec import Spec, parse_spec
+from .spec import ResolvedSpec, parse_spec
 
-__all__ = ["select", "HandleMove", "Move", "MoveBounds", "Spec", "parse_move", "parse_spec", "scaled_move"]
+__all__ = ["select", "HandleMove", "ResolvedMove", "MoveBounds", "ResolvedSpec", "parse_move", "parse_spec",
+           "scaled_move"]

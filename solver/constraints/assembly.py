@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..ops.unique import unique
-from .move import Move
+from .move import ResolvedMove
 from .rows import Block, block_target
 
 __all__ = ["Assembly", "assemble", "block_targets", "describe"]
@@ -107,7 +107,7 @@ def assemble(blocks: list[Block], umap: np.ndarray, N: int, vector: bool) -> Ass
     return Assembly(C, cat(blk, np.int64), cat(loc, np.int64), cat(crd, np.int64), vector)
 
 
-def block_targets(blocks: list[Block], asm: Assembly, move: Move,
+def block_targets(blocks: list[Block], asm: Assembly, move: ResolvedMove,
                   rot_at: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
     """Targets ``d`` of the assembled rows: (m, 3) replicated, (m, 1) vector layout."""
     per = {}

@@ -12,7 +12,7 @@ from ..mesh import Mesh
 from ..ops.closest_point import TriangleSurface
 from .matching import Matching, match, reflection, rotation
 from .selection import midside_mask
-from .spec import CyclicEntry, Spec, SymmetryEntry, TargetEntry
+from .spec import CyclicEntry, ResolvedSpec, SymmetryEntry, TargetEntry
 
 __all__ = ["Correspondences", "correspondences", "MatchedEntry", "InteriorMirror", "TargetPoints", "read_surface",
            "interior_pairs", "SYMMETRY_TOL", "SURFACE_TIE_TOL"]
@@ -336,7 +336,7 @@ def _node_normals(mesh: Mesh) -> np.ndarray:
     return N / np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-300)
 
 
-def correspondences(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], diag: float) -> Correspondences:
+def correspondences(mesh: Mesh, spec: ResolvedSpec, sel_ids: dict[str, np.ndarray], diag: float) -> Correspondences:
     """Resolve the symmetry, cyclic, surface-tie and target constraints of ``spec`` on ``mesh``.
 
     Raises

@@ -25,7 +25,7 @@ from .spec import expect
 if TYPE_CHECKING:
     from ..documents.move import Rotation as RotationDoc
 
-__all__ = ["HandleMove", "Move", "MoveBounds", "RestTargets", "parse_move", "scaled_move", "axis_angle_matrix",
+__all__ = ["HandleMove", "ResolvedMove", "MoveBounds", "RestTargets", "parse_move", "scaled_move", "axis_angle_matrix",
            "SCALE_RANGE", "MOVE_RANGE"]
 
 #: Scales (handles, features, relative constraints) must lie in this range.
@@ -100,7 +100,7 @@ class HandleMove:
 
 
 @dataclass(frozen=True)
-class Move:
+class ResolvedMove:
     """A parsed MOVE: one :class:`HandleMove` per named handle (missing ones stay at rest).
 
     Attributes
@@ -220,7 +220,7 @@ class RestTargets:
     radius: dict[str, float] = field(default_factory=dict)
 
 
-def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
+def scaled_move(mv: ResolvedMove, f: float, rest: RestTargets) -> ResolvedMove:
     """The MOVE scaled by ``f`` in [0, 1]: ``f = 0`` is the rest shape, ``f = 1`` the MOVE.
 
     Handles: translation ``f t``, rotation angle ``f θ``, scale ``s^f``.
@@ -246,7 +246,7 @@ def scaled_move(mv: Move, f: float, rest: RestTargets) -> Move:
     targets = {k: f * v for k, v in mv.targets.items()}
     edits = {kind: {n: scaled_value(v, f, rest.radius.get(n) if kind == "radius" else None) for n, v in named.items()}
              for kind, named in mv.edits.items()}
-    return Move(handles, points, relative, features, motion, targets, edits)
+    return ResolvedMove(handles, points, relative, features, motion, targets, edits)
 
 
 def _rotation_vector(rot: RotationDoc, where: str) -> np.ndarray:
@@ -274,7 +274,7 @@ def _rotation_vector(rot: RotationDoc, where: str) -> np.ndarray:
 
 
 def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[str, Any] | None = None,
-               bounds: MoveBounds | None = None) -> Move:
+               bounds: MoveBounds | None = None) -> ResolvedMove:
     """Parse and validate a MOVE document against the SPEC's names.
 
     Parameters
@@ -298,7 +298,7 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
 
     Returns
     -------
-    Move
+    ResolvedMove
 
     Raises
     ------
@@ -355,4 +355,4 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     features = {k: float(v.scale) for k, v in m.features.items()}
     motion = {k: pos(v.point, f"MOVE.motion.{k}.point") for k, v in m.motion.items()}
     targets = {k: float(v.amount) for k, v in m.targets.items()}
-    return Move(out, points, relative, features, motion, targets, edit_values(m, bounds))
+    return ResolvedMove(out, points, relative, features, motion, targets, edit_values(m, bounds))

@@ -40,8 +40,8 @@ from .correspondence import Correspondences
 from .edit_entries import EDIT_KINDS
 from .edits import Edit
 from .matching import Matching
-from .move import Move
-from .spec import FeatureEntry, MotionEntry, PointDef, PointEntry, RelativeEntry, SlidingEntry, Spec
+from .move import ResolvedMove
+from .spec import FeatureEntry, MotionEntry, PointDef, PointEntry, RelativeEntry, ResolvedSpec, SlidingEntry
 
 __all__ = ["Block", "KINDS", "TARGETS", "block_target", "check_ids", "point_weights", "position_blocks",
            "rotation_blocks", "fixed_rows", "handle_rows", "tie_rows", "point_rows", "relative_rows",
@@ -126,11 +126,11 @@ class Block:
 
 
 # --------------------------------------------------------------------- targets
-def _fixed_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _fixed_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     return b.rest
 
 
-def _handle_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _handle_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     hm = mv.handles.get(b.name)
     if hm is None:
         return b.rest
@@ -138,15 +138,15 @@ def _handle_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
     return hm.apply(b.rest, b.pivot)
 
 
-def _tie_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _tie_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     return np.zeros((b.nrows, 3))
 
 
-def _point_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _point_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     return np.asarray(mv.points.get(b.name, b.rest))[None, :]
 
 
-def _relative_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _relative_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     o = mv.relative.get(b.name, {})
     if "offset" in o:
         return np.asarray(o["offset"])[None, :]
@@ -154,31 +154,31 @@ def _relative_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
     return o.get("scale", 1.0) * v
 
 
-def _feature_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _feature_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     s = mv.features.get(b.name, 1.0)
     if not b.uses_rotation:
         return s * b.rest
     return (s * b.rest) @ log_to_matrix(rot(np.array([b.rot_vertex]))[0]).T
 
 
-def _target_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _target_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     a = mv.targets.get(b.name, 0.0)
     assert b.aux is not None
     return b.rest + a * (b.aux - b.rest)
 
 
-def _motion_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _motion_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     assert b.normal is not None
     return b.normal @ np.asarray(mv.motion.get(b.name, b.rest))
 
 
-def _edit_target(b: Block, mv: Move, rot: RotAt) -> np.ndarray:
+def _edit_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
     assert b.edit is not None
     return b.edit.positions(mv.edit(b.kind, b.name))[b.edit.corner]
 
 
 #: Target of each kind: ``(block, move, rot_at) -> (nrows, 3)`` replicated or ``(nrows,)`` vector.
-TARGETS: dict[str, Callable[[Block, Move, RotAt], np.ndarray]] = {
+TARGETS: dict[str, Callable[[Block, ResolvedMove, RotAt], np.ndarray]] = {
     "fixed": _fixed_target, "handle": _handle_target, "tie": _tie_target, "point": _point_target,
     "relative": _relative_target, "feature": _feature_target, "motion": _motion_target, "sliding": _fixed_target,
     "target": _target_target, "symmetry": _fixed_target, "cyclic": _fixed_target,
@@ -186,7 +186,7 @@ TARGETS: dict[str, Callable[[Block, Move, RotAt], np.ndarray]] = {
 }
 
 
-def block_target(b: Block, mv: Move, rot_at: RotAt) -> np.ndarray:
+def block_target(b: Block, mv: ResolvedMove, rot_at: RotAt) -> np.ndarray:
     """Target values of a block's rows for a MOVE (:data:`TARGETS`)."""
     return TARGETS[b.kind](b, mv, rot_at)
 
@@ -418,7 +418,7 @@ def _corners(mesh: Mesh, ids: np.ndarray) -> np.ndarray:
     return ids[mesh.referenced[ids]]
 
 
-def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
+def position_blocks(mesh: Mesh, spec: ResolvedSpec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
                     handle_ids: dict[str, np.ndarray], handle_pivots: dict[str, np.ndarray],
                     ties: np.ndarray | None = None, corr: Correspondences | None = None,
                     edits: tuple[Edit, ...] = ()) -> list[Block]:
@@ -427,7 +427,7 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
     Parameters
     ----------
     mesh : Mesh
-    spec : Spec
+    spec : ResolvedSpec
     sel_ids : dict of str to (k,) int array
         Resolved selections (every node they name).
     fixed : (k,) int array
@@ -478,7 +478,7 @@ def position_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixe
     return blocks
 
 
-def rotation_blocks(mesh: Mesh, spec: Spec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
+def rotation_blocks(mesh: Mesh, spec: ResolvedSpec, sel_ids: dict[str, np.ndarray], fixed: np.ndarray,
                     handle_ids: dict[str, np.ndarray], ties: np.ndarray | None = None,
                     corr: Correspondences | None = None, system: str = "rotations"
                     ) -> tuple[list[Block], list[np.ndarray]]:

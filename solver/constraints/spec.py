@@ -8,7 +8,7 @@ numbers belong, non-finite or out-of-range values raise
 :class:`~solver.errors.SpecError` naming the field, before any work), then
 resolves what the model cannot check on its own: the selection names it
 uses and the relations between its entries. The result is a frozen
-:class:`Spec` whose constraint entries are frozen dataclasses
+:class:`ResolvedSpec` whose constraint entries are frozen dataclasses
 (:class:`PointEntry`, ...), read by attribute, never by key.
 """
 
@@ -26,7 +26,7 @@ from ..errors import SpecError
 if TYPE_CHECKING:
     from .edit_entries import EditEntry
 
-__all__ = ["Spec", "PointDef", "PointEntry", "RelativeEntry", "FeatureEntry", "MotionEntry", "SlidingEntry",
+__all__ = ["ResolvedSpec", "PointDef", "PointEntry", "RelativeEntry", "FeatureEntry", "MotionEntry", "SlidingEntry",
            "SymmetryEntry", "CyclicEntry", "TargetEntry", "parse_spec", "THIN_WALL_WEIGHT"]
 
 #: Default weight of the thin-wall rows (SPEC "thin_walls": true): the weight with the fewest
@@ -220,7 +220,7 @@ class TargetEntry:
 
 
 @dataclass(frozen=True)
-class Spec:
+class ResolvedSpec:
     """A parsed SPEC.
 
     Attributes
@@ -366,7 +366,7 @@ def _unit(v: list[float]) -> tuple[float, float, float]:
     return (x, y, z)
 
 
-def parse_spec(doc: Any) -> Spec:
+def parse_spec(doc: Any) -> ResolvedSpec:
     """Parse and validate a SPEC document.
 
     The document is validated by its one model (:class:`solver.documents.spec.Spec`: types, ranges,
@@ -382,7 +382,7 @@ def parse_spec(doc: Any) -> Spec:
 
     Returns
     -------
-    Spec
+    ResolvedSpec
 
     Raises
     ------
@@ -442,7 +442,7 @@ def parse_spec(doc: Any) -> Spec:
     solve = model.solve_options.given() if model.solve_options is not None else {}
     if "precision" in d:
         solve["precision"] = d["precision"]
-    return Spec(selections=selections, fixed=tuple(fixed), handles={str(k): v for k, v in handles.items()},
+    return ResolvedSpec(selections=selections, fixed=tuple(fixed), handles={str(k): v for k, v in handles.items()},
                 domain=model.domain, laplacian=model.laplacian, method=method, penalty_weight=beta,
                 solve=model.solve, rotation=model.rotation, inversion=model.inversion, conflicts=model.conflicts,
                 repair=model.repair, thin_walls=float(weight), ties=ties, voids=model.voids,

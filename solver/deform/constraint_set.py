@@ -21,7 +21,7 @@ from ..constraints.correspondence import Correspondences, InteriorMirror, corres
 from ..constraints.edit_entries import EDIT_KINDS
 from ..constraints.edits import Edit, RadiusEdit, resolve_edits
 from ..constraints.matching import Matching
-from ..constraints.move import Move, MoveBounds, RestTargets
+from ..constraints.move import MoveBounds, ResolvedMove, RestTargets
 from ..constraints.rows import (
     REPORT_IDS,
     Block,
@@ -32,7 +32,7 @@ from ..constraints.rows import (
     rotation_blocks,
 )
 from ..constraints.selection import select
-from ..constraints.spec import Spec
+from ..constraints.spec import ResolvedSpec
 from ..constraints.ties import tie_pairs
 from ..errors import ConstraintError, SpecError, format_ids
 from ..linalg.rank import RankAnalysis, rank_analysis
@@ -188,13 +188,13 @@ def _union(parts: list[np.ndarray]) -> np.ndarray:
     return unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 
 
-def constraint_set(mesh: Mesh, spec: Spec) -> ConstraintSet:
+def constraint_set(mesh: Mesh, spec: ResolvedSpec) -> ConstraintSet:
     """Resolve and check the hard constraints of ``spec`` on ``mesh``.
 
     Parameters
     ----------
     mesh : Mesh
-    spec : Spec
+    spec : ResolvedSpec
 
     Returns
     -------
@@ -372,7 +372,7 @@ def _point_at(mesh: Mesh, sel_ids: dict[str, np.ndarray], p: Any) -> np.ndarray:
     return w @ mesh.V[ids]
 
 
-def _solve_mode(mesh: Mesh, spec: Spec, blocks: list[Block], free_shell: np.ndarray) -> str:
+def _solve_mode(mesh: Mesh, spec: ResolvedSpec, blocks: list[Block], free_shell: np.ndarray) -> str:
     """Split where it is exact, else joint (module docstring of :mod:`solver.deform.positions`)."""
     general = [b for b in blocks if b.kind not in ("fixed", "handle", "target", *EDIT_KINDS)]
     touches_interior = any(mesh.interior[b.vert].any() for b in general)
@@ -404,7 +404,7 @@ def _rest_constraints(blocks: list[Block], rblocks: list[Block], pasm: Assembly 
     redundant: list[dict[str, Any]] = []
     conflicting: list[dict[str, Any]] = []
     if pra is not None and pasm is not None and not pra.kept.all():
-        d = block_targets(blocks, pasm, Move({}), lambda ids: np.zeros((len(ids), 3)))
+        d = block_targets(blocks, pasm, ResolvedMove({}), lambda ids: np.zeros((len(ids), 3)))
         res = pra.dropped_residuals(pasm.C, d)
         drop = np.flatnonzero(~pra.kept)
         bad = res > tol

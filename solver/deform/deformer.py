@@ -17,8 +17,8 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from ..constraints.move import Move, parse_move, scaled_move
-from ..constraints.spec import Spec, parse_spec
+from ..constraints.move import ResolvedMove, parse_move, scaled_move
+from ..constraints.spec import ResolvedSpec, parse_spec
 from ..linalg.threads import solving
 from ..mesh import Mesh
 from ..options import SolveOptions, using
@@ -66,7 +66,7 @@ class Deformer:
     Parameters
     ----------
     mesh : Mesh
-    spec : Spec or dict
+    spec : ResolvedSpec or dict
     progress : callable, optional
         ``progress(stage, fraction)`` as set-up advances (:func:`~solver.deform.precompute.deform_precompute`).
     options : SolveOptions, optional
@@ -91,10 +91,10 @@ class Deformer:
     (0, 1.1)
     """
 
-    def __init__(self, mesh: Mesh, spec: Spec | dict[str, Any],
+    def __init__(self, mesh: Mesh, spec: ResolvedSpec | dict[str, Any],
                  progress: Callable[[str, float], None] | None = None, options: SolveOptions | None = None) -> None:
-        self.data: DeformData = deform_precompute(mesh, spec if isinstance(spec, Spec) else parse_spec(spec), progress,
-                                                  options)
+        resolved = spec if isinstance(spec, ResolvedSpec) else parse_spec(spec)
+        self.data: DeformData = deform_precompute(mesh, resolved, progress, options)
         cs = self.data.constraints
         self.mesh, self.spec, self.handle_names = mesh, self.data.spec, cs.handle_names
         self.setup_timings, self.factorizations = self.data.setup_timings, self.data.factorizations
@@ -105,14 +105,14 @@ class Deformer:
         """Memory held by the factors, operators and rotation basis, in bytes."""
         return self.data.nbytes
 
-    def parse_move(self, move: Move | MoveDocument | dict[str, Any]) -> Move:
+    def parse_move(self, move: ResolvedMove | MoveDocument | dict[str, Any]) -> ResolvedMove:
         """Parse a MOVE document (a dict, or its validated model) against this SPEC's names and the mesh's extent.
 
         The edits' values are checked against their resolved edits too (:meth:`Edit.check
         <solver.constraints.edits.Edit.check>`: a radius that stays positive, twist angles within range,
         control points of the lattice).
         """
-        if isinstance(move, Move):
+        if isinstance(move, ResolvedMove):
             return move
         mv = parse_move(move, self.handle_names, self.spec.names, self.data.constraints.bounds)
         for e in self.data.constraints.edits:
@@ -122,24 +122,24 @@ class Deformer:
         return mv
 
     @_solves
-    def solve_positions(self, move: Move | dict[str, Any]) -> Solved:
+    def solve_positions(self, move: ResolvedMove | dict[str, Any]) -> Solved:
         """Positions of a MOVE, without check or policy (:func:`~solver.deform.solve.solve_positions`)."""
         return solve_positions(self.data, self.parse_move(move))
 
     @_solves
-    def solve_boundary(self, move: Move | dict[str, Any]) -> BoundaryStage:
+    def solve_boundary(self, move: ResolvedMove | dict[str, Any]) -> BoundaryStage:
         """The boundary positions of a MOVE first (:func:`~solver.deform.solve.solve_boundary`).
 
         Pass the stage to :meth:`solve` for the rest.
         """
         return solve_boundary(self.data, self.parse_move(move))
 
-    def scaled_move(self, move: Move | dict[str, Any], f: float) -> Move:
+    def scaled_move(self, move: ResolvedMove | dict[str, Any], f: float) -> ResolvedMove:
         """The MOVE scaled by ``f`` in [0, 1] (:func:`~solver.constraints.move.scaled_move`)."""
         return scaled_move(self.parse_move(move), f, self.data.constraints.rest)
 
     @_solves
-    def safe_fraction(self, move: Move | dict[str, Any], tol: float = SAFE_TOL,
+    def safe_fraction(self, move: ResolvedMove | dict[str, Any], tol: float = SAFE_TOL,
                       inverts: bool | None = None) -> tuple[float, int]:
         """Largest fraction of a MOVE that inverts no element, and the solves used (bisection)."""
         return move_safe_fraction(self.data, self.parse_move(move), tol, inverts)
@@ -149,13 +149,13 @@ class Deformer:
         return summarize_quality(element_quality(self.mesh.V, self.mesh.T, self.mesh.cells))
 
     @_solves
-    def solve(self, move: Move | dict[str, Any] | BoundaryStage, inversion: str | None = None,
+    def solve(self, move: ResolvedMove | dict[str, Any] | BoundaryStage, inversion: str | None = None,
               quality: str = "basic", repair: bool | None = None) -> DeformResult:
         """Deform for one MOVE (or complete a :meth:`solve_boundary` stage) by back-substitution only.
 
         Parameters
         ----------
-        move : Move, dict or BoundaryStage
+        move : ResolvedMove, dict or BoundaryStage
         inversion : {"warn", "reject", "clamp"}, optional
             Overrides the SPEC's policy (:mod:`solver.deform.policy`).
         quality : {"basic", "full"}
@@ -192,7 +192,7 @@ class Deformer:
                       (t0, t1, t2))
 
     @_solves
-    def solve_many(self, moves: list[Move | dict[str, Any]], inversion: str | None = None,
+    def solve_many(self, moves: list[ResolvedMove | dict[str, Any]], inversion: str | None = None,
                    quality: str = "basic", repair: bool | None = None,
                    basis: InteriorBasis | None = None) -> list[DeformResult]:
         """:meth:`solve` for several MOVEs, stacked into one multi-column back-substitution per factor.
@@ -215,7 +215,7 @@ class Deformer:
         return [update(self.data, mv, s, policy, quality, rep, share) for mv, s in zip(mvs, solved, strict=True)]
 
     @_solves
-    def interior_basis(self, moves: Sequence[Move | dict[str, Any]]) -> InteriorBasis | None:
+    def interior_basis(self, moves: Sequence[ResolvedMove | dict[str, Any]]) -> InteriorBasis | None:
         """The interior column basis of ``moves``' boundary displacements, for :meth:`solve_many` of their family.
 
         None where stacked solves use none (a double-precision or small interior
@@ -224,7 +224,7 @@ class Deformer:
         return interior_basis(self.data, [self.parse_move(m) for m in moves])
 
 
-def precompute(mesh: Mesh, spec: Spec | dict[str, Any], options: SolveOptions | None = None) -> Deformer:
+def precompute(mesh: Mesh, spec: ResolvedSpec | dict[str, Any], options: SolveOptions | None = None) -> Deformer:
     """Assemble and factor the deformation of ``mesh`` under ``spec``; call ``.solve(move)`` per update.
 
     ``options`` (:class:`~solver.options.SolveOptions`) choose the backend, the

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..constraints.spec import Spec
+from ..constraints.spec import ResolvedSpec
 from ..mesh import Mesh
 from ..ops.cotmatrix import cotmatrix, uniform_matrix, voronoi_areas
 from ..ops.mvc_matrix import mvc_matrix
@@ -47,13 +47,13 @@ class Operators:
     wi: np.ndarray
 
 
-def operators(mesh: Mesh, spec: Spec) -> Operators:
+def operators(mesh: Mesh, spec: ResolvedSpec) -> Operators:
     """Assemble the boundary and interior operators of ``mesh`` (eq. 2.4-2.5, 3.1).
 
     Parameters
     ----------
     mesh : Mesh
-    spec : Spec
+    spec : ResolvedSpec
         ``spec.laplacian`` picks cotangent (eq. 3.1) or uniform weights.
 
     Returns

@@ -19,7 +19,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from ..constraints.move import Move, scaled_move
+from ..constraints.move import ResolvedMove, scaled_move
 from ..ops.elements import check_tets
 from ..validity.repair import repair_inverted
 from ..validity.safe_fraction import SAFE_TOL, safe_fraction
@@ -38,13 +38,13 @@ class Outcome:
 
     solved: Solved
     report: Report
-    move: Move
+    move: ResolvedMove
     check_ms: float
     report_ms: float
     safe_fraction_ms: float
 
 
-def move_safe_fraction(data: DeformData, mv: Move, tol: float = SAFE_TOL,
+def move_safe_fraction(data: DeformData, mv: ResolvedMove, tol: float = SAFE_TOL,
                        inverts: bool | None = None) -> tuple[float, int]:
     """Largest fraction of ``mv`` that inverts no element (:func:`~solver.validity.safe_fraction.safe_fraction`).
 
@@ -62,7 +62,7 @@ def move_safe_fraction(data: DeformData, mv: Move, tol: float = SAFE_TOL,
     return safe_fraction(valid_at, tol, None if inverts is None else not inverts)
 
 
-def apply_policy(data: DeformData, solved: Solved, mv: Move, policy: str, repair: bool) -> Outcome:
+def apply_policy(data: DeformData, solved: Solved, mv: ResolvedMove, policy: str, repair: bool) -> Outcome:
     """Evaluate one solve and apply repair and the inversion policy.
 
     Parameters
@@ -70,7 +70,7 @@ def apply_policy(data: DeformData, solved: Solved, mv: Move, policy: str, repair
     data : DeformData
     solved : Solved
         The positions of ``mv``.
-    mv : Move
+    mv : ResolvedMove
     policy : {"warn", "reject", "clamp"}
         ``reject`` is applied by the caller, which raises with the REPORT.
     repair : bool

@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from ..constraints.move import HandleMove, Move
-from ..constraints.spec import Spec
+from ..constraints.move import HandleMove, ResolvedMove
+from ..constraints.spec import ResolvedSpec
 from ..linalg import factorization as fz
 from ..linalg.column_basis import column_basis
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
@@ -501,7 +501,7 @@ def _use_basis(free: int, k: int, allowed: bool = True) -> bool:
     return allowed and k >= 3 and free >= BASIS_MIN
 
 
-RhsFor = Callable[[Move, np.ndarray], RightHandSides]
+RhsFor = Callable[[ResolvedMove, np.ndarray], RightHandSides]
 
 
 def refinement_probe(system: ConstrainedSolver, vector: bool, x0: np.ndarray, rhs: RightHandSides) -> float:
@@ -524,10 +524,10 @@ def refinement_probe(system: ConstrainedSolver, vector: bool, x0: np.ndarray, rh
     return float(np.abs(dx).max())
 
 
-def probe_move(cs: ConstraintSet) -> Move:
+def probe_move(cs: ConstraintSet) -> ResolvedMove:
     """Every handle turned 10 degrees and moved 1% of the diagonal."""
     axis = np.array([0.36, 0.48, 0.8])
-    return Move({h: HandleMove(0.01 * cs.diag * axis, np.radians(10.0) / 2 * axis) for h in cs.handle_names})
+    return ResolvedMove({h: HandleMove(0.01 * cs.diag * axis, np.radians(10.0) / 2 * axis) for h in cs.handle_names})
 
 
 @dataclass(frozen=True, eq=False)
@@ -557,7 +557,7 @@ class InteriorStart:
         wait([self.lu])
 
 
-def interior_start(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators) -> InteriorStart | None:
+def interior_start(mesh: Mesh, spec: ResolvedSpec, cs: ConstraintSet, ops: Operators) -> InteriorStart | None:
     """Start factoring the interior mean-value system of a split solve (None for joint or no free interior)."""
     if cs.mode == "joint":
         return None
@@ -574,14 +574,14 @@ def interior_start(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators) ->
     return InteriorStart(fi, Mfi, Mff, lu)
 
 
-def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators, walls: WallRows | None,
+def positions_precompute(mesh: Mesh, spec: ResolvedSpec, cs: ConstraintSet, ops: Operators, walls: WallRows | None,
                          rhs_for: RhsFor, start: InteriorStart | None = None) -> Positions:
     """Assemble and factor the position solve that ``cs.mode`` names.
 
     Parameters
     ----------
     mesh : Mesh
-    spec : Spec
+    spec : ResolvedSpec
     cs : ConstraintSet
     ops : Operators
     walls : WallRows or None
@@ -610,7 +610,7 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
     steps = 0 if probe <= REFINE_TOL * cs.diag else REFINE_STEPS
     nf = system.factorizations if system is not None else 0
     rows = np.flatnonzero(mesh.referenced) if cs.mode == "joint" else cs.bidx
-    rest_c, rest_d = rest_right_hand_sides(system, cs.vector, mesh.V[cs.unknowns], rhs_for(Move({}), rows),
+    rest_c, rest_d = rest_right_hand_sides(system, cs.vector, mesh.V[cs.unknowns], rhs_for(ResolvedMove({}), rows),
                                            cs.diag, steps)
     common: dict[str, Any] = dict(system=system, unknowns=cs.unknowns, rows=rows, vector=cs.vector,
                                   refine_steps=steps, refine_probe=probe, rest_c=rest_c, rest_d=rest_d)
@@ -637,7 +637,7 @@ def positions_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operato
                           coupled=coupled, r0=r0, rest_coupled=rest_coupled, **common)
 
 
-def _boundary_system(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators, walls: WallRows | None,
+def _boundary_system(mesh: Mesh, spec: ResolvedSpec, cs: ConstraintSet, ops: Operators, walls: WallRows | None,
                      rhs_for: RhsFor) -> tuple[ConstrainedSolver | None, float]:
     """The least-squares position system (boundary rows for split, every row for joint) and its probe step."""
     if cs.mode == "joint":

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from ..constraints.move import Move
-from ..constraints.spec import Spec
+from ..constraints.move import ResolvedMove
+from ..constraints.spec import ResolvedSpec
 from ..mesh import Mesh
 from ..ops.unique import unique
 from ..options import SolveOptions, current, using
@@ -42,7 +42,7 @@ class DeformData:
     Attributes
     ----------
     mesh : Mesh
-    spec : Spec
+    spec : ResolvedSpec
     constraints : ConstraintSet
     delta : (n, 3) float array
         Rest mean curvature normals (eq. 3.1).
@@ -65,7 +65,7 @@ class DeformData:
     """
 
     mesh: Mesh
-    spec: Spec
+    spec: ResolvedSpec
     constraints: ConstraintSet
     delta: np.ndarray
     walls: WallRows | None
@@ -78,13 +78,13 @@ class DeformData:
     factorizations: int
     options: SolveOptions = SolveOptions()
 
-    def rhs(self, move: Move) -> RightHandSides:
+    def rhs(self, move: ResolvedMove) -> RightHandSides:
         """Right-hand sides of a parsed MOVE."""
         p = self.positions
         return right_hand_sides(self.mesh, self.constraints, self.rotation, self.delta, self.walls, p.rows,
                                 p.system is not None, move)
 
-    def pinned_targets(self, move: Move) -> np.ndarray:
+    def pinned_targets(self, move: ResolvedMove) -> np.ndarray:
         """Targets (p, 3) of the fixed, handle and target-surface mid-side nodes (``pinned_mid`` order)."""
         U = handle_targets(self.mesh, self.constraints, move, self.pinned_mid)
         for t in self.constraints.corr.targets:
@@ -121,14 +121,14 @@ def _surface_check(mesh: Mesh) -> SurfaceCheck:
     return SurfaceCheck(mesh.V, F, shell, closed)
 
 
-def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None,
+def deform_precompute(mesh: Mesh, spec: ResolvedSpec, progress: Progress | None = None,
                       options: SolveOptions | None = None) -> DeformData:
     """Assemble and factor the deformation of ``mesh`` under a parsed ``spec``.
 
     Parameters
     ----------
     mesh : Mesh
-    spec : Spec
+    spec : ResolvedSpec
     progress : callable, optional
         ``progress(stage, fraction)`` as set-up advances, with ``stage`` in
         ``"constraints"`` (selections resolved and checked: every SPEC error
@@ -151,7 +151,7 @@ def deform_precompute(mesh: Mesh, spec: Spec, progress: Progress | None = None,
         return _precompute(mesh, spec, progress, effective)
 
 
-def _precompute(mesh: Mesh, spec: Spec, progress: Progress | None, options: SolveOptions) -> DeformData:
+def _precompute(mesh: Mesh, spec: ResolvedSpec, progress: Progress | None, options: SolveOptions) -> DeformData:
     t0 = time.perf_counter()
     report: Progress = progress or (lambda stage, fraction: None)
     _touch_topology(mesh)
@@ -172,7 +172,7 @@ def _precompute(mesh: Mesh, spec: Spec, progress: Progress | None, options: Solv
                                                                           mesh.degenerate_at_rest)
         t2 = time.perf_counter()
 
-        def rhs_for(move: Move, rows: np.ndarray) -> RightHandSides:
+        def rhs_for(move: ResolvedMove, rows: np.ndarray) -> RightHandSides:
             return right_hand_sides(mesh, cs, rotation, ops.delta, walls, rows, True, move)
 
         positions = positions_precompute(mesh, spec, cs, ops, walls, rhs_for, start)

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..constraints.assembly import describe
-from ..constraints.move import Move
+from ..constraints.move import ResolvedMove
 from ..constraints.rows import REPORT_IDS
 from ..documents.report_record import Report
 from ..validity.check import CheckResult
@@ -83,7 +83,8 @@ def _distance_residuals(cs: ConstraintSet, res: np.ndarray) -> np.ndarray:
 
 
 def constraint_report(cs: ConstraintSet, system: Any, rotation: RotationField, P: np.ndarray, U: np.ndarray,
-                      d: np.ndarray | None, pinned: np.ndarray, pinned_at: np.ndarray, move: Move) -> ConstraintReport:
+                      d: np.ndarray | None, pinned: np.ndarray, pinned_at: np.ndarray,
+                      move: ResolvedMove) -> ConstraintReport:
     """Residuals, redundant and conflicting constraints of a solve (ECLS §5).
 
     Parameters
@@ -100,7 +101,7 @@ def constraint_report(cs: ConstraintSet, system: Any, rotation: RotationField, P
         Targets of the position system's hard rows.
     pinned, pinned_at : (p,) int array, (p, 3) float array
         Fixed and handle mid-side nodes and their targets.
-    move : Move
+    move : ResolvedMove
 
     Returns
     -------

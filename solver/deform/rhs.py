@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constraints.assembly import block_targets
-from ..constraints.move import Move
+from ..constraints.move import ResolvedMove
 from ..mesh import Mesh
 from ..ops.rotation import rotate_by_log
 from .constraint_set import ConstraintSet, edit_owner
@@ -38,7 +38,7 @@ class RightHandSides:
     d: np.ndarray | None
 
 
-def handle_targets(mesh: Mesh, cs: ConstraintSet, move: Move, ids: np.ndarray) -> np.ndarray:
+def handle_targets(mesh: Mesh, cs: ConstraintSet, move: ResolvedMove, ids: np.ndarray) -> np.ndarray:
     """Targets (k, 3) of fixed, handle and edit nodes ``ids`` (corner or mid-side) under ``move``."""
     V0 = mesh.V
     U = V0[ids].copy()
@@ -60,7 +60,8 @@ def handle_targets(mesh: Mesh, cs: ConstraintSet, move: Move, ids: np.ndarray) -
 
 
 def right_hand_sides(mesh: Mesh, cs: ConstraintSet, rotation: RotationField, delta: np.ndarray,
-                     walls: WallRows | None, rows: np.ndarray, with_targets: bool, move: Move) -> RightHandSides:
+                     walls: WallRows | None, rows: np.ndarray, with_targets: bool,
+                     move: ResolvedMove) -> RightHandSides:
     """Right-hand sides of ``move`` for a position system whose vertex rows are ``rows``.
 
     Parameters
@@ -75,7 +76,7 @@ def right_hand_sides(mesh: Mesh, cs: ConstraintSet, rotation: RotationField, del
         Vertices of the position system's soft rows.
     with_targets : bool
         Whether a position system exists (else ``d`` is None).
-    move : Move
+    move : ResolvedMove
 
     Returns
     -------

@@ -18,8 +18,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..constraints.assembly import Assembly
-from ..constraints.move import Move
-from ..constraints.spec import Spec
+from ..constraints.move import ResolvedMove
+from ..constraints.spec import ResolvedSpec
 from ..linalg import factorization as fz
 from ..linalg.constrained import ConstrainedSolver, constrained_solver
 from ..linalg.rank import RankAnalysis
@@ -76,12 +76,12 @@ class RotationField:
             total += int(self.Phi3.nbytes) + (self.scale_system.nbytes if self.scale_system is not None else 0)
         return total
 
-    def unit_vector(self, move: Move) -> np.ndarray:
+    def unit_vector(self, move: ResolvedMove) -> np.ndarray:
         """What ``unit_residuals`` multiplies: ``[C, s]`` (H, 4), or ``vec(C)`` (3H, 1) when coupled."""
         C, s = self.handle_logs(move)
         return C.reshape(-1, 1) if self.Phi3 is not None else np.column_stack([C, s])
 
-    def handle_logs(self, move: Move) -> tuple[np.ndarray, np.ndarray]:
+    def handle_logs(self, move: ResolvedMove) -> tuple[np.ndarray, np.ndarray]:
         """Quaternion logarithms (H, 3) and log-scales (H,) of the handles in ``move``."""
         H = len(self.handle_names)
         C = np.zeros((H, 3))
@@ -93,7 +93,7 @@ class RotationField:
                 s[h] = np.log(hm.scale)
         return C, s
 
-    def solve(self, move: Move) -> tuple[np.ndarray, np.ndarray]:
+    def solve(self, move: ResolvedMove) -> tuple[np.ndarray, np.ndarray]:
         """Quaternion logarithms (n_B, 3) and log-scales (n_B,) of the boundary vertices."""
         C, s = self.handle_logs(move)
         if self.Phi3 is not None:
@@ -101,13 +101,13 @@ class RotationField:
         return self.Phi @ C, self.Phi @ s
 
 
-def rotation_field_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Operators) -> RotationField:
+def rotation_field_precompute(mesh: Mesh, spec: ResolvedSpec, cs: ConstraintSet, ops: Operators) -> RotationField:
     """Factor the rotation system and compute the harmonic basis ``Phi``.
 
     Parameters
     ----------
     mesh : Mesh
-    spec : Spec
+    spec : ResolvedSpec
         ``spec.rotation``: ``harmonic`` (the cotangent Laplacian, ECLS eq. 25)
         or ``least_squares`` (``Lb^T Lb``, eq. 3.8/3.9).
     cs : ConstraintSet
@@ -160,8 +160,8 @@ def rotation_field_precompute(mesh: Mesh, spec: Spec, cs: ConstraintSet, ops: Op
     return RotationField(Phi, system, unit_residuals, cs.handle_names, factorizations, Phi3, scale_system)
 
 
-def _basis(spec: Spec, Q: sp.csr_matrix, asm: Assembly, ra: RankAnalysis | None, basis: list[np.ndarray], H: int,
-           what: str) -> tuple[ConstrainedSolver, np.ndarray, np.ndarray]:
+def _basis(spec: ResolvedSpec, Q: sp.csr_matrix, asm: Assembly, ra: RankAnalysis | None, basis: list[np.ndarray],
+           H: int, what: str) -> tuple[ConstrainedSolver, np.ndarray, np.ndarray]:
     """Factor one scalar system and solve its harmonic basis (one column per handle)."""
     D = np.zeros((asm.C.shape[0], H))
     for b_i, t in enumerate(basis):

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..constraints.move import Move
+from ..constraints.move import ResolvedMove
 from ..constraints.rows import REPORT_IDS
 from ..linalg import factorization as fz
 from ..ops.displacement import displacement_maxima
@@ -61,7 +61,7 @@ class Solved:
         return Solved(P, self.U, self.d, self.pinned_at, None, self.interior_residual, self.interior_refined)
 
 
-def solve_positions(data: DeformData, move: Move) -> Solved:
+def solve_positions(data: DeformData, move: ResolvedMove) -> Solved:
     """Positions for a parsed MOVE (eq. 4.2/4.3 by back-substitution; mid-side nodes placed after).
 
     Fixed and handle mid-side nodes are set exactly to their targets; the
@@ -72,7 +72,8 @@ def solve_positions(data: DeformData, move: Move) -> Solved:
     return finish(data, ps, rhs, move)
 
 
-def solve_positions_many(data: DeformData, moves: list[Move], basis: InteriorBasis | None = None) -> list[Solved]:
+def solve_positions_many(data: DeformData, moves: list[ResolvedMove],
+                         basis: InteriorBasis | None = None) -> list[Solved]:
     """:func:`solve_positions` for several MOVEs: their right-hand sides stacked, one back-substitution per factor.
 
     Each result equals :func:`solve_positions` of its MOVE to round-off (a
@@ -84,7 +85,7 @@ def solve_positions_many(data: DeformData, moves: list[Move], basis: InteriorBas
     return [finish(data, ps, rhs, mv) for ps, rhs, mv in zip(solves, rhss, moves, strict=True)]
 
 
-def interior_basis(data: DeformData, moves: list[Move]) -> InteriorBasis | None:
+def interior_basis(data: DeformData, moves: list[ResolvedMove]) -> InteriorBasis | None:
     """The interior column basis of the boundary displacements of ``moves`` (None where stacked solves use none)."""
     if not data.positions.uses_basis(len(moves)):
         return None  # nothing solved
@@ -98,7 +99,7 @@ class BoundaryStage:
 
     Attributes
     ----------
-    move : Move
+    move : ResolvedMove
     rhs : RightHandSides
     P : (n, 3) float array
         Positions whose fixed, handle and boundary vertices are final.
@@ -106,13 +107,13 @@ class BoundaryStage:
         The vertices that are final (boundary and constrained ones).
     """
 
-    move: Move
+    move: ResolvedMove
     rhs: RightHandSides
     P: np.ndarray
     ids: np.ndarray
 
 
-def solve_boundary(data: DeformData, move: Move) -> BoundaryStage:
+def solve_boundary(data: DeformData, move: ResolvedMove) -> BoundaryStage:
     """Boundary positions of a MOVE (the split solve's boundary system only; joint solves everything).
 
     For interactive editing: the boundary is what a viewer draws; the
@@ -129,7 +130,7 @@ def complete(data: DeformData, stage: BoundaryStage) -> Solved:
     return finish(data, data.positions.interior_solve(stage.P), stage.rhs, stage.move)
 
 
-def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: Move) -> Solved:
+def finish(data: DeformData, ps: PositionSolve, rhs: RightHandSides, move: ResolvedMove) -> Solved:
     """Mid-side placement (quadratic meshes) after the corner positions of a solve."""
     P = ps.P
     if data.spec.method == "penalty" and data.constraints.corr.mapped:
@@ -185,14 +186,14 @@ def check_positions(data: DeformData, solved: Solved) -> CheckResult | None:
     return data.check.check(solved.P, solved.placement)
 
 
-def evaluate(data: DeformData, solved: Solved, move: Move, check: CheckResult | None = None) -> Report:
+def evaluate(data: DeformData, solved: Solved, move: ResolvedMove, check: CheckResult | None = None) -> Report:
     """The REPORT of one solve (no policy, no timings).
 
     Parameters
     ----------
     data : DeformData
     solved : Solved
-    move : Move
+    move : ResolvedMove
     check : CheckResult, optional
         Reused when given, else computed.
 

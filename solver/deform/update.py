@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..constraints.move import Move
+from ..constraints.move import ResolvedMove
 from ..errors import ConstraintError, InversionError, SpecError, format_ids
 from ..validity.quality import element_quality, summarize_quality
 from .constraint_set import entry_text
@@ -30,7 +30,7 @@ class DeformResult:
         Deformed positions in file order (unreferenced vertices unchanged).
     report : dict
         The REPORT document (``report_data.to_dict()``).
-    move : Move
+    move : ResolvedMove
         The MOVE that was applied (the scaled one when the policy clamped it).
     cell_quality : dict of str to (m,) array, optional
         Per-element metrics (``quality="full"``), see :func:`solver.validity.quality.element_quality`.
@@ -40,7 +40,7 @@ class DeformResult:
 
     V: np.ndarray
     report: dict[str, Any]
-    move: Move | None = None
+    move: ResolvedMove | None = None
     cell_quality: dict[str, np.ndarray] | None = None
     report_data: Report | None = None
 
@@ -54,14 +54,14 @@ def check_options(policy: str, quality: str) -> None:
         raise SpecError(f"quality must be 'basic' or 'full', got {quality!r}", field="quality")
 
 
-def update(data: DeformData, mv: Move, solved: Solved, policy: str, quality: str, repair: bool,
+def update(data: DeformData, mv: ResolvedMove, solved: Solved, policy: str, quality: str, repair: bool,
            times: tuple[float, float, float]) -> DeformResult:
     """Apply the policy to a solve, add quality and timings, and raise what the policy refuses.
 
     Parameters
     ----------
     data : DeformData
-    mv : Move
+    mv : ResolvedMove
     solved : Solved
         Positions of ``mv``.
     policy : {"warn", "reject", "clamp"}

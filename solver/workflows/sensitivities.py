@@ -50,7 +50,7 @@ import numpy as np
 from ..constraints.assembly import Assembly
 from ..constraints.edit_entries import EDIT_KINDS
 from ..constraints.edits import Edit
-from ..constraints.move import Move
+from ..constraints.move import ResolvedMove
 from ..constraints.rows import Block, block_target
 from ..deform.constraint_set import edit_owner
 from ..deform.deformer import Deformer
@@ -154,7 +154,7 @@ def _edit_step(shapes: Shapes, e: Edit, k: int) -> Any:
     return None if steps is None else steps[k]
 
 
-def _handle_derivative(deformer: Deformer, shapes: Shapes, mv: Move, ids: np.ndarray, U: np.ndarray,
+def _handle_derivative(deformer: Deformer, shapes: Shapes, mv: ResolvedMove, ids: np.ndarray, U: np.ndarray,
                        k: int) -> np.ndarray:
     """Derivative (p, 3) of the targets ``U`` of nodes ``ids`` along shape ``k``.
 
@@ -201,7 +201,7 @@ class _Along:
 
     k: int
     shapes: Shapes
-    move: Move
+    move: ResolvedMove
     r: np.ndarray
     dr: np.ndarray
     bpos: np.ndarray
@@ -261,7 +261,7 @@ ANALYTIC: dict[str, Callable[[Block, np.ndarray, _Along], np.ndarray]] = {
 }
 
 
-def _block_derivative(b: Block, a: _Along, shifted: Callable[[float], tuple[Move, np.ndarray]]) -> np.ndarray:
+def _block_derivative(b: Block, a: _Along, shifted: Callable[[float], tuple[ResolvedMove, np.ndarray]]) -> np.ndarray:
     """Derivative of one hard-row block's targets along shape ``a.k``."""
     def rot_at(rr: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
         return lambda ids: rr[a.bpos[ids]]
@@ -304,7 +304,7 @@ def shape_sensitivities(deformer: Deformer, shapes: Shapes, theta: Any = None,
     K = shapes.count
     th = np.zeros(K) if theta is None else np.asarray(theta, np.float64)
     mv = variant_move(deformer, shapes, th, where)
-    rest = data.rhs(Move({}))
+    rest = data.rhs(ResolvedMove({}))
     here = data.rhs(mv)
     r, sigma = data.rotation.solve(mv)
     Phi = data.rotation.Phi
@@ -316,8 +316,8 @@ def shape_sensitivities(deformer: Deformer, shapes: Shapes, theta: Any = None,
     rows = data.positions.rows
     asm = cs.pasm if data.positions.system is not None else None
 
-    def shifted(k: int) -> Callable[[float], tuple[Move, np.ndarray]]:
-        def at(h: float) -> tuple[Move, np.ndarray]:
+    def shifted(k: int) -> Callable[[float], tuple[ResolvedMove, np.ndarray]]:
+        def at(h: float) -> tuple[ResolvedMove, np.ndarray]:
             t2 = th.copy()
             t2[k] += h
             m2 = variant_move(deformer, shapes, t2, where)

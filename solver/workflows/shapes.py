@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..constraints.edit_values import EditValue, RadiusValue, TwistValue, combined_value
-from ..constraints.move import Move
+from ..constraints.move import ResolvedMove
 from ..deform.deformer import Deformer
 from ..documents.shapes import RESERVED
 from ..errors import SpecError
@@ -209,7 +209,7 @@ def parse_shapes(doc: Any, deformer: Deformer) -> Shapes:
     H = len(handles)
     cs = deformer.data.constraints
     rest = cs.rest
-    moves: dict[str, Move] = {}
+    moves: dict[str, ResolvedMove] = {}
     for name in names:
         try:
             moves[name] = deformer.parse_move(shapes[name])
@@ -285,7 +285,7 @@ def parse_shapes(doc: Any, deformer: Deformer) -> Shapes:
                   target_amount=amounts, edits=_edit_steps(names, moves, rest.radius))
 
 
-def _edit_steps(names: tuple[str, ...], moves: dict[str, Move], nominal: dict[str, float]
+def _edit_steps(names: tuple[str, ...], moves: dict[str, ResolvedMove], nominal: dict[str, float]
                 ) -> dict[str, dict[str, tuple[EditValue | None, ...]]]:
     """Each shape's value of every edit some shape names; a new radius as its change from the nominal radius."""
     steps: dict[str, dict[str, list[EditValue | None]]] = {}
@@ -378,7 +378,7 @@ def combine(shapes: Shapes, theta: Any, where: str = "variant") -> dict[str, Any
     return doc
 
 
-def variant_move(deformer: Deformer, shapes: Shapes, theta: Any, where: str = "variant") -> Move:
+def variant_move(deformer: Deformer, shapes: Shapes, theta: Any, where: str = "variant") -> ResolvedMove:
     """The parsed MOVE of the variant with parameters ``theta`` (:func:`combine`, then the MOVE parser).
 
     Raises

@@ -566,30 +566,19 @@ def interior_1m() -> None:
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    from solver import precompute, read_mesh
     from solver.linalg import pardiso as pm
     from solver.linalg.factorization import cholesky
     from solver.linalg.multifrontal import lu_multifrontal
 
-    mesh = read_mesh(deck("bracket", 0.44))
-    d = precompute(mesh, end_spec(mesh))
-    M = d.data.positions.Mff.tocsc()
-    del d, mesh
-    B = np.random.default_rng(0).standard_normal((M.shape[0], 3))
+    M, B, _ = _interior_system(0.44)
     print(f"bracket 0.44: {M.shape[0]:,} interior unknowns, {M.nnz:,} nonzeros; 3 right-hand sides, "
           "solve median [min-max] of 9")
     print("| factor | precision | factor s | factor entries | solve ms | relative residual |")
     print("|---|---|---:|---:|---:|---:|")
 
     def row(name, single, build, entries, solve, release=None):
-        t = time.perf_counter()
-        F = build()
-        tf = time.perf_counter() - t
-        res = float(np.abs(M @ np.asarray(solve(F), np.float64) - B).max() / np.abs(B).max())
-        print(f"| {name} | {'single' if single else 'double'} | {tf:.2f} | {entries(F):,} | "
-              f"{_median_ms(lambda: solve(F), 9)} | {res:.1e} |", flush=True)
-        if release is not None:
-            release(F)
+        print(f"| {name} | {'single' if single else 'double'} | "
+              f"{_factor_cells(M, B, build, solve, release, entries)} |", flush=True)
 
     for single in (True, False):
         row("multifrontal + sweeps (tetmorph)", single, lambda s=single: lu_multifrontal(M, s),
@@ -610,6 +599,19 @@ def interior_1m() -> None:
     tf = time.perf_counter() - t
     print(f"| CHOLMOD on the symmetrised pattern (floor) | double | {tf:.2f} | {int(C.nbytes // 12):,} | "
           f"{_median_ms(lambda: C.solve(B), 9)} | (another matrix) |")
+
+
+def _factor_cells(M, B, build, solve, release=None, entries=None) -> str:
+    """Table cells of one factorization of ``M``: factor s, [entries,] solve ms (median of 9), relative residual."""
+    t = time.perf_counter()
+    F = build()
+    tf = time.perf_counter() - t
+    res = float(np.abs(M @ np.asarray(solve(F), np.float64) - B).max() / np.abs(B).max())
+    cells = [f"{tf:.2f}", *([f"{entries(F):,}"] if entries is not None else []), _median_ms(lambda: solve(F), 9),
+             f"{res:.1e}"]
+    if release is not None:
+        release(F)
+    return " | ".join(cells)
 
 
 def _interior_system(size: float):
@@ -634,14 +636,8 @@ def _library_rows(size: float) -> None:
     name = f"{tets:,} tets"
 
     def row(path, single, build, solve, release=None):
-        t = time.perf_counter()
-        F = build()
-        tf = time.perf_counter() - t
-        res = float(np.abs(M @ np.asarray(solve(F), np.float64) - B).max() / np.abs(B).max())
-        print(f"| {name} | {path} | {'single' if single else 'double'} | {tf:.2f} | "
-              f"{_median_ms(lambda: solve(F), 9)} | {res:.1e} |", flush=True)
-        if release is not None:
-            release(F)
+        print(f"| {name} | {path} | {'single' if single else 'double'} | "
+              f"{_factor_cells(M, B, build, solve, release)} |", flush=True)
 
     for single in (True, False):
         row("multifrontal LU + supernodal sweeps (tetmorph)", single,

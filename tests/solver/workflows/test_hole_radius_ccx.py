@@ -270,6 +270,7 @@ def test_the_peak_rises_with_the_radius_and_the_net_section_factor_falls(variant
     peak = np.array([run["peak"] for run in runs])
     ratio = np.array([run["ratio"] for run in runs])
     table = [(run["r"], round(run["peak"], 1), round(run["net"], 1), round(run["ratio"], 3)) for run in runs]
+    print("\nr mm | peak hoop MPa | net-section MPa | peak / net:", *table, sep="\n")  # pytest -s shows it
     assert (np.diff(peak) > 0).all(), table
     assert (np.diff(ratio) < 0).all(), table
     factor = ratio / np.array([heywood(r) for r in RADII])

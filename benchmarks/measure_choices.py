@@ -46,7 +46,7 @@ Sections (all by default, or pick with --only):
                time, residual.
 ``library``    each home-made piece against the library that could do its job, in the same run, on the
                bracket's interior mean-value system at 107k and 1M tets: the multifrontal LU with the
-               supernodal sweeps and the ctypes PARDISO binding (single and double) against pypardiso's
+               supernodal sweeps and the compiled PARDISO binding (single and double) against pypardiso's
                factorize and solve (double; it refuses float32); and OpenBLAS's thread count set for a
                block by ``solver.linalg.threads`` against threadpoolctl: cost, and whether a block on a
                second thread takes effect once a first thread has set OpenBLAS.
@@ -643,7 +643,7 @@ def _library_rows(size: float) -> None:
         row("multifrontal LU + supernodal sweeps (tetmorph)", single,
             lambda s=single: lu_multifrontal(M, s), lambda F: F.solve(B))
     for single in (True, False):
-        row("PARDISO through solver/linalg/pardiso.py (ctypes)", single,
+        row("PARDISO through solver/linalg/pardiso.py (compiled core)", single,
             lambda s=single: pm.PardisoFactor(M, "interior", mtype=11, single=s),
             lambda F: F.solve(B), lambda F: F.release())
 

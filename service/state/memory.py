@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import gc
+
+import tetmorph_core
 
 from solver.linalg.pardiso import loaded_mkl
 
@@ -20,13 +20,5 @@ def release_memory() -> None:
     gc.collect()
     mkl = loaded_mkl()  # only an MKL this process uses has buffers to free
     if mkl is not None:
-        try:
-            mkl.mkl_free_buffers()
-        except AttributeError:  # pragma: no cover - every MKL has it
-            pass
-    name = ctypes.util.find_library("c")
-    if name:
-        try:
-            ctypes.CDLL(name).malloc_trim(0)
-        except (OSError, AttributeError):  # not glibc
-            pass
+        mkl.free_buffers()
+    tetmorph_core.trim_heap()

@@ -44,15 +44,14 @@ caller then keeps PARDISO, which pivots.
 
 from __future__ import annotations
 
-import ctypes
 import threading
 
 import numpy as np
 import scipy.sparse as sp
 import tetmorph_core
 
+from ..errors import FactorizationError
 from .supernodal import SupernodalFactor, Unsuitable, supernode_starts, tree_split
-from .threads import mkl_local_threads
 
 __all__ = ["lu_multifrontal", "symbolic", "PANEL", "RELAX", "SINGLE_PROBE_TOL"]
 
@@ -70,23 +69,19 @@ DOUBLE_PROBE_TOL = 1e-12
 RELAX = ((4, 1.0), (16, 0.8), (48, 0.1), (1 << 62, 0.05))
 
 
-def _blas() -> ctypes.CDLL | None:
+def _blas() -> tetmorph_core.Mkl | None:
     """MKL's runtime when installed (its BLAS takes a thread count per calling thread), else None."""
-    from .pardiso import mkl_runtime
+    from .pardiso import _library
 
-    path = mkl_runtime()
     try:
-        return ctypes.CDLL(path) if path else None
-    except OSError:  # pragma: no cover - a broken MKL install
+        return _library()
+    except FactorizationError:  # not installed, or a broken install: SciPy's BLAS
         return None
 
 
-def _hand_over_blas(lib: ctypes.CDLL | None) -> None:
+def _hand_over_blas(lib: tetmorph_core.Mkl | None) -> None:
     """Have the compiled fronts call ``lib``'s ``dgemm``, ``sgemm``, ``dtrsm``, ``strsm``; None: SciPy's."""
-    names = ("dgemm", "sgemm", "dtrsm", "strsm")
-    addresses = [0] * 4 if lib is None else \
-        [ctypes.cast(getattr(lib, name), ctypes.c_void_p).value or 0 for name in names]
-    tetmorph_core.multifrontal_use_blas(*addresses)
+    tetmorph_core.multifrontal_use_blas(*((0, 0, 0, 0) if lib is None else lib.blas()))
 
 
 # The fronts' BLAS: MKL's, whose thread count is set per calling thread (the two subtrees then run
@@ -323,14 +318,14 @@ def lu_multifrontal(A: sp.spmatrix, single: bool = False, sym: Symbolic | None =
     bad: list[int] = []
 
     def run(lo: int, hi: int, st: _Stack, blas_threads: int) -> None:
-        prev = mkl_local_threads(_MKL, blas_threads) if _MKL is not None else 0
+        prev = _MKL.set_local_threads(blas_threads) if _MKL is not None else 0
         try:
             got, st.top = tetmorph_core.multifrontal_factor_range(
                 lo, hi, *args, st.buf, st.ent_s, st.ent_off, st.top, np.empty(int(fronts[lo:hi].max(initial=1)), dt),
                 PANEL)
         finally:
             if _MKL is not None:
-                mkl_local_threads(_MKL, prev)
+                _MKL.set_local_threads(prev)
         if got >= 0:
             bad.append(int(got))
 

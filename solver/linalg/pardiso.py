@@ -1,5 +1,9 @@
 """MKL PARDISO called directly: LU, Cholesky and LDL^T factors in double or single precision.
 
+The call goes through the compiled core (``tetmorph_core.Mkl``, which opens MKL's
+runtime with ``dlopen`` and calls ``pardiso`` without the GIL); MKL is optional and
+never linked.
+
 One object owns one PARDISO handle: ``phase 12`` (ordering, symbolic and
 numeric factorization) in the constructor, ``phase 33`` (back-substitution)
 in :meth:`PardisoFactor.solve`, ``phase -1`` on release. Compared with going
@@ -25,7 +29,6 @@ Bunch-Kaufman pivoting (``iparm(8) = 2``, ``iparm(21) = 1``).
 
 from __future__ import annotations
 
-import ctypes
 import functools
 import glob
 import os
@@ -34,15 +37,16 @@ import threading
 
 import numpy as np
 import scipy.sparse as sp
+import tetmorph_core
 
 from ..environment import START
 from ..errors import FactorizationError
 from .layout import c_copy, fortran_copy
-from .threads import WIDE_COLUMNS, mkl_local_threads, solve_threads
+from .threads import WIDE_COLUMNS, solve_threads
 
 __all__ = ["PardisoFactor", "mkl_runtime", "loaded_mkl", "nested_dissection"]
 
-_LIB: ctypes.CDLL | None = None
+_LIB: tetmorph_core.Mkl | None = None
 _LOCK = threading.Lock()
 
 
@@ -58,7 +62,7 @@ def mkl_runtime() -> str | None:
     return found[0] if found else None
 
 
-def loaded_mkl() -> ctypes.CDLL | None:
+def loaded_mkl() -> tetmorph_core.Mkl | None:
     """MKL's library when this process has loaded it already (PARDISO, the fronts' BLAS), else None.
 
     Never loads it: ``dlopen`` with ``RTLD_NOLOAD`` only finds a library already in the process.
@@ -67,25 +71,23 @@ def loaded_mkl() -> ctypes.CDLL | None:
     if path is None:
         return None
     try:
-        return ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_LAZY)
+        return tetmorph_core.Mkl(path, load=False)
     except OSError:
         return None
 
 
-def _library() -> ctypes.CDLL:
+def _library() -> tetmorph_core.Mkl:
+    """MKL's runtime, loaded on first use (``unknown_backend`` when it is not installed or does not load)."""
     global _LIB
     with _LOCK:
         if _LIB is None:
             path = mkl_runtime()
             if path is None:
                 raise FactorizationError("MKL PARDISO is not installed (no libmkl_rt found)", code="unknown_backend")
-            lib = ctypes.CDLL(path)
-            f = lib.pardiso
-            i32 = ctypes.POINTER(ctypes.c_int32)
-            f.argtypes = [ctypes.POINTER(ctypes.c_int64), i32, i32, i32, i32, i32, ctypes.c_void_p, i32, i32,
-                          i32, i32, i32, i32, ctypes.c_void_p, ctypes.c_void_p, i32]
-            f.restype = None
-            _LIB = lib
+            try:
+                _LIB = tetmorph_core.Mkl(path)
+            except OSError as e:
+                raise FactorizationError(f"MKL PARDISO could not be loaded: {e}", code="unknown_backend") from e
         return _LIB
 
 
@@ -184,16 +186,8 @@ class PardisoFactor:
         self.nbytes = self.nnz * (4 if single else 8) + self._a.nbytes + self._ia.nbytes + self._ja.nbytes
 
     def _call(self, phase: int, b: np.ndarray, x: np.ndarray) -> int:
-        c_int = ctypes.c_int32
-        err = c_int(0)
-        i32 = ctypes.POINTER(ctypes.c_int32)
-        self._lib.pardiso(self._pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(c_int(1)),
-                          ctypes.byref(c_int(1)), ctypes.byref(c_int(self.mtype)), ctypes.byref(c_int(phase)),
-                          ctypes.byref(c_int(self.shape[0])), self._a.ctypes.data, self._ia.ctypes.data_as(i32),
-                          self._ja.ctypes.data_as(i32), self._perm.ctypes.data_as(i32),
-                          ctypes.byref(c_int(b.shape[1])), self._iparm.ctypes.data_as(i32), ctypes.byref(c_int(0)),
-                          b.ctypes.data, x.ctypes.data, ctypes.byref(err))
-        return int(err.value)
+        return self._lib.pardiso(self._pt, self.mtype, phase, self.shape[0], self._a, self._ia, self._ja, self._perm,
+                                 b.shape[1], self._iparm, b, x)
 
     def solve(self, b: np.ndarray, stacked: bool = False) -> np.ndarray:
         """Solve ``A x = b`` for ``b`` of shape (n,) or (n, k).
@@ -218,11 +212,11 @@ class PardisoFactor:
             self._stacked = self._stacked or stacked
             n_threads = solve_threads(B.shape[1], self._stacked)  # see solver.linalg.threads
             self._stacked = self._stacked or B.shape[1] > WIDE_COLUMNS  # a scheduling hint, not a result
-            prev = mkl_local_threads(self._lib, n_threads)
+            prev = self._lib.set_local_threads(n_threads)
             try:
                 err = self._call(33, B, X)
             finally:
-                mkl_local_threads(self._lib, prev)
+                self._lib.set_local_threads(prev)
         if err:
             raise FactorizationError(f"PARDISO back-substitution failed ({_ERRORS.get(err, err)})",
                                      code="factorization_failed")
@@ -245,7 +239,7 @@ class PardisoFactor:
 def nested_dissection(A: sp.spmatrix) -> np.ndarray:
     """PARDISO's fill-reducing METIS ordering of ``A``'s symmetrized pattern (its phase 11 only).
 
-    ctypes releases the GIL for the call, so the ordering runs beside other
+    The compiled call releases the GIL, so the ordering runs beside other
     Python threads (unlike CHOLMOD's analysis through scikit-sparse).
 
     Parameters
@@ -276,18 +270,10 @@ def nested_dissection(A: sp.spmatrix) -> np.ndarray:
     for k, v in {1: 1, 2: 3, 5: 2, 8: 0, 10: 13, 11: 0, 13: 0, 35: 1}.items():  # iparm(5) = 2: return the ordering
         iparm[k - 1] = v
     perm = np.zeros(n, np.int32)
-    c = ctypes.c_int32
-    i32 = ctypes.POINTER(c)
     dummy = np.zeros(1)
 
     def call(phase: int) -> int:
-        err = c(0)
-        lib.pardiso(pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(c(1)), ctypes.byref(c(1)),
-                    ctypes.byref(c(11)), ctypes.byref(c(phase)), ctypes.byref(c(n)), a.ctypes.data,
-                    ia.ctypes.data_as(i32), ja.ctypes.data_as(i32), perm.ctypes.data_as(i32), ctypes.byref(c(1)),
-                    iparm.ctypes.data_as(i32), ctypes.byref(c(0)), dummy.ctypes.data, dummy.ctypes.data,
-                    ctypes.byref(err))
-        return int(err.value)
+        return lib.pardiso(pt, 11, phase, n, a, ia, ja, perm, 1, iparm, dummy, dummy)
 
     err = call(11)
     call(-1)

@@ -385,7 +385,7 @@ def lu_supernodal(A: sp.spmatrix, single: bool = False) -> SupernodalFactor:
     The ordering is PARDISO's METIS nested dissection of the symmetrized
     pattern (:func:`~solver.linalg.pardiso.nested_dissection`); SuperLU factors
     the ordered matrix in its natural order with diagonal pivots only. The
-    ordering (a ctypes call) and the factorization release the GIL, so most of
+    ordering (a compiled call) and the factorization release the GIL, so most of
     the work overlaps Python work on another thread; the exports, the layout's
     numpy steps and the probe's product do not.
 

@@ -30,21 +30,18 @@ would otherwise spin on cores that other work needs.
 
 from __future__ import annotations
 
-import ctypes
-import functools
 import os
 import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
 
 import tetmorph_core
 
 from ..options import current as current_options
 
 __all__ = ["WIDE_COLUMNS", "solve_threads", "solving", "configure", "current_threads", "in_flight",
-           "in_flight_peak", "in_flight_reset", "free_threads", "cores", "mkl_local_threads", "one_blas_thread",
+           "in_flight_peak", "in_flight_reset", "free_threads", "cores", "one_blas_thread",
            "OpenBLAS", "openblas"]
 
 #: Right-hand-side columns above which a back-substitution counts as stacked.
@@ -172,16 +169,6 @@ def solve_threads(columns: int, stacked_before: bool = False) -> int:
     return current_threads() if stacked_before or columns > WIDE_COLUMNS else 1
 
 
-def mkl_local_threads(lib: ctypes.CDLL, n: int) -> int:
-    """Set MKL's thread count for the calling thread only; returns the previous setting (0: global)."""
-    f = getattr(lib, "MKL_Set_Num_Threads_Local", None)
-    if f is None:  # pragma: no cover - every MKL since 2017 has it
-        return 0
-    f.restype = ctypes.c_int
-    f.argtypes = [ctypes.c_int]
-    return int(f(int(n)))
-
-
 class OpenBLAS:
     """One OpenBLAS library's thread count, read and set through its own C functions.
 
@@ -195,29 +182,19 @@ class OpenBLAS:
     (pthreads builds) from any thread.
     """
 
-    __slots__ = ("filepath", "_get", "_set")
+    __slots__ = ("filepath", "_lib")
 
     def __init__(self, filepath: str) -> None:
         self.filepath = filepath
-        lib = ctypes.CDLL(filepath, mode=os.RTLD_NOLOAD)  # loaded already: only its handle
-        for prefix in ("", "scipy_"):  # the affixes of numpy's and scipy's wheels (scipy-openblas32/64)
-            for suffix in ("", "64_", "_64"):
-                get = getattr(lib, f"{prefix}openblas_get_num_threads{suffix}", None)
-                set_ = getattr(lib, f"{prefix}openblas_set_num_threads{suffix}", None)
-                if get is not None and set_ is not None:
-                    get.restype, get.argtypes = ctypes.c_int, []
-                    set_.restype, set_.argtypes = None, [ctypes.c_int]
-                    self._get, self._set = get, set_
-                    return
-        raise OSError(f"{filepath}: no openblas_get_num_threads/openblas_set_num_threads")
+        self._lib = tetmorph_core.OpenBLASThreads(filepath)  # OSError: not loaded, or no thread functions
 
     def get_num_threads(self) -> int:
         """The library's thread count (process-wide)."""
-        return int(self._get())
+        return int(self._lib.get_num_threads())
 
     def set_num_threads(self, n: int) -> None:
         """Set the library's thread count (process-wide), from any thread."""
-        self._set(int(n))
+        self._lib.set_num_threads(int(n))
 
 
 def _package_homes() -> tuple[str, ...]:
@@ -229,56 +206,36 @@ def _package_homes() -> tuple[str, ...]:
                  (sys.prefix, *(os.path.dirname(os.path.dirname(m.__file__ or "")) for m in (numpy, scipy))))
 
 
+#: Names an OpenBLAS is loaded under: its own, the system's BLAS alternative, scipy-openblas's wheels.
+_OPENBLAS_NAMES = ("libopenblas", "libblas", "libscipy_openblas")
+
+
 def openblas(own: bool = True) -> list[OpenBLAS]:
     """The OpenBLAS libraries loaded in this process: numpy's and scipy's own, or the others.
 
     ``own``: those inside this Python's prefix or numpy's and scipy's install folders (their
     wheels'; the folders count too when the packages come from another environment, through a
     path file or ``PYTHONPATH``); ``own=False``: the others (the system one CHOLMOD links).
+    A loaded object counts when its file name starts like an OpenBLAS's and it has OpenBLAS's
+    thread functions.
     """
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - a dependency; only speed is at stake
-        return []
     found = []
     homes = _package_homes()
-    for c in ThreadpoolController().lib_controllers:
-        if c.internal_api == "openblas" and os.path.realpath(c.filepath).startswith(homes) == own:
+    for path in tetmorph_core.loaded_objects()[2]:
+        if not os.path.basename(path).startswith(_OPENBLAS_NAMES):
+            continue
+        if os.path.realpath(path).startswith(homes) == own:
             try:
-                found.append(OpenBLAS(c.filepath))
-            except OSError:  # pragma: no cover - an OpenBLAS without the thread API
+                found.append(OpenBLAS(path))
+            except OSError:  # a reference BLAS, or an OpenBLAS without the thread API
                 pass
     return found
 
 
-class _PhdrInfo(ctypes.Structure):  # glibc's struct dl_phdr_info up to dlpi_subs
-    _fields_ = [("addr", ctypes.c_void_p), ("name", ctypes.c_char_p), ("phdr", ctypes.c_void_p),
-                ("phnum", ctypes.c_uint16), ("adds", ctypes.c_ulonglong), ("subs", ctypes.c_ulonglong)]
-
-
-_PHDR_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(_PhdrInfo), ctypes.c_size_t, ctypes.c_void_p)
-
-
-def _loads() -> tuple[int, int] | None:
-    """Shared objects loaded and unloaded so far in this process (glibc's dlpi_adds, dlpi_subs), or None."""
-    seen: list[tuple[int, int]] = []
-
-    def first(info: Any, size: int, _data: Any) -> int:
-        if size >= ctypes.sizeof(_PhdrInfo):
-            seen.append((info.contents.adds, info.contents.subs))
-        return 1  # the counts are the same in every entry: stop at the first
-
-    iterate = getattr(_process(), "dl_iterate_phdr", None)
-    if iterate is None:  # pragma: no cover - not glibc
-        return None
-    iterate(_PHDR_CALLBACK(first), None)
-    return seen[0] if seen else None
-
-
-@functools.cache
-def _process() -> ctypes.CDLL:
-    """The symbols of the whole process (libc's among them)."""
-    return ctypes.CDLL(None)
+def _loads() -> tuple[int, int]:
+    """Shared objects loaded and unloaded so far in this process (glibc's dlpi_adds, dlpi_subs)."""
+    adds, subs = tetmorph_core.load_counts()
+    return adds, subs
 
 
 def _own_openblas() -> list[OpenBLAS]:

@@ -25,15 +25,11 @@ memory of a deleted one back.
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
+import tetmorph_core
 
 from ..environment import START
 
 __all__ = ["keep_freed_memory"]
-
-_M_TRIM_THRESHOLD = -1
-_M_MMAP_THRESHOLD = -3
 
 
 def keep_freed_memory() -> bool:
@@ -48,14 +44,7 @@ def keep_freed_memory() -> bool:
     """
     if not START.batch_malloc:
         return False
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):  # pragma: no cover - not glibc
-        return False
-    mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
-    mallopt.restype = ctypes.c_int
-    done = bool(mallopt(_M_MMAP_THRESHOLD, 1 << 30)) and bool(mallopt(_M_TRIM_THRESHOLD, (1 << 31) - 1))
+    done = bool(tetmorph_core.keep_freed_memory())  # glibc's mallopt, from the compiled core
     if done:
         _numpy_hugepages(False)
     return done

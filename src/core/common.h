@@ -44,5 +44,6 @@ void register_sweeps(nb::module_ &m);
 void register_products(nb::module_ &m);
 void register_geometry(nb::module_ &m);
 void register_validity(nb::module_ &m);
+void register_libraries(nb::module_ &m);
 
 }  // namespace tmc

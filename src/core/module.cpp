@@ -9,4 +9,5 @@ NB_MODULE(tetmorph_core, m) {
     tmc::register_products(m);
     tmc::register_geometry(m);
     tmc::register_validity(m);
+    tmc::register_libraries(m);
 }

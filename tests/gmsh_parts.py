@@ -1,4 +1,5 @@
-"""Parts meshed by gmsh for the tests: a mirror-symmetric bar, a periodic sector, two blocks, a sheet panel.
+"""Parts meshed by gmsh for the tests: a mirror-symmetric bar, a periodic sector, two blocks, a sheet panel,
+a filleted L bracket.
 
 The volume parts return ``(V, T)`` arrays (positively oriented tets);
 :func:`sheet_panel` writes a triangle mesh. Each is deterministic for a given
@@ -161,6 +162,70 @@ def block_with_faces(path, size: float = 4.0, order: int = 1) -> None:
         for name, tag in faces.items():
             gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, [tag]), name)
         gmsh.model.setPhysicalName(3, gmsh.model.addPhysicalGroup(3, [box]), "SOLID")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.model.mesh.generate(3)
+        if order == 2:
+            gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+def filleted_bracket(path, size: float = 3.0, order: int = 1, radius: float = 5.0) -> None:
+    """An L-shaped bracket with a filleted inner corner, written to ``path`` (.msh 4.1).
+
+    In the xy profile: a horizontal flange 60 x 6 (y from 0 to 6) and a vertical one 6 x 50 (x from 0
+    to 6), extruded 20 along z. The inner corner has a fillet of ``radius`` about the axis
+    x = y = 6 + radius, the outer corner a fillet of 6 + ``radius`` about the same axis. A bore of
+    radius 3 runs along x through the vertical flange at y = 35, z = 10. Physical surfaces: FIXED
+    (x = 60), LOAD (y = 50), FILLET and OUTER_FILLET, INNER_H (y = 6), INNER_V (x = 6), OUTER_H
+    (y = 0), OUTER_V (x = 0), BORE; physical volume SOLID.
+    """
+    import gmsh
+
+    t, length, height, width = 6.0, 60.0, 50.0, 20.0
+    c = t + radius
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        xy = [(c, 0), (length, 0), (length, t), (c, t), (t, c), (t, height), (0, height), (0, c)]
+        pts = [occ.addPoint(x, y, 0) for x, y in xy]
+        center = occ.addPoint(c, c, 0)
+        curves = [occ.addLine(pts[0], pts[1]), occ.addLine(pts[1], pts[2]), occ.addLine(pts[2], pts[3]),
+                  occ.addCircleArc(pts[3], center, pts[4]), occ.addLine(pts[4], pts[5]),
+                  occ.addLine(pts[5], pts[6]), occ.addLine(pts[6], pts[7]), occ.addCircleArc(pts[7], center, pts[0])]
+        face = occ.addPlaneSurface([occ.addCurveLoop(curves)])
+        solid = [tag for dim, tag in occ.extrude([(2, face)], 0, 0, width) if dim == 3][0]
+        bore = occ.addCylinder(-1, 35, width / 2, t + 2, 0, 0, 3.0)
+        occ.cut([(3, solid)], [(3, bore)])
+        occ.synchronize()
+        groups: dict[str, list[int]] = {k: [] for k in ("FIXED", "LOAD", "FILLET", "OUTER_FILLET", "INNER_H",
+                                                        "INNER_V", "OUTER_H", "OUTER_V", "BORE")}
+        for dim, tag in gmsh.model.getEntities(2):
+            x, y, z = occ.getCenterOfMass(dim, tag)
+            r = math.hypot(x - c, y - c)
+            if abs(x - length) < 1e-6:
+                groups["FIXED"].append(tag)
+            elif abs(y - height) < 1e-6:
+                groups["LOAD"].append(tag)
+            elif abs(y - t) < 1e-6:
+                groups["INNER_H"].append(tag)
+            elif abs(x - t) < 1e-6:
+                groups["INNER_V"].append(tag)
+            elif abs(y) < 1e-6:
+                groups["OUTER_H"].append(tag)
+            elif abs(x) < 1e-6:
+                groups["OUTER_V"].append(tag)
+            elif x < c and y < c and 0.1 < z < width - 0.1 and r < radius:
+                groups["FILLET"].append(tag)
+            elif x < c and y < c and 0.1 < z < width - 0.1:
+                groups["OUTER_FILLET"].append(tag)
+            elif 0.1 < z < width - 0.1:
+                groups["BORE"].append(tag)
+        for name, tags in groups.items():
+            gmsh.model.addPhysicalGroup(2, tags, name=name)
+        gmsh.model.addPhysicalGroup(3, [tag for _, tag in gmsh.model.getEntities(3)], name="SOLID")
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
         gmsh.model.mesh.generate(3)
         if order == 2:

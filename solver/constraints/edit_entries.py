@@ -1,8 +1,9 @@
-"""The SPEC's daily edits as frozen entries: ``radius``, ``twist``, ``map``, ``offset`` and ``lattice``.
+"""The SPEC's daily edits as frozen entries, from ``radius`` to ``angle``.
 
 :func:`edit_entries` turns the validated document's lists (:mod:`solver.documents.edits`) into
-:class:`RadiusEntry`, :class:`TwistEntry`, :class:`MapEntry`, :class:`OffsetEntry` and
-:class:`LatticeEntry`, their selection names resolved; :func:`solver.constraints.edits.resolve_edits`
+:class:`RadiusEntry`, :class:`TwistEntry`, :class:`MapEntry`, :class:`OffsetEntry`,
+:class:`LatticeEntry`, :class:`FilletEntry`, :class:`DistanceEntry` and :class:`AngleEntry`, their
+selection names resolved; :func:`solver.constraints.edits.resolve_edits`
 resolves them on a mesh.
 """
 
@@ -16,11 +17,11 @@ import numpy as np
 
 from ..errors import SpecError
 
-__all__ = ["RadiusEntry", "TwistEntry", "MapEntry", "OffsetEntry", "LatticeEntry", "EditEntry", "edit_entries",
-           "EDIT_KINDS"]
+__all__ = ["RadiusEntry", "TwistEntry", "MapEntry", "OffsetEntry", "LatticeEntry", "FilletEntry", "DistanceEntry",
+           "AngleEntry", "EditEntry", "edit_entries", "EDIT_KINDS"]
 
 #: The SPEC and MOVE keys of the edits, in the order their rows are ranked.
-EDIT_KINDS = ("radius", "twist", "map", "offset", "lattice")
+EDIT_KINDS = ("radius", "twist", "map", "offset", "lattice", "fillet", "distance", "angle")
 
 Vec = tuple[float, float, float]
 
@@ -170,7 +171,71 @@ class LatticeEntry:
         return out
 
 
-EditEntry = RadiusEntry | TwistEntry | MapEntry | OffsetEntry | LatticeEntry
+@dataclass(frozen=True)
+class FilletEntry:
+    """A fillet whose radius a MOVE sets: its nodes ``selection``, tangent to the planar faces ``faces``."""
+
+    index: int
+    name: str
+    selection: str
+    faces: tuple[str, str]
+    kind: str = "fillet"
+
+    def to_dict(self) -> dict[str, Any]:
+        """SPEC form of the entry."""
+        return {"name": self.name, "selection": self.selection, "faces": list(self.faces)}
+
+
+@dataclass(frozen=True)
+class DistanceEntry:
+    """The distance from ``reference`` to ``selection`` (which moves): between centroids, or along ``direction``."""
+
+    index: int
+    name: str
+    selection: str
+    reference: str
+    direction: Vec | None = None
+    kind: str = "distance"
+
+    def to_dict(self) -> dict[str, Any]:
+        """SPEC form of the entry."""
+        out: dict[str, Any] = {"name": self.name, "selection": self.selection, "reference": self.reference}
+        if self.direction is not None:
+            out["direction"] = list(self.direction)
+        return out
+
+
+@dataclass(frozen=True)
+class AngleEntry:
+    """The angle between the directions of ``selection`` (which turns) and ``reference``; None: fitted or default.
+
+    ``direction``, ``reference_direction`` and ``axis`` are unit vectors.
+    """
+
+    index: int
+    name: str
+    selection: str
+    reference: str
+    direction: Vec | None = None
+    reference_direction: Vec | None = None
+    axis: Vec | None = None
+    pivot: Vec | None = None
+    planar_deg: float = 1.0
+    kind: str = "angle"
+
+    def to_dict(self) -> dict[str, Any]:
+        """SPEC form of the entry."""
+        out: dict[str, Any] = {"name": self.name, "selection": self.selection, "reference": self.reference,
+                               "planar_deg": self.planar_deg}
+        for key in ("direction", "reference_direction", "axis", "pivot"):
+            v = getattr(self, key)
+            if v is not None:
+                out[key] = list(v)
+        return out
+
+
+EditEntry = (RadiusEntry | TwistEntry | MapEntry | OffsetEntry | LatticeEntry | FilletEntry | DistanceEntry
+             | AngleEntry)
 
 
 def edit_entries(d: dict[str, Any], known: Callable[..., str]) -> tuple[EditEntry, ...]:
@@ -216,6 +281,22 @@ def _entry(kind: str, k: int, e: dict[str, Any], sel: str | None, where: str, kn
         return MapEntry(k, name, sel, shape, _vec(geo[p]), _unit(geo[dname]) if dname else None,
                         float(geo[r]) if r else None, e.get("projection", "nearest"),
                         _unit(e["direction"]) if e.get("direction") is not None else None)
+    if kind == "fillet":
+        assert sel is not None
+        a, b = (known(f, f"{where}.faces[{i}]", where) for i, f in enumerate(e["faces"]))
+        return FilletEntry(k, name, sel, (a, b))
+    if kind in ("distance", "angle"):
+        assert sel is not None
+        ref = known(e["reference"], f"{where}.reference", where)
+
+        def unit(key: str) -> Vec | None:
+            return _unit(e[key]) if e.get(key) is not None else None
+
+        if kind == "distance":
+            return DistanceEntry(k, name, sel, ref, unit("direction"))
+        return AngleEntry(k, name, sel, ref, unit("direction"), unit("reference_direction"), unit("axis"),
+                          _vec(e["pivot"]) if e.get("pivot") is not None else None,
+                          float(e.get("planar_deg", 1.0)))
     if kind == "offset":
         assert sel is not None
         opp = e.get("opposite")

@@ -22,8 +22,9 @@ if TYPE_CHECKING:
     from ..documents.move import Move as MoveDoc
     from .move import MoveBounds
 
-__all__ = ["RadiusValue", "TwistValue", "MapValue", "OffsetValue", "LatticeValue", "EditValue", "edit_values",
-           "scaled_value", "combined_value", "value_dict"]
+__all__ = ["RadiusValue", "TwistValue", "MapValue", "OffsetValue", "LatticeValue", "DistanceValue", "AngleValue",
+           "EditValue", "edit_values", "scaled_value", "combined_value", "value_dict", "as_change",
+           "NOMINAL_KINDS"]
 
 
 @dataclass(frozen=True)
@@ -96,7 +97,34 @@ class LatticeValue:
         return {"displacements": {f"{i},{j},{k}": v.tolist() for (i, j, k), v in self.displacements.items()}}
 
 
-EditValue = RadiusValue | TwistValue | MapValue | OffsetValue | LatticeValue
+@dataclass(frozen=True)
+class DistanceValue:
+    """A distance between two features, or its change from the rest distance: exactly one is set."""
+
+    distance: float | None = None
+    delta: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """MOVE form."""
+        return {"distance": self.distance} if self.distance is not None else {"delta": self.delta}
+
+
+@dataclass(frozen=True)
+class AngleValue:
+    """An angle between two features in degrees, or its change from the rest angle: exactly one is set."""
+
+    angle_deg: float | None = None
+    delta_deg: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """MOVE form."""
+        return {"angle_deg": self.angle_deg} if self.angle_deg is not None else {"delta_deg": self.delta_deg}
+
+
+EditValue = RadiusValue | TwistValue | MapValue | OffsetValue | LatticeValue | DistanceValue | AngleValue
+
+#: The kinds whose MOVE gives a value or its change from the edit's nominal rest value.
+NOMINAL_KINDS = ("radius", "fillet", "distance", "angle")
 
 
 def value_dict(values: dict[str, dict[str, EditValue]]) -> dict[str, Any]:
@@ -120,11 +148,21 @@ def edit_values(m: MoveDoc, bounds: MoveBounds | None = None) -> dict[str, dict[
                    field=where, value=x, bound=bounds.translation)
         return float(x)
 
-    out: dict[str, dict[str, EditValue]] = {"radius": {}, "twist": {}, "map": {}, "offset": {}, "lattice": {}}
-    for name, r in m.radius.items():
-        where = f"MOVE.radius.{name}"
-        out["radius"][name] = (RadiusValue(radius=length(r.radius, f"{where}.radius")) if r.radius is not None
+    out: dict[str, dict[str, EditValue]] = {"radius": {}, "twist": {}, "map": {}, "offset": {}, "lattice": {},
+                                            "fillet": {}, "distance": {}, "angle": {}}
+    for kind, named in (("radius", m.radius), ("fillet", m.fillet)):
+        for name, r in named.items():
+            where = f"MOVE.{kind}.{name}"
+            out[kind][name] = (RadiusValue(radius=length(r.radius, f"{where}.radius")) if r.radius is not None
                                else RadiusValue(delta=length(r.delta, f"{where}.delta")))  # type: ignore[arg-type]
+    for name, dm in m.distance.items():
+        where = f"MOVE.distance.{name}"
+        out["distance"][name] = (DistanceValue(distance=length(dm.distance, f"{where}.distance"))
+                                 if dm.distance is not None
+                                 else DistanceValue(delta=length(dm.delta, f"{where}.delta")))  # type: ignore[arg-type]
+    for name, am in m.angle.items():
+        out["angle"][name] = (AngleValue(angle_deg=float(am.angle_deg)) if am.angle_deg is not None
+                              else AngleValue(delta_deg=float(am.delta_deg)))  # type: ignore[arg-type]
     for name, t in m.twist.items():
         if t.table is not None:
             out["twist"][name] = TwistValue(None, tuple(float(r.at) for r in t.table),
@@ -146,13 +184,37 @@ def edit_values(m: MoveDoc, bounds: MoveBounds | None = None) -> dict[str, dict[
     return out
 
 
+def as_change(v: EditValue, nominal: float | None) -> EditValue:
+    """A radius, distance or angle given as a value, as its change from the edit's ``nominal`` rest value."""
+    if nominal is None:
+        return v
+    if isinstance(v, RadiusValue) and v.radius is not None:
+        return RadiusValue(delta=v.radius - nominal)
+    if isinstance(v, DistanceValue) and v.distance is not None:
+        return DistanceValue(delta=v.distance - nominal)
+    if isinstance(v, AngleValue) and v.angle_deg is not None:
+        return AngleValue(delta_deg=v.angle_deg - nominal)
+    return v
+
+
 def scaled_value(v: EditValue, f: float, nominal: float | None = None) -> EditValue:
     """``v`` scaled by ``f`` in [0, 1]: 0 the rest shape, 1 ``v``.
 
-    A new radius ``r`` becomes ``r0 + f (r - r0)``, ``r0`` the edit's ``nominal`` rest radius (every
-    node stays on one cylinder); every other parameter is multiplied by ``f`` (angles, amounts,
-    distances, displacements, radius changes).
+    A new radius ``r`` (a fillet's too) becomes ``r0 + f (r - r0)``, ``r0`` the edit's ``nominal``
+    rest radius (every node stays on one cylinder), and a distance or an angle likewise about its
+    rest value; every other parameter is multiplied by ``f`` (angles, amounts, distances,
+    displacements, changes).
     """
+    if isinstance(v, DistanceValue):
+        if v.distance is not None:
+            d0 = float(nominal if nominal is not None else v.distance)
+            return DistanceValue(distance=v.distance if f == 1.0 else d0 + f * (v.distance - d0))
+        return DistanceValue(delta=f * float(v.delta or 0.0))
+    if isinstance(v, AngleValue):
+        if v.angle_deg is not None:
+            a0 = float(nominal if nominal is not None else v.angle_deg)
+            return AngleValue(angle_deg=v.angle_deg if f == 1.0 else a0 + f * (v.angle_deg - a0))
+        return AngleValue(delta_deg=f * float(v.delta_deg or 0.0))
     if isinstance(v, RadiusValue):
         if v.radius is not None:
             r0 = float(nominal if nominal is not None else v.radius)
@@ -172,13 +234,18 @@ def scaled_value(v: EditValue, f: float, nominal: float | None = None) -> EditVa
 def combined_value(kind: str, steps: list[EditValue | None], theta: np.ndarray) -> EditValue:
     """The value ``sum_k theta_k steps[k]`` of one edit (``None``: the shape leaves it at rest).
 
-    Radius steps are changes (``delta``; :func:`solver.workflows.shapes.parse_shapes` turns a new
-    radius into its change from the nominal radius); twist steps are all rates or all tables (the sum of
-    tables is the table over every row's position).
+    Radius, fillet, distance and angle steps are changes (``delta``, ``delta_deg``;
+    :func:`solver.workflows.shapes.parse_shapes` turns a value into its change from the nominal one);
+    twist steps are all rates or all tables (the sum of tables is the table over every row's position).
     """
     given = [(float(t), s) for t, s in zip(theta, steps, strict=True) if s is not None]
-    if kind == "radius":
+    if kind in ("radius", "fillet"):
         return RadiusValue(delta=math.fsum(t * float(s.delta or 0.0) for t, s in given))  # type: ignore[union-attr]
+    if kind == "distance":
+        return DistanceValue(delta=math.fsum(t * float(s.delta or 0.0) for t, s in given))  # type: ignore[union-attr]
+    if kind == "angle":
+        return AngleValue(delta_deg=math.fsum(
+            t * float(s.delta_deg or 0.0) for t, s in given))  # type: ignore[union-attr]
     if kind == "twist":
         tw = [(t, s) for t, s in given if isinstance(s, TwistValue)]
         if all(s.rate is not None for _, s in tw):
@@ -189,7 +256,7 @@ def combined_value(kind: str, steps: list[EditValue | None], theta: np.ndarray) 
     if kind == "map":
         return MapValue(math.fsum(t * s.amount for t, s in given))  # type: ignore[union-attr]
     if kind == "offset":
-        return OffsetValue(math.fsum(t * s.distance for t, s in given))  # type: ignore[union-attr]
+        return OffsetValue(math.fsum(t * float(s.distance or 0.0) for t, s in given))  # type: ignore[union-attr]
     disp: dict[tuple[int, int, int], np.ndarray] = {}
     for t, s in given:
         for key, d in s.displacements.items():  # type: ignore[union-attr]

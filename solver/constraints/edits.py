@@ -19,6 +19,8 @@ exactly and the REPORT's ``constraint_residual_max`` covers them.
     ``p = p0 + delta n``: one normal for a planar face set, each node's own otherwise.
 ``lattice``
     ``p = p0 + sum B_i(u) B_j(v) B_k(w) d_ijk`` over the displaced control points.
+
+The ``fillet``, ``distance`` and ``angle`` edits are :mod:`solver.constraints.feature_edits`'.
 """
 
 from __future__ import annotations
@@ -33,7 +35,16 @@ from ..errors import MAX_IDS, SpecError, format_ids
 from ..limits import ANGLE_MAX
 from ..mesh import Mesh
 from ..ops.elements import midside_edges
-from .edit_entries import EditEntry, LatticeEntry, MapEntry, OffsetEntry, RadiusEntry, TwistEntry
+from .edit_entries import (
+    DistanceEntry,
+    EditEntry,
+    FilletEntry,
+    LatticeEntry,
+    MapEntry,
+    OffsetEntry,
+    RadiusEntry,
+    TwistEntry,
+)
 from .edit_values import EditValue, LatticeValue, MapValue, OffsetValue, RadiusValue, TwistValue
 from .projections import ON_AXIS, nearest_points, points_along, radial
 from .selection import node_masks
@@ -53,7 +64,8 @@ class Edit:
     Attributes
     ----------
     kind : str
-        Its SPEC key (``radius``, ``twist``, ``map``, ``offset``, ``lattice``).
+        Its SPEC key (``radius``, ``twist``, ``map``, ``offset``, ``lattice``, ``fillet``, ``distance``,
+        ``angle``).
     index : int
         Its position in that SPEC list.
     name : str
@@ -105,6 +117,15 @@ class Edit:
 
     def check(self, value: Any, where: str) -> None:
         """Refuse a value without meaning on this mesh (``where`` names it, ``MOVE.radius.bore``)."""
+
+    @property
+    def slides(self) -> tuple[np.ndarray, np.ndarray]:
+        """Nodes (m,) held on planes through their rest positions, and the planes' unit normals (m, 3): none here."""
+        return np.zeros(0, np.int64), np.zeros((0, 3))
+
+    def with_free(self, free: np.ndarray) -> Edit:
+        """The edit with only the sliding nodes that ``free`` (n,) bool marks (no other constraint holds them)."""
+        return self
 
 
 @dataclass(frozen=True, eq=False)
@@ -481,8 +502,13 @@ def resolve_edits(mesh: Mesh, edits: tuple[EditEntry, ...], sel_ids: dict[str, n
         circle's or cylinder's axis or at a sphere's centre (``node_on_axis``), lines that miss a
         mapped surface (``no_intersection``), an axis that cannot be fitted (``not_a_cylinder``), an
         offset whose selection has no boundary face or nodes on none (``empty_selection``,
-        ``bad_selection``), a lattice selection outside its box (``bad_selection``).
+        ``bad_selection``), a lattice selection outside its box (``bad_selection``); a fillet's,
+        distance's or angle's (:func:`~solver.constraints.feature_edits.fillet_edit`,
+        :func:`~solver.constraints.feature_edits.distance_edit`,
+        :func:`~solver.constraints.feature_edits.angle_edit`).
     """
+    from .feature_edits import angle_edit, distance_edit, fillet_edit
+
     sets = {k: np.unique(v) for k, v in sel_ids.items()}  # every edit's nodes sorted, each once
     out: list[Edit] = []
     for e in edits:
@@ -494,6 +520,12 @@ def resolve_edits(mesh: Mesh, edits: tuple[EditEntry, ...], sel_ids: dict[str, n
             out.append(_map(mesh, e, sets[e.selection]))
         elif isinstance(e, OffsetEntry):
             out.append(_offset(mesh, e, sets))
-        else:
+        elif isinstance(e, LatticeEntry):
             out.append(_lattice(mesh, e, sets))
+        elif isinstance(e, FilletEntry):
+            out.append(fillet_edit(mesh, e, sets))
+        elif isinstance(e, DistanceEntry):
+            out.append(distance_edit(mesh, e, sets))
+        else:
+            out.append(angle_edit(mesh, e, sets))
     return tuple(out)

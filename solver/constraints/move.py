@@ -210,14 +210,15 @@ class RestTargets:
         Rest position of each motion point.
     relative : dict of str to (3,) array
         Rest offset ``a - b`` of each relative constraint.
-    radius : dict of str to float
-        Nominal rest radius (the mean) of each SPEC ``radius`` edit.
+    nominal : dict of str to dict of str to float
+        Per edit kind (``radius``, ``fillet``, ``distance``, ``angle``), each edit's nominal rest value:
+        a bore's mean radius, a fillet's fitted radius, the rest distance, the rest angle in degrees.
     """
 
     points: dict[str, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)
     motion: dict[str, np.ndarray] = field(default_factory=dict)
     relative: dict[str, np.ndarray] = field(default_factory=dict)
-    radius: dict[str, float] = field(default_factory=dict)
+    nominal: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 def scaled_move(mv: ResolvedMove, f: float, rest: RestTargets) -> ResolvedMove:
@@ -226,7 +227,8 @@ def scaled_move(mv: ResolvedMove, f: float, rest: RestTargets) -> ResolvedMove:
     Handles: translation ``f t``, rotation angle ``f θ``, scale ``s^f``.
     Point and motion targets and relative offsets: ``rest + f (target - rest)``.
     Feature and relative scales: ``s^f``. Edits: :func:`~solver.constraints.edit_values.scaled_value`
-    (a new radius ``r0 + f (r - r0)`` about the nominal rest radius ``r0``; every other parameter times ``f``).
+    (a new radius ``r0 + f (r - r0)`` about the nominal rest radius ``r0``, a distance or an angle about
+    its rest value; every other parameter times ``f``).
     """
     handles = {k: h.interpolate(f) for k, h in mv.handles.items()}
     points = {}
@@ -244,7 +246,7 @@ def scaled_move(mv: ResolvedMove, f: float, rest: RestTargets) -> ResolvedMove:
             relative[k] = {"scale": v["scale"] ** f}
     features = {k: v ** f for k, v in mv.features.items()}
     targets = {k: f * v for k, v in mv.targets.items()}
-    edits = {kind: {n: scaled_value(v, f, rest.radius.get(n) if kind == "radius" else None) for n, v in named.items()}
+    edits = {kind: {n: scaled_value(v, f, rest.nominal.get(kind, {}).get(n)) for n, v in named.items()}
              for kind, named in mv.edits.items()}
     return ResolvedMove(handles, points, relative, features, motion, targets, edits)
 

@@ -45,7 +45,7 @@ from .spec import FeatureEntry, MotionEntry, PointDef, PointEntry, RelativeEntry
 
 __all__ = ["Block", "KINDS", "TARGETS", "block_target", "check_ids", "point_weights", "position_blocks",
            "rotation_blocks", "fixed_rows", "handle_rows", "tie_rows", "point_rows", "relative_rows",
-           "feature_rows", "motion_rows", "sliding_rows", "edit_rows"]
+           "feature_rows", "motion_rows", "sliding_rows", "edit_rows", "edit_slide_rows"]
 
 KINDS = ("fixed", "handle", "target", *EDIT_KINDS, "tie", "symmetry", "cyclic", "point", "relative", "feature",
          "motion", "sliding")
@@ -173,7 +173,8 @@ def _motion_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
 
 
 def _edit_target(b: Block, mv: ResolvedMove, rot: RotAt) -> np.ndarray:
-    assert b.edit is not None
+    if b.edit is None:  # an edit's nodes sliding on a plane (a fillet's faces)
+        return b.rest
     return b.edit.positions(mv.edit(b.kind, b.name))[b.edit.corner]
 
 
@@ -414,6 +415,15 @@ def edit_rows(V0: np.ndarray, e: Edit) -> Block:
                  vertices=ids, edit=e)
 
 
+def edit_slide_rows(V0: np.ndarray, e: Edit) -> Block | None:
+    """``n_i . p_i = n_i . p0_i`` for the nodes an edit holds on planes (a fillet's faces), or None."""
+    ids, N = e.slides
+    if not ids.size:
+        return None
+    return Block(e.kind, e.index, e.name, ids.size, np.arange(ids.size), ids, np.ones(ids.size),
+                 rest=np.einsum("ij,ij->i", N, V0[ids]), normal=N, vertices=ids)
+
+
 def _corners(mesh: Mesh, ids: np.ndarray) -> np.ndarray:
     return ids[mesh.referenced[ids]]
 
@@ -459,6 +469,7 @@ def position_blocks(mesh: Mesh, spec: ResolvedSpec, sel_ids: dict[str, np.ndarra
     corr = corr or Correspondences()
     blocks += [target_rows(t.index, t.name, V0, t.ids, t.q) for t in corr.targets]
     blocks += [edit_rows(V0, e) for e in edits]
+    blocks += [b for b in (edit_slide_rows(V0, e) for e in edits) if b is not None]
     if ties is not None and len(ties):
         blocks.append(tie_rows(ties))
     blocks += [tied_rows(name, k, m) for k, (name, m) in enumerate(corr.surface_ties)]

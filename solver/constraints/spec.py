@@ -424,7 +424,7 @@ def parse_spec(doc: Any) -> ResolvedSpec:
 
     edits = edit_entries(d, known)
     expect(len(fixed) + len(handles) + len(edits) > 0, "SPEC needs at least one fixed selection, handle or edit "
-           "(radius, twist, map, offset, lattice)", field="fixed")
+           "(radius, twist, map, offset, lattice, fillet, distance, angle)", field="fixed")
     expect(model.domain is None or model.domain in selections,
            f"SPEC.domain must name a selection; got {model.domain!r}, defined: {sorted(selections)}", field="domain")
     cons = model.constraints

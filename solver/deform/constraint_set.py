@@ -19,7 +19,8 @@ import numpy as np
 from ..constraints.assembly import Assembly, assemble, block_targets, describe
 from ..constraints.correspondence import Correspondences, InteriorMirror, correspondences
 from ..constraints.edit_entries import EDIT_KINDS
-from ..constraints.edits import Edit, RadiusEdit, resolve_edits
+from ..constraints.edit_values import NOMINAL_KINDS
+from ..constraints.edits import Edit, resolve_edits
 from ..constraints.matching import Matching
 from ..constraints.move import MoveBounds, ResolvedMove, RestTargets
 from ..constraints.rows import (
@@ -110,7 +111,7 @@ class ConstraintSet:
     mirrors : tuple of InteriorMirror
         Interior nodes of every mirror symmetry, held as images of their partners.
     edits : tuple of Edit
-        The resolved edits (``radius``, ``twist``, ``map``, ``offset``, ``lattice``): their nodes are
+        The resolved edits (``radius``, ..., ``lattice``, ``fillet``, ``distance``, ``angle``): their nodes are
         held like a handle's, edit ``j``'s with ``owner`` :func:`edit_owner` ``(j)``.
     roles : (n,) int array or None
         ``owner`` with every edit node counted as a handle's (the REPORT's displacement maxima).
@@ -261,6 +262,7 @@ def constraint_set(mesh: Mesh, spec: ResolvedSpec) -> ConstraintSet:
             raise SpecError(f"{e.where} shares vertices {format_ids(clash)} with {what}",
                             code="overlapping_constraints", edit=e.name, ids=clash[:REPORT_IDS].tolist())
         owner[e.nodes] = edit_owner(j)
+    edits = tuple(e.with_free(owner == -1) for e in edits)
     constrained_mask = (owner != -1) & corner
     ref = mesh.referenced
     diag = float(np.linalg.norm(V0[ref].max(0) - V0[ref].min(0))) if ref.any() else 0.0
@@ -320,7 +322,7 @@ def constraint_set(mesh: Mesh, spec: ResolvedSpec) -> ConstraintSet:
                 for e in spec.points},
         motion={e.name: _point_at(mesh, sel_ids, e.at) for e in spec.motion},
         relative={e.name: _point_at(mesh, sel_ids, e.a) - _point_at(mesh, sel_ids, e.b) for e in spec.relative},
-        radius={e.name: e.nominal for e in edits if isinstance(e, RadiusEdit)})
+        nominal=_nominal(edits))
     return ConstraintSet(
         sel_ids=sel_ids, fixed=fixed, fixed_mid=fixed_mid, owner=owner, handle_names=handle_names,
         handle_ids=handle_ids, handle_mid=handle_mid, handle_pivots=pivots,
@@ -330,6 +332,15 @@ def constraint_set(mesh: Mesh, spec: ResolvedSpec) -> ConstraintSet:
         unknowns=unknowns, pasm=pasm, pra=pra, rbidx=rbidx, rasm=rasm, rra=rra, rest_constraints=rest_constraints,
         movable=movable, rest=rest, bounds=MoveBounds(center, diag), mirrors=mirrors, edits=edits,
         roles=np.where(owner <= edit_owner(0), 0, owner) if edits else None)
+
+
+def _nominal(edits: tuple[Edit, ...]) -> dict[str, dict[str, float]]:
+    """The nominal rest value of each edit whose MOVE may give a value (:data:`NOMINAL_KINDS`)."""
+    out: dict[str, dict[str, float]] = {}
+    for e in edits:
+        if e.kind in NOMINAL_KINDS:
+            out.setdefault(e.kind, {})[e.name] = float(e.nominal)  # type: ignore[attr-defined]
+    return out
 
 
 def _interior_mirrors(corr: Correspondences, constrained: np.ndarray) -> tuple[InteriorMirror, ...]:

@@ -6,7 +6,8 @@
   :func:`~solver.constraints.move.parse_move` and the service's OpenAPI schema both use them, so a MOVE
   has one definition and is validated once;
 * :mod:`~solver.documents.edits`, :mod:`~solver.documents.edit_moves` -- the daily edits' SPEC entries
-  (``radius``, ``twist``, ``map``, ``offset``, ``lattice``) and their MOVE parameters;
+  (``radius``, ``twist``, ``map``, ``offset``, ``lattice``, ``fillet``, ``distance``, ``angle``) and their
+  MOVE parameters;
   :mod:`~solver.documents.geometry` the directions, boxes, axes and analytic geometry they name;
 * :mod:`~solver.documents.report_record` -- the REPORT, as the frozen dataclass every update fills (no
   pydantic); :mod:`~solver.documents.report` builds its pydantic model from it, for the OpenAPI schema;

@@ -1,4 +1,6 @@
-"""The MOVE's parameters of the daily edits: ``radius``, ``twist``, ``map``, ``offset`` and ``lattice``.
+"""The MOVE's parameters of the daily edits, from ``radius`` to ``angle``.
+
+A ``fillet`` takes a :class:`RadiusMove` (its new radius, or the change of it).
 
 One model per SPEC edit (:mod:`solver.documents.edits`). Static ranges are :mod:`solver.limits`'s;
 what depends on the mesh (a length within :data:`~solver.limits.EXTENT` diagonals, a radius that
@@ -18,7 +20,8 @@ from ..limits import LATTICE_COUNT_MAX, TARGET_AMOUNT_MAX
 from .geometry import PositiveLength
 from .numbers import Angle, Coord, Vec3
 
-__all__ = ["RadiusMove", "TwistMove", "TwistAngle", "MapMove", "OffsetMove", "LatticeMove", "LATTICE_KEY"]
+__all__ = ["RadiusMove", "TwistMove", "TwistAngle", "MapMove", "OffsetMove", "LatticeMove", "DistanceMove",
+           "AngleMove", "LATTICE_KEY"]
 
 #: How far mapped nodes go: 0 at rest, 1 on the geometry.
 Amount = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-TARGET_AMOUNT_MAX, le=TARGET_AMOUNT_MAX)]
@@ -100,3 +103,36 @@ class LatticeMove(BaseModel):
     displacements: Annotated[dict[Annotated[str, Field(pattern=LATTICE_KEY)], Vec3],
                              Field(max_length=LATTICE_COUNT_MAX ** 3)] = Field(
         default_factory=dict, description="'i,j,k' (0-based along x, y, z) -> [dx, dy, dz]")
+
+
+class DistanceMove(BaseModel):
+    """The distance of a SPEC ``distance`` entry, or its change from the rest distance: exactly one."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
+        "oneOf": [{"required": ["distance"]}, {"required": ["delta"]}],
+        "examples": [{"distance": 40.0}, {"delta": 2.5}]})
+    distance: Coord | SkipJsonSchema[None] = Field(None, description="the measured distance after the morph")
+    delta: Coord | SkipJsonSchema[None] = Field(None, description="the rest distance changed by this")
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> DistanceMove:
+        if (self.distance is None) == (self.delta is None):
+            raise ValueError("needs exactly one of distance or delta")
+        return self
+
+
+class AngleMove(BaseModel):
+    """The angle in degrees of a SPEC ``angle`` entry, or its change from the rest angle: exactly one."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
+        "oneOf": [{"required": ["angle_deg"]}, {"required": ["delta_deg"]}],
+        "examples": [{"angle_deg": 95.0}, {"delta_deg": -2.0}]})
+    angle_deg: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=180)] | SkipJsonSchema[None] = \
+        Field(None, description="the measured angle after the morph, 0 to 180")
+    delta_deg: Angle | SkipJsonSchema[None] = Field(None, description="the rest angle changed by this")
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> AngleMove:
+        if (self.angle_deg is None) == (self.delta_deg is None):
+            raise ValueError("needs exactly one of angle_deg or delta_deg")
+        return self

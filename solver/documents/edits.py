@@ -1,4 +1,4 @@
-"""The SPEC's daily edits: ``radius``, ``twist``, ``map``, ``offset`` and ``lattice`` entries.
+"""The SPEC's daily edits: ``radius``, ``twist``, ``map``, ``offset``, ``lattice``, ``fillet``, ``distance``, ``angle``.
 
 Each entry names a selection whose nodes (corner and mid-side) get prescribed positions, computed
 from their rest positions and the MOVE's parameters (:mod:`solver.documents.edit_moves`); the rest
@@ -15,12 +15,13 @@ from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, model_
 
 from ..limits import ANGLE_MAX, LATTICE_COUNT_MAX
 from .geometry import Axis, Box, Direction3, Geometry
-from .numbers import INTEGRAL
+from .numbers import INTEGRAL, Vec3
 
-__all__ = ["Radius", "Twist", "Mapping", "Offset", "Lattice", "EDIT_KINDS", "LatticeCount"]
+__all__ = ["Radius", "Twist", "Mapping", "Offset", "Lattice", "Fillet", "DistanceBetween", "AngleBetween", "EDIT_KINDS",
+           "LatticeCount"]
 
 #: The SPEC (and MOVE) keys of the edits, in the order their rows are ranked.
-EDIT_KINDS = ("radius", "twist", "map", "offset", "lattice")
+EDIT_KINDS = ("radius", "twist", "map", "offset", "lattice", "fillet", "distance", "angle")
 
 Name = Annotated[StrictStr, Field(max_length=200)]
 #: Control points along one axis of a lattice.
@@ -156,4 +157,79 @@ class Lattice(BaseModel):
         flat = [c for c, a, b in zip("xyz", self.box.min, self.box.max, strict=True) if not b > a]
         if flat:
             raise ValueError(f"the box must have a positive extent along each axis; it has none along {flat}")
+        return self
+
+
+class Fillet(BaseModel):
+    """A fillet between two planar faces whose radius a MOVE sets (MOVE ``fillet.NAME``).
+
+    The fillet is the circular cylinder tangent to the planes fitted to ``faces`` (two selections),
+    its axis parallel to their intersection line; its radius is fitted to ``selection``'s corner
+    nodes. For a new radius the axis moves to the line at that distance from both planes, on the
+    same side, and every node of ``selection`` (mid-side nodes too) keeps its axial coordinate and
+    its angle on the arc, and lands on the new arc. The faces' other nodes slide on their planes, so
+    the part stays tangent to the fillet.
+    """
+
+    model_config = _config({"name": "corner", "selection": "fillet", "faces": ["flange", "web"]})
+    name: Name
+    selection: Name
+    faces: list[Name] = Field(min_length=2, max_length=2, description="the two planar faces the fillet joins")
+
+    @model_validator(mode="after")
+    def _distinct_faces(self) -> Fillet:
+        a, b = self.faces
+        if a == b or self.selection in self.faces:
+            raise ValueError(f"faces {self.faces} must be two selections, each another selection than selection "
+                             f"{self.selection!r}")
+        return self
+
+
+class DistanceBetween(BaseModel):
+    """The distance between two features, set by a MOVE (MOVE ``distance.NAME``).
+
+    Measured between the centroids of ``selection`` (the moving feature) and ``reference`` (every
+    node, mid-side nodes too), or, with ``direction``, along it (signed). ``selection`` translates
+    rigidly along the measuring direction to the MOVE's distance; ``reference`` is held at rest.
+    """
+
+    model_config = _config({"name": "pitch", "selection": "hole2", "reference": "hole1"})
+    name: Name
+    selection: Name
+    reference: Name
+    direction: Direction3 | None = Field(None, description="measure along it (signed); default: between the "
+                                                           "centroids")
+
+    @model_validator(mode="after")
+    def _two_features(self) -> DistanceBetween:
+        if self.reference == self.selection:
+            raise ValueError("reference must be another selection than selection")
+        return self
+
+
+class AngleBetween(BaseModel):
+    """The angle between two features' directions, set by a MOVE (MOVE ``angle.NAME``).
+
+    Each feature's direction is given, or fitted to its selection's boundary faces: a planar face
+    set's outward normal, else a cylinder's axis (oriented so that the angle at rest is at most
+    90°). ``selection`` (the moving feature) turns rigidly about ``axis`` (default: the cross
+    product of the two directions) through ``pivot`` (default: its centroid) until the angle is the
+    MOVE's; ``reference`` is held at rest.
+    """
+
+    model_config = _config({"name": "tilt", "selection": "flange", "reference": "base"})
+    name: Name
+    selection: Name
+    reference: Name
+    direction: Direction3 | None = Field(None, description="the moving feature's direction; default: fitted")
+    reference_direction: Direction3 | None = Field(None, description="the reference's direction; default: fitted")
+    axis: Direction3 | None = Field(None, description="the rotation axis; default: direction x reference_direction")
+    pivot: Vec3 | None = Field(None, description="a point of the rotation axis; default: the moving feature's "
+                                                 "centroid")
+    planar_deg: AngleTolerance = Field(1.0, description="faces within this angle of their mean normal are planar")
+
+    @model_validator(mode="after")
+    def _two_features(self) -> AngleBetween:
+        if self.reference == self.selection:
+            raise ValueError("reference must be another selection than selection")
         return self

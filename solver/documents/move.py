@@ -15,11 +15,12 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
 from ..limits import EXTENT, TARGET_AMOUNT_MAX
-from .edit_moves import LatticeMove, MapMove, OffsetMove, RadiusMove, TwistAngle, TwistMove
+from .edit_moves import AngleMove, DistanceMove, LatticeMove, MapMove, OffsetMove, RadiusMove, TwistAngle, TwistMove
 from .numbers import Angle, Quat, Scale, Vec3
 
 __all__ = ["Move", "HandleMove", "Rotation", "RelativeMove", "FeatureMove", "MotionMove", "TargetMove",
-           "TargetAmount", "RadiusMove", "TwistMove", "TwistAngle", "MapMove", "OffsetMove", "LatticeMove"]
+           "TargetAmount", "RadiusMove", "TwistMove", "TwistAngle", "MapMove", "OffsetMove", "LatticeMove",
+           "DistanceMove", "AngleMove"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
@@ -123,6 +124,9 @@ class Move(BaseModel):
     map: dict[str, MapMove] = Field(default_factory=dict, max_length=10_000)
     offset: dict[str, OffsetMove] = Field(default_factory=dict, max_length=10_000)
     lattice: dict[str, LatticeMove] = Field(default_factory=dict, max_length=1000)
+    fillet: dict[str, RadiusMove] = Field(default_factory=dict, max_length=10_000)
+    distance: dict[str, DistanceMove] = Field(default_factory=dict, max_length=10_000)
+    angle: dict[str, AngleMove] = Field(default_factory=dict, max_length=10_000)
 
     def dump(self) -> dict[str, Any]:
         """The document as given (fields not set are left out)."""

@@ -30,14 +30,14 @@ from pydantic_core import PydanticCustomError
 
 from ..limits import THREADS_MAX
 from .choices import BACKENDS, PRECISIONS
-from .edits import Lattice, Mapping, Offset, Radius, Twist
+from .edits import AngleBetween, DistanceBetween, Fillet, Lattice, Mapping, Offset, Radius, Twist
 from .geometry import Axis, Box, Direction3
 from .numbers import INTEGRAL, Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, WallWeight, Weight
 
 __all__ = ["Spec", "SolveSettings", "Selection", "Target", "SELECTION_KINDS", "Box", "Sphere", "Plane",
            "Constraints", "Point", "Motion", "Relative", "RelativePoint", "Symmetry", "Cyclic", "Feature",
            "Sliding", "ThinWalls", "Ties", "StoredSurface", "InlineSurface", "Radius", "Twist", "Mapping", "Offset",
-           "Lattice", "Axis", "Direction3"]
+           "Lattice", "Fillet", "DistanceBetween", "AngleBetween", "Axis", "Direction3"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
@@ -402,6 +402,9 @@ class Spec(BaseModel):
     map: list[Mapping] = Field(default_factory=list, max_length=10_000)
     offset: list[Offset] = Field(default_factory=list, max_length=10_000)
     lattice: list[Lattice] = Field(default_factory=list, max_length=1000)
+    fillet: list[Fillet] = Field(default_factory=list, max_length=10_000)
+    distance: list[DistanceBetween] = Field(default_factory=list, max_length=10_000)
+    angle: list[AngleBetween] = Field(default_factory=list, max_length=10_000)
     precision: Literal[PRECISIONS] = Field(  # type: ignore[valid-type]
         "mixed", description="shorthand for solve_options.precision")
     solve_options: SolveSettings | None = None

@@ -247,7 +247,8 @@ def _d_scaled(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
 
 def _d_edit(b: Block, t: np.ndarray, a: _Along) -> np.ndarray:
     """An edit's corner targets: :meth:`Edit.derivative <solver.constraints.edits.Edit.derivative>`."""
-    assert b.edit is not None
+    if b.edit is None:  # nodes sliding on a fixed plane
+        return np.zeros_like(t)
     step = _edit_step(a.shapes, b.edit, a.k)
     if step is None:
         return np.zeros_like(t)

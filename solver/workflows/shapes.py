@@ -13,10 +13,10 @@ of the shapes, each weighted by its value:
   rotation field propagates, Masuda & Ogawa eq. 3.5-3.9, ECLS eq. 24-27);
 * handle, feature and relative scales multiply as ``s ** theta``
   (their logarithms add, as the rotation field's log-scales do);
-* the edits' parameters add: radius changes (a shape's new radius counts as
-  its change from the edit's nominal rest radius), twist rates or twist tables
-  (over every row's position), map amounts, offset distances and control-point
-  displacements.
+* the edits' parameters add: radius, fillet-radius, distance and angle changes
+  (a shape's new value counts as its change from the edit's nominal rest value),
+  twist rates or twist tables (over every row's position), map amounts, offset
+  distances and control-point displacements.
 
 Every part of the variant is linear in ``theta`` except the exponential maps:
 the rotation matrices of the logarithms and ``exp`` of the log-scales.
@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ..constraints.edit_values import EditValue, RadiusValue, TwistValue, combined_value
+from ..constraints.edit_values import EditValue, TwistValue, as_change, combined_value
 from ..constraints.move import ResolvedMove
 from ..deform.deformer import Deformer
 from ..documents.shapes import RESERVED
@@ -282,18 +282,17 @@ def parse_shapes(doc: Any, deformer: Deformer) -> Shapes:
     return Shapes(names=names, documents={n: shapes[n].dump() for n in names}, handles=handles, moved=moved,
                   translation=T, log_rotation=R, log_scale=S, pivots=pivots, centroids=centroids, points=points,
                   motion=motion, offsets=offsets, relative_log_scale=rel_scale, feature_log_scale=feat_scale,
-                  target_amount=amounts, edits=_edit_steps(names, moves, rest.radius))
+                  target_amount=amounts, edits=_edit_steps(names, moves, rest.nominal))
 
 
-def _edit_steps(names: tuple[str, ...], moves: dict[str, ResolvedMove], nominal: dict[str, float]
+def _edit_steps(names: tuple[str, ...], moves: dict[str, ResolvedMove], nominal: dict[str, dict[str, float]]
                 ) -> dict[str, dict[str, tuple[EditValue | None, ...]]]:
-    """Each shape's value of every edit some shape names; a new radius as its change from the nominal radius."""
+    """Each shape's value of every edit some shape names; a new radius, distance or angle as its change."""
     steps: dict[str, dict[str, list[EditValue | None]]] = {}
     for k, name in enumerate(names):
         for kind, named in moves[name].edits.items():
             for edit, v in named.items():
-                if isinstance(v, RadiusValue) and v.radius is not None:
-                    v = RadiusValue(delta=v.radius - nominal[edit])
+                v = as_change(v, nominal.get(kind, {}).get(edit))
                 steps.setdefault(kind, {}).setdefault(edit, [None] * len(names))[k] = v
     for edit, values in steps.get("twist", {}).items():
         laws = [(names[k], "table" if v.rate is None else "linear") for k, v in enumerate(values)

@@ -143,8 +143,9 @@ class LossyWriteError(InvalidMeshError):
 class SpecError(SolverError, ValueError):
     """A SPEC or MOVE document is malformed or names something that does not exist.
 
-    Codes: ``node_on_axis``, ``no_intersection`` (raised through a helper for a radius or
-    map edit's nodes, details ``ids``), besides the codes raised where they are named.
+    Codes: ``node_on_axis``, ``no_intersection``, ``off_arc`` (raised through a helper for a
+    radius, map or fillet edit's nodes, details ``ids``), besides the codes raised where they are
+    named.
     """
 
     default_code = "invalid_spec"

@@ -302,6 +302,30 @@ ERRORS: dict[str, tuple[str, str]] = {
                         "Choose another direction, or projection `nearest`."),
     "not_a_cylinder": ("A `radius` edit without an axis: its selection's boundary faces fit no cylinder.",
                        "Give the axis (`tetmorph features` prints a bore's), or select the cylindrical faces only."),
+    "not_planar": ("A face of a `fillet` edit (`details.face`) is not planar: its nodes lie farther than 1e-3 of its "
+                   "extent from the fitted plane, or it has fewer than three corner nodes.",
+                   "Select the flat faces the fillet is tangent to, without the fillet or other faces."),
+    "parallel_faces": ("The two faces of a `fillet` edit are parallel: no fillet is tangent to both.",
+                       "Name the two faces the fillet joins at an angle."),
+    "off_arc": ("Nodes of a `fillet` edit lie off the arc fitted to it (by more than 1e-2 of the radius, or beyond "
+                "its tangent lines); `details.ids` lists them.",
+                "Select the fillet's surface only; the faces' nodes go in the faces' selections."),
+    "fillet_too_large": ("A MOVE's fillet radius puts a tangent line beyond the end of a face (`details.bound`, the "
+                         "largest radius the faces allow).",
+                         "Ask for a smaller radius, below `details.bound`."),
+    "coincident_features": ("A `distance` edit between centroids whose two features share their centroid.",
+                            "Give a `direction` to measure the distance along."),
+    "no_feature_direction": ("An `angle` edit without a direction for a feature whose boundary faces are neither "
+                             "planar nor a cylinder (`details.selection`).",
+                             "Give the feature's direction (`direction` or `reference_direction`)."),
+    "parallel_features": ("An `angle` edit without an axis between parallel directions: their cross product gives "
+                          "no rotation axis.", "Give the rotation `axis`."),
+    "axis_does_not_turn": ("An `angle` edit's rotation axis runs along the moving feature's direction (or turning "
+                           "about it leaves the angle unchanged).",
+                           "Give an axis across the moving feature's direction, or leave it to the default."),
+    "angle_out_of_reach": ("A MOVE asks an `angle` edit for an angle that no turn about its axis reaches "
+                           "(`details.bound`, the reachable range in degrees).",
+                           "Ask for an angle within `details.bound`, or give an axis across both directions."),
     "twist_conflict": ("Shapes give one `twist` entry a linear law and a table.",
                        "Use one kind of law in every shape of that twist."),
     "unwritable_folder": ("The folder a mesh is written to is missing and cannot be created (a file of that "

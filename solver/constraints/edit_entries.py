@@ -3,7 +3,7 @@
 :func:`edit_entries` turns the validated document's lists (:mod:`solver.documents.edits`) into
 :class:`RadiusEntry`, :class:`TwistEntry`, :class:`MapEntry`, :class:`OffsetEntry`,
 :class:`LatticeEntry`, :class:`FilletEntry`, :class:`DistanceEntry` and :class:`AngleEntry`, their
-selection names resolved; :func:`solver.constraints.edits.resolve_edits`
+selection names resolved; :func:`solver.constraints.resolve_edits.resolve_edits`
 resolves them on a mesh.
 """
 

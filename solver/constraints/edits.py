@@ -35,21 +35,12 @@ from ..errors import MAX_IDS, SpecError, format_ids
 from ..limits import ANGLE_MAX
 from ..mesh import Mesh
 from ..ops.elements import midside_edges
-from .edit_entries import (
-    DistanceEntry,
-    EditEntry,
-    FilletEntry,
-    LatticeEntry,
-    MapEntry,
-    OffsetEntry,
-    RadiusEntry,
-    TwistEntry,
-)
+from .edit_entries import EditEntry, LatticeEntry, MapEntry, OffsetEntry, RadiusEntry, TwistEntry
 from .edit_values import EditValue, LatticeValue, MapValue, OffsetValue, RadiusValue, TwistValue
 from .projections import ON_AXIS, nearest_points, points_along, radial
 from .selection import node_masks
 
-__all__ = ["Edit", "RadiusEdit", "TwistEdit", "BendEdit", "MapEdit", "OffsetEdit", "LatticeEdit", "resolve_edits",
+__all__ = ["Edit", "RadiusEdit", "TwistEdit", "BendEdit", "MapEdit", "OffsetEdit", "LatticeEdit", "resolve_edit",
            "CYLINDER_FIT_TOL"]
 
 #: A fitted axis is refused when the selection's nodes lie farther than this fraction of the radius
@@ -492,8 +483,10 @@ def _lattice(mesh: Mesh, e: LatticeEntry, sel_ids: dict[str, np.ndarray]) -> Lat
                        bw=bernstein(uvw[:, 2], nz))
 
 
-def resolve_edits(mesh: Mesh, edits: tuple[EditEntry, ...], sel_ids: dict[str, np.ndarray]) -> tuple[Edit, ...]:
-    """Resolve a SPEC's edits on ``mesh`` (:attr:`solver.constraints.spec.Spec.edits`, in that order).
+def resolve_edit(mesh: Mesh, e: EditEntry, sets: dict[str, np.ndarray]) -> Edit:
+    """Resolve one ``radius``, ``twist``, ``map``, ``offset`` or ``lattice`` entry on ``mesh``.
+
+    ``sets``: every selection's nodes, sorted and unique.
 
     Raises
     ------
@@ -502,30 +495,16 @@ def resolve_edits(mesh: Mesh, edits: tuple[EditEntry, ...], sel_ids: dict[str, n
         circle's or cylinder's axis or at a sphere's centre (``node_on_axis``), lines that miss a
         mapped surface (``no_intersection``), an axis that cannot be fitted (``not_a_cylinder``), an
         offset whose selection has no boundary face or nodes on none (``empty_selection``,
-        ``bad_selection``), a lattice selection outside its box (``bad_selection``); a fillet's,
-        distance's or angle's (:func:`~solver.constraints.feature_edits.fillet_edit`,
-        :func:`~solver.constraints.feature_edits.distance_edit`,
-        :func:`~solver.constraints.feature_edits.angle_edit`).
+        ``bad_selection``), a lattice selection outside its box (``bad_selection``).
     """
-    from .feature_edits import angle_edit, distance_edit, fillet_edit
-
-    sets = {k: np.unique(v) for k, v in sel_ids.items()}  # every edit's nodes sorted, each once
-    out: list[Edit] = []
-    for e in edits:
-        if isinstance(e, RadiusEntry):
-            out.append(_radius(mesh, e, sets[e.selection]))
-        elif isinstance(e, TwistEntry):
-            out.append(_twist(mesh, e, sets[e.selection]))
-        elif isinstance(e, MapEntry):
-            out.append(_map(mesh, e, sets[e.selection]))
-        elif isinstance(e, OffsetEntry):
-            out.append(_offset(mesh, e, sets))
-        elif isinstance(e, LatticeEntry):
-            out.append(_lattice(mesh, e, sets))
-        elif isinstance(e, FilletEntry):
-            out.append(fillet_edit(mesh, e, sets))
-        elif isinstance(e, DistanceEntry):
-            out.append(distance_edit(mesh, e, sets))
-        else:
-            out.append(angle_edit(mesh, e, sets))
-    return tuple(out)
+    if isinstance(e, RadiusEntry):
+        return _radius(mesh, e, sets[e.selection])
+    if isinstance(e, TwistEntry):
+        return _twist(mesh, e, sets[e.selection])
+    if isinstance(e, MapEntry):
+        return _map(mesh, e, sets[e.selection])
+    if isinstance(e, OffsetEntry):
+        return _offset(mesh, e, sets)
+    if isinstance(e, LatticeEntry):
+        return _lattice(mesh, e, sets)
+    raise TypeError(f"{type(e).__name__} is resolved by solver.constraints.feature_edits")

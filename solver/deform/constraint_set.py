@@ -20,9 +20,10 @@ from ..constraints.assembly import Assembly, assemble, block_targets, describe
 from ..constraints.correspondence import Correspondences, InteriorMirror, correspondences
 from ..constraints.edit_entries import EDIT_KINDS
 from ..constraints.edit_values import NOMINAL_KINDS
-from ..constraints.edits import Edit, resolve_edits
+from ..constraints.edits import Edit
 from ..constraints.matching import Matching
 from ..constraints.move import MoveBounds, ResolvedMove, RestTargets
+from ..constraints.resolve_edits import resolve_edits
 from ..constraints.rows import (
     REPORT_IDS,
     Block,

@@ -3,7 +3,7 @@
 Each entry names a selection whose nodes (corner and mid-side) get prescribed positions, computed
 from their rest positions and the MOVE's parameters (:mod:`solver.documents.edit_moves`); the rest
 of the part follows through the method, as it does a handle. What needs the mesh (the selection's
-nodes, a node on an axis, a fit) is checked by :func:`solver.constraints.edits.resolve_edits`.
+nodes, a node on an axis, a fit) is checked by :func:`solver.constraints.resolve_edits.resolve_edits`.
 """
 
 from __future__ import annotations

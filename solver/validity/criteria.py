@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from ..limits import QUALITY_THRESHOLD_MAX
 from ..ops.elements import element_blocks, element_volumes
 from .quality import aspect_ratios, dihedral_angles, element_jacobians, signed_volumes
 
@@ -59,6 +60,12 @@ class Criteria:
     An element fails a ``min_`` criterion when its value is below the
     threshold, a ``max_`` one when it is above (:data:`CRITERIA`).
 
+    Raises
+    ------
+    SpecError
+        ``invalid_threshold`` (details ``field``): not a number, NaN, or beyond
+        :data:`solver.limits.QUALITY_THRESHOLD_MAX` in magnitude.
+
     Examples
     --------
     >>> Criteria(max_aspect_ratio=10.0).thresholds()["max_aspect_ratio"]
@@ -74,6 +81,13 @@ class Criteria:
     max_dihedral: float | None = None
     min_volume_ratio: float | None = None
     max_volume_ratio: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in CRITERIA:
+            x = getattr(self, name)
+            if x is not None and not (isinstance(x, (int, float)) and abs(x) <= QUALITY_THRESHOLD_MAX):
+                raise SpecError(f"{name} must be a number of magnitude at most {QUALITY_THRESHOLD_MAX:g} or None "
+                                f"(not checked), not {x!r}", code="invalid_threshold", field=name)
 
     def thresholds(self) -> dict[str, float | None]:
         """Every criterion's threshold, in :data:`CRITERIA` order."""

@@ -150,6 +150,11 @@ def test_presets_and_an_unknown_one():
     with pytest.raises(SpecError) as e:
         preset("ansa")
     assert e.value.code == "unknown_preset" and e.value.details["field"] == "preset"
+    assert Criteria(min_dihedral=-1e12).min_dihedral == -1e12  # at the bound: accepted
+    for bad in (float("nan"), float("inf"), np.nextafter(1e12, 2e12), "5"):
+        with pytest.raises(SpecError) as e:
+            PRESETS["tetmorph"].replace(max_aspect_ratio=bad)
+        assert e.value.code == "invalid_threshold" and e.value.details["field"] == "max_aspect_ratio"
 
 
 def test_the_deck_ids_are_the_files_own():

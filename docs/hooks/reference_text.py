@@ -168,6 +168,9 @@ ERRORS: dict[str, tuple[str, str]] = {
     "unknown_metric": ("A quality metric that does not exist.", "Choose from the metrics the message lists."),
     "unknown_preset": ("A quality-check preset that does not exist (`details.presets` lists them).",
                        "Choose `tetmorph`, `abaqus`, `calculix` or `nastran` (docs/guide/validity.md)."),
+    "invalid_threshold": ("A quality-check threshold that is not a finite number within 1e12 in magnitude "
+                          "(`details.field` names the criterion).",
+                          "Give a number, or `none` (CLI) / `off=` (REST) to leave the criterion unchecked."),
     "element_sets_unsupported": ("An element set of the failing elements was asked for a mesh whose format has "
                                  "none (Gmsh, VTK, Medit, TetGen, arrays), or for an Abaqus/CAE assembly deck, whose "
                                  "element numbers repeat across instances.",

@@ -59,6 +59,7 @@ CODE_STATUS: dict[str, int] = {
     "duplicate_key": 422,  # a JSON object names a key twice (service/strict_json.py)
     "parse_time_limit": 422, "parse_cpu_limit": 422,  # a file's read stopped (service/state/parse_pool.py)
     "unused_points": 422,  # an upload of nodes no element uses (service/state/reads.py)
+    "not_a_volume_mesh": 422,  # a quality check of a triangle surface (service/api/check.py)
     "parse_memory_limit": 413,
     # 431: a request head over TETMORPH_MAX_HEADER_KB or TETMORPH_MAX_HEADERS (service/http_protocol.py)
     "headers_too_large": 431,

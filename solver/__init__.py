@@ -37,16 +37,20 @@ __all__ = [
     "SolverError",
     "InvalidMeshError", "UnsupportedElementError", "SpecError", "ConstraintError",
     "FactorizationError", "InversionError", "load_kernels", "SolveOptions",
+    "Criteria", "preset", "QualityCheck", "quality_check", "deck_element_ids", "element_set",
 ]
 __version__ = "0.1.0"
 
 
 #: Names loaded on first use: the file formats (meshio among them) when a file is read or written, the
 #: document models ``Spec`` and ``Move`` (pydantic's; :func:`parse_spec` and :func:`parse_move` give the
-#: resolved :class:`ResolvedSpec` and :class:`ResolvedMove`), and ``load_kernels`` (``python -m
-#: solver.kernels`` runs that module as the main one).
+#: resolved :class:`ResolvedSpec` and :class:`ResolvedMove`), ``load_kernels`` (``python -m
+#: solver.kernels`` runs that module as the main one), and the quality check.
 _ON_FIRST_USE = {"read_mesh": ".io", "write_mesh": ".io", "mesh_from_meshio": ".io", "load_kernels": ".kernels",
-                 "Spec": ".documents.spec", "Move": ".documents.move"}
+                 "Spec": ".documents.spec", "Move": ".documents.move",
+                 "Criteria": ".validity.criteria", "preset": ".validity.criteria",
+                 "QualityCheck": ".validity.criteria", "quality_check": ".validity.criteria",
+                 "deck_element_ids": ".io.element_sets", "element_set": ".io.element_sets"}
 
 
 def __getattr__(name: str) -> Any:
@@ -62,4 +66,6 @@ if TYPE_CHECKING:
     from .documents.move import Move
     from .documents.spec import Spec
     from .io import mesh_from_meshio, read_mesh, write_mesh
+    from .io.element_sets import deck_element_ids, element_set
     from .kernels import load_kernels
+    from .validity.criteria import Criteria, QualityCheck, preset, quality_check

@@ -13,7 +13,13 @@ Exit codes:
   the error document in the REPORT when one was asked for);
 * 2 -- usage: unknown command or option, missing argument (argparse);
 * 3 -- ``morph``: at least one MOVE was rejected (inversion policy ``reject``);
-  the others were written.
+  the others were written;
+* 4 -- ``check``: some element fails a checked quality criterion (the table,
+  the CSV and the element set are written all the same).
+
+``check`` prints its table on standard output (it is what the command
+produces); with ``--report -`` the JSON goes there instead and the table to
+standard error.
 """
 
 from __future__ import annotations
@@ -34,9 +40,9 @@ from .io import read_mesh, write_mesh
 from .ops.unique import unique
 from .options import add_solve_arguments, from_arguments
 
-__all__ = ["main", "EXIT_OK", "EXIT_ERROR", "EXIT_USAGE", "EXIT_REJECTED"]
+__all__ = ["main", "EXIT_OK", "EXIT_ERROR", "EXIT_USAGE", "EXIT_REJECTED", "EXIT_QUALITY"]
 
-EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_REJECTED = 0, 1, 2, 3
+EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_REJECTED, EXIT_QUALITY = 0, 1, 2, 3, 4
 #: Set-up progress is printed once it has lasted this long (seconds).
 PROGRESS_AFTER = 1.0
 
@@ -211,13 +217,112 @@ def cmd_tetrahedralize(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _threshold(text: str) -> float | None:
+    """A threshold argument: a number, or ``none`` (not checked)."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither a number nor 'none'") from None
+
+
+def _cell(x: float | None) -> str:
+    return "-" if x is None else f"{x:.6g}"
+
+
+def quality_table(doc: dict[str, Any]) -> str:
+    """The ``tetmorph check`` table of a :meth:`~solver.validity.criteria.QualityCheck.to_dict` document."""
+    rows = [("criterion", "threshold", "failing", "worst", "element")]
+    for r in doc["criteria"]:
+        na = r["applicable"] == 0
+        rows.append((r["name"], _cell(r["threshold"]), "n/a" if na else (str(r["failing"]) if r["checked"] else "-"),
+                     "n/a" if na else _cell(r["worst"]), "" if r["worst_element"] is None else str(r["worst_element"])))
+    widths = [max(len(row[k]) for row in rows) for k in range(5)]
+    lines = ["  ".join(c.ljust(w) if k == 0 else c.rjust(w) for k, (c, w) in enumerate(zip(row, widths, strict=True)))
+             for row in rows]
+    verdict = "passed" if doc["passed"] else f"FAILED: {doc['failing_elements']} of {doc['elements']} elements"
+    return "\n".join(lines) + f"\n{verdict}\n"
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from .io.abaqus_deck import is_assembly
+    from .io.element_sets import deck_element_ids, element_set
+    from .validity.criteria import CRITERIA, preset, quality_check
+
+    criteria = preset(args.preset)
+    given = {k: getattr(args, k) for k in CRITERIA if getattr(args, k) is not _UNSET}
+    criteria = criteria.replace(**given)
+    mesh = read_mesh(args.mesh, args.format)
+    if mesh.is_surface:
+        raise SolverError(f"{args.mesh} is a triangle surface; 'check' measures volume elements",
+                          code="not_a_volume_mesh")
+    V, V0 = mesh.V, None
+    if args.deformed:
+        moved = read_mesh(args.deformed, args.deformed_format)
+        if moved.V.shape != mesh.V.shape or moved.elements != mesh.elements:
+            raise SolverError(f"{args.deformed} has {moved.n} nodes and {moved.elements} elements; {args.mesh} has "
+                              f"{mesh.n} and {mesh.elements}: the deformed mesh must be the same mesh",
+                              code="deformed_mismatch", nodes=[mesh.n, moved.n],
+                              elements=[mesh.elements, moved.elements])
+        V, V0 = moved.V, mesh.V
+    ids = deck_element_ids(mesh)
+    check = quality_check(V, mesh.T, criteria, cells=mesh.cells, T10=mesh.T10, V0=V0, ids=ids)
+    doc = check.to_dict()
+    if args.elset:  # refused before anything is written when the format has no element sets
+        text = element_set(mesh.file_format, args.set_name, ids[check.failing], assembly=is_assembly(mesh))
+        with open(args.elset, "w") as fh:
+            fh.write(text)
+        _say(f"wrote {args.elset}: {check.failing.size} elements in set {args.set_name}")
+    if args.csv:
+        with open(args.csv, "w") as fh:
+            fh.write(check.csv())
+        _say(f"wrote {args.csv}")
+    table = quality_table(doc)
+    if args.report == "-":
+        print(table, file=sys.stderr, end="", flush=True)
+    else:
+        print(table, end="", flush=True)
+    if args.report:
+        dump_json({"mesh": args.mesh, "deformed": args.deformed, "preset": args.preset, **doc}, args.report)
+    return EXIT_OK if check.passed else EXIT_QUALITY
+
+
+#: Default of a threshold option not given (None means "not checked").
+_UNSET: Any = object()
+
+
+def _add_check(sub: Any) -> None:
+    from .validity.criteria import CRITERIA, PRESETS
+
+    pc = sub.add_parser("check", help="quality check against thresholds (a solver's preset, or your own): per "
+                        f"criterion the failing count, worst value and element; exit {EXIT_QUALITY} when one fails")
+    pc.add_argument("mesh")
+    pc.add_argument("--preset", default="tetmorph", choices=sorted(PRESETS),
+                    help="the thresholds to start from (docs/guide/validity.md gives their sources)")
+    for name, (_, sense, what) in CRITERIA.items():
+        pc.add_argument("--" + name.replace("_", "-"), dest=name, type=_threshold, default=_UNSET, metavar="X",
+                        help=f"fail elements whose {what} is {'below' if sense == 'min' else 'above'} X; "
+                        "'none': not checked")
+    pc.add_argument("--deformed", help="the same mesh deformed (any format): checked there, volume change "
+                    "against MESH")
+    pc.add_argument("--csv", help="write the failing elements (deck id, criterion, value, threshold) as CSV")
+    pc.add_argument("--elset", help="write the failing elements as an element set in the deck's syntax (Abaqus "
+                    "*ELSET, Nastran SET1, Ansys CMBLOCK, LS-DYNA *SET_SOLID)")
+    pc.add_argument("--set-name", default="FAILED_QUALITY", help="name of the --elset set")
+    pc.add_argument("--report", help="write the result as JSON ('-': standard output)")
+    pc.add_argument("--format", help="input meshio format name")
+    pc.add_argument("--deformed-format", help="meshio format name of --deformed")
+    pc.set_defaults(func=cmd_check)
+
+
 def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.ArgumentParser:
     """The ``tetmorph`` parser; ``extend(subparsers)`` may add commands (``serve``)."""
     p = argparse.ArgumentParser(
         prog="tetmorph", description="Deform tetrahedral FE meshes with exact hard constraints (mean "
         "curvature normals + mean value coordinates).", epilog="Exit codes: 0 success, 1 a typed error "
-        "(message on stderr), 2 usage, 3 a MOVE rejected by the inversion policy. JSON goes to stdout, "
-        "messages and progress to stderr.")
+        "(message on stderr), 2 usage, 3 a MOVE rejected by the inversion policy, 4 a quality check failed. "
+        "JSON (and the check's table) goes to stdout, messages and progress to stderr.")
     p.add_argument("--version", action="version", version=f"tetmorph {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
     pi = sub.add_parser("info", help="counts, element types, boundary/interior vertices, sets, quality, "
@@ -281,6 +386,7 @@ def build_parser(extend: Callable[[Any], None] | None = None) -> argparse.Argume
     pt.add_argument("--format", help="surface meshio format name")
     pt.add_argument("--output-format", help="output meshio format name")
     pt.set_defaults(func=cmd_tetrahedralize)
+    _add_check(sub)
     from .workflows.commands import add_commands
 
     add_commands(sub)  # doe, bounds, sensitivities

@@ -61,6 +61,9 @@ BLOCK_MAX = 1024
 SHAPE_VALUE_MAX = 1e6
 #: Widest final bracket of a bounds search, in parameter units.
 BOUNDS_TOL_MAX = 1e3
+#: Largest magnitude of a quality-check threshold (:class:`solver.validity.criteria.Criteria`): every
+#: measure is a ratio, an angle or a scaled Jacobian, and a threshold must be finite to check anything.
+QUALITY_THRESHOLD_MAX = 1e12
 #: Most bytes the data arrays of a file may take once read, in all: compressed ones (VTU's zlib or LZMA
 #: blocks, HDF5 datasets of XDMF, CGNS, MED) checked from the block headers and dataset shapes before
 #: anything is decompressed and again while decompressing, uncompressed tables (legacy VTK, TetGen)

@@ -166,6 +166,21 @@ ERRORS: dict[str, tuple[str, str]] = {
     "index_out_of_range": ("A vertex id is not below the mesh's vertex count.",
                            "Ids are 0-based, in file order; `tetmorph info` gives the count."),
     "unknown_metric": ("A quality metric that does not exist.", "Choose from the metrics the message lists."),
+    "unknown_preset": ("A quality-check preset that does not exist (`details.presets` lists them).",
+                       "Choose `tetmorph`, `abaqus`, `calculix` or `nastran` (docs/guide/validity.md)."),
+    "invalid_threshold": ("A quality-check threshold that is not a finite number within 1e12 in magnitude "
+                          "(`details.field` names the criterion).",
+                          "Give a number, or `none` (CLI) / `off=` (REST) to leave the criterion unchecked."),
+    "element_sets_unsupported": ("An element set of the failing elements was asked for a mesh whose format has "
+                                 "none (Gmsh, VTK, Medit, TetGen, arrays), or for an Abaqus/CAE assembly deck, whose "
+                                 "element numbers repeat across instances.",
+                                 "Take the CSV of the failing elements instead, or write a flat deck first "
+                                 "(`tetmorph morph --flatten`)."),
+    "not_a_volume_mesh": ("A quality check of a triangle surface: the criteria measure volume elements.",
+                          "Check the tetrahedral mesh (tetrahedralize the surface first)."),
+    "deformed_mismatch": ("`tetmorph check --deformed` was given a mesh with other node or element counts than "
+                          "the rest mesh (`details.nodes`, `details.elements`).",
+                          "Give the same mesh deformed: the file `tetmorph morph` wrote from it."),
     "unknown_format": ("A format name or extension that names no format, or one this installation lacks.",
                        "Use a format from `GET /v1/formats` (or pass `--format`); install the package named."),
     "too_many_elements": ("The mesh has more volume elements than `MAX_ELEMENTS`.",

@@ -76,6 +76,8 @@ BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {
                           "meshes read from it, not this one, read from another format",
                           lambda e, c: e["details"].get("in_place_only") is True),
     "band_not_separating": ("the band does not cut this mesh's surface in two", _always),
+    "element_sets_unsupported": ("result=elset on a mesh whose file format has no element sets (the demo "
+                                 "beam is TetGen): the stored mesh's format", _always),
     "repeated_index": ("an element repeats a vertex (a relation between the numbers of one row)", _always),
     "unknown_shape": ("a plan column names no shape of the same request (keys of another field)", _always),
     "invalid_plan": ("a plan row has another number of cells than the header has columns, or a CSV text "

@@ -25,6 +25,14 @@ def _csv(text: str):
     return rows
 
 
+def _table(text: str):
+    """``tetmorph check``'s table: a header, one row per criterion, the verdict."""
+    lines = text.splitlines()
+    assert lines[0].split() == ["criterion", "threshold", "failing", "worst", "element"], lines[:1]
+    assert len(lines) == 9 and (lines[-1] == "passed" or lines[-1].startswith("FAILED")), lines
+    return lines
+
+
 def _commands(tmp):
     from solver.testing import sphere_surface
 
@@ -42,6 +50,7 @@ def _commands(tmp):
         "morph": ([str(PLATE), "--spec", str(SPEC), "--move", str(move), "--output", str(tmp / "m.inp"),
                    "--report", "-"], _json),
         "features": ([str(PLATE)], _json),
+        "check": ([str(PLATE), "--preset", "calculix", "--csv", str(tmp / "bad.csv")], _table),
         "tetrahedralize": ([str(surf), "--output", str(tmp / "ball.vtu"), "--edge-length-fac", "0.3",
                             "--report", "-"], _json),
         "doe": ([str(PLATE), *common, "--plan", str(plan), "--output", str(tmp / "doe" / "{i}.inp"),

@@ -7,7 +7,7 @@ and the library's checks read it from here.
 from __future__ import annotations
 
 __all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS", "EXTENT", "SCALE_MIN", "SCALE_MAX", "PENALTY_MAX",
-           "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX",
+           "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX", "ANGLE_BETWEEN_MAX",
            "TARGET_AMOUNT_MAX", "SHAPES_MAX", "SHAPE_NAME_MAX", "PLAN_ROWS_MAX", "PLAN_TEXT_MAX", "BLOCK_MAX",
            "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX", "MAX_EXPANDED_BYTES",
            "THREADS_MAX", "LATTICE_COUNT_MAX"]
@@ -43,6 +43,9 @@ ID_MAX = 2**31 - 1
 #: is reduced modulo 360 degrees, but at 1e6 degrees and beyond the number holds no meaningful
 #: fraction of a turn, and such a value is a mistake to report, not a rotation to make.
 ANGLE_MAX = 3600.0
+#: Largest angle between two features' directions (MOVE ``angle.NAME.angle_deg``): a measured angle
+#: between two lines or normals lies in [0, 180] degrees.
+ANGLE_BETWEEN_MAX = 180.0
 #: Largest magnitude of a target surface's MOVE ``amount`` (1: on the surface, 0: at rest).
 TARGET_AMOUNT_MAX = 10.0
 #: Most shapes in one SHAPES document, and so most columns of a PLAN (each column is a shape).

@@ -11,15 +11,19 @@ from typing import Any
 
 from fastapi import FastAPI, Request, WebSocket
 from fastapi.exceptions import RequestValidationError, WebSocketRequestValidationError
+from pydantic import BaseModel
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
-from solver.errors import SolverError
+from solver.documents.move import Move
+from solver.documents.spec import Spec
+from solver.documents.validation import validated
+from solver.errors import SolverError, SpecError
 
 from ..errors import HTTP_CODES, ServiceError, envelope, error_body, retry_after
 from .responses import JSONResponse
 
-__all__ = ["install_handlers", "error_response", "validation_envelope", "stream_query_reason",
+__all__ = ["install_handlers", "error_response", "validation_envelope", "document_error", "stream_query_reason",
            "STREAM_INVALID_QUERY"]
 
 #: Close code of a stream opened with an invalid query parameter (4000 + the status of ``invalid_request``).
@@ -50,6 +54,42 @@ def validation_envelope(errors: Sequence[Any]) -> dict[str, Any]:
     where = "; ".join(f"{'.'.join(x['loc'])}: {x['msg']}" for x in out[:5])
     return envelope(422, "invalid_request", f"invalid request: {where}", {"errors": out},
                     "RequestValidationError")
+
+
+#: The solver's documents a request body may be or hold, by the name the library's errors give them.
+_DOCUMENTS: dict[str, type[BaseModel]] = {"MOVE": Move, "SPEC": Spec}
+
+
+def document_error(route: Any, errors: Sequence[Any], body: Any) -> SpecError | None:
+    """The library's error for a request body that is, or holds, a SPEC or MOVE; None for any other body.
+
+    A bad MOVE (or SPEC) answers the code, field and message the library gives it
+    (``invalid_spec``, ``MOVE.handles.tip.translation``), whether the request's validation or
+    the library found it; the body is validated again by the library's own function for that.
+    ``route`` is the matched route (its ``body_field``); ``errors`` the request's validation errors.
+    """
+    locs = [tuple(err.get("loc", ())) for err in errors]
+    if not locs or any(len(loc) < 1 or loc[0] != "body" for loc in locs):
+        return None
+    field = getattr(route, "body_field", None)
+    model = getattr(getattr(field, "field_info", None), "annotation", None)
+    what = next((name for name, cls in _DOCUMENTS.items() if model is cls), None)
+    doc = body
+    if what is None and isinstance(model, type) and issubclass(model, BaseModel) and isinstance(body, dict):
+        members = {loc[1] for loc in locs if len(loc) > 1}
+        if len(members) != 1 or len(locs) != sum(len(loc) > 1 for loc in locs):
+            return None
+        member = members.pop()
+        info = model.model_fields.get(str(member))
+        what = next((name for name, cls in _DOCUMENTS.items() if getattr(info, "annotation", None) is cls), None)
+        doc = body.get(member)
+    if what is None:
+        return None
+    try:
+        validated(_DOCUMENTS[what], doc, what)
+    except SpecError as err:
+        return err
+    return None  # the document is valid: the errors lie elsewhere in the body
 
 
 def stream_query_reason(errors: Sequence[Any], limit: int = 123) -> str:
@@ -114,6 +154,9 @@ def install_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, e: RequestValidationError) -> JSONResponse:
+        found = document_error(request.scope.get("route"), list(e.errors()), e.body)
+        if found is not None:  # a SPEC or MOVE: the library's code and field
+            return error_response(found)
         return JSONResponse(validation_envelope(list(e.errors())), status_code=422)
 
     @app.exception_handler(WebSocketRequestValidationError)

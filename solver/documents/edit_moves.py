@@ -16,7 +16,7 @@ from typing import Annotated
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
-from ..limits import LATTICE_COUNT_MAX, TARGET_AMOUNT_MAX
+from ..limits import ANGLE_BETWEEN_MAX, LATTICE_COUNT_MAX, TARGET_AMOUNT_MAX
 from .geometry import PositiveLength
 from .numbers import Angle, Coord, Vec3
 
@@ -121,14 +121,18 @@ class DistanceMove(BaseModel):
         return self
 
 
+#: An angle between two features' directions, in degrees.
+BetweenAngle = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=ANGLE_BETWEEN_MAX)]
+
+
 class AngleMove(BaseModel):
     """The angle in degrees of a SPEC ``angle`` entry, or its change from the rest angle: exactly one."""
 
     model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
         "oneOf": [{"required": ["angle_deg"]}, {"required": ["delta_deg"]}],
         "examples": [{"angle_deg": 95.0}, {"delta_deg": -2.0}]})
-    angle_deg: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0, le=180)] | SkipJsonSchema[None] = \
-        Field(None, description="the measured angle after the morph, 0 to 180")
+    angle_deg: BetweenAngle | SkipJsonSchema[None] = Field(None, description="the measured angle after the morph, "
+                                                                             "0 to 180")
     delta_deg: Angle | SkipJsonSchema[None] = Field(None, description="the rest angle changed by this")
 
     @model_validator(mode="after")

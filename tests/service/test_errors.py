@@ -98,7 +98,7 @@ def test_spec_vertex_ids_beyond_the_mesh_are_index_out_of_range(client, tc):
         r = tc.post("/v1/sessions", json={"mesh_id": mesh["id"], "spec": spec})
         e = err(r)
         assert r.status_code == 422, e
-        assert e["code"] in ("index_out_of_range", "invalid_request") and "root" in e["message"], e
+        assert e["code"] in ("index_out_of_range", "invalid_spec") and "root" in e["message"], e
     spec = {**BRACKET_SPEC, "points": [{"name": "p", "edge": [0, 5000], "t": 0.5}]}
     e = err(tc.post("/v1/sessions", json={"mesh_id": mesh["id"], "spec": spec}))
     assert e["code"] == "index_out_of_range" and e["details"]["field"] == "SPEC.points[0].edge"

@@ -292,7 +292,7 @@ def test_a_stored_target_surface_is_resolved_and_the_nodes_land_on_it(tmp_path):
         assert e["code"] == "mesh_in_use" and e["details"]["sessions"] == [sid]
         # a surface that is no stored mesh, a volume mesh as a target, a raw path: typed 422s
         for surface, code in (({"mesh_id": "m_0000000000000000"}, "surface_not_found"),
-                              ({"mesh_id": plate}, "not_a_surface"), ("/etc/passwd", "invalid_request")):
+                              ({"mesh_id": plate}, "not_a_surface"), ("/etc/passwd", "invalid_spec")):
             spec = {**sid_spec, "targets": [{"name": "skin", "selection": "top", "surface": surface}]}
             e = err(tc.post("/v1/sessions", json={"mesh_id": plate, "spec": spec}))
             assert e["status"] == 422 and e["code"] == code, e

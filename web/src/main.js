@@ -47,7 +47,7 @@ const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () 
   refuse: showError });
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
-regions.busy = () => moves.dragging;
+regions.busy = (ev) => moves.dragging || (ev !== undefined && moves.under(ev));
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => drawLegend(meshView, state.regions);

@@ -498,7 +498,7 @@ export class Regions {
 
   down(ev) {
     const tool = this.tool();
-    if ((tool !== "box" && tool !== "brush") || ev.button !== 0 || !state.V || this.busy()) return;
+    if ((tool !== "box" && tool !== "brush") || ev.button !== 0 || !state.V || this.busy(ev)) return;
     this.drag = { x: ev.offsetX, y: ev.offsetY };
     this.viewer.canvas.setPointerCapture(ev.pointerId);
     if (tool === "brush") this.brushAt(ev.clientX, ev.clientY, ev);
@@ -527,6 +527,6 @@ export class Regions {
     this.drag = null;
   }
 
-  /** Set by the wiring: true while the gizmo is being dragged. */
-  busy() { return false; }
+  /** Set by the wiring: true while the gizmo is being dragged, or when the event `ev` is over the gizmo. */
+  busy(_ev) { return false; }
 }

@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import time
 
+import httpx
 import numpy as np
 
-from tests.browser.conftest import bracket_session, settle
+from tests.browser.conftest import bracket_session, confirm, numeric_move, positions, rest, settle
 
 
 def find_arrow(pg, axis: str = "X") -> dict:
@@ -60,3 +61,40 @@ def test_a_gizmo_drag_with_the_box_tool_moves_the_handle_and_keeps_the_regions(p
     page.mouse.move(box[0] + 40, box[1] + 40, steps=4)
     page.mouse.up()
     assert {r["name"]: r["count"] for r in page.evaluate("window.tetmorph.regions()")} == {**before, "LOAD": 0}
+
+
+def test_create_session_asks_before_it_replaces_a_moved_session(page):
+    bracket_session(page)
+    for z in (1, 2, 3):
+        numeric_move(page, t=(0, 0, z))
+        settle(page)
+    sid = page.evaluate("window.tetmorph.session().id")
+    moved = positions(page)
+    history = page.evaluate("window.tetmorph.history()")
+    assert len(history["entries"]) == 4
+    page.click("#create")
+    text = confirm(page, ok=False)
+    assert sid in text and "3 moves" in text
+    page.wait_for_timeout(500)
+    # Cancel: the same session, open and streaming, with its moves, on the service and in the page
+    assert page.evaluate("window.tetmorph.session().id") == sid
+    assert page.evaluate("window.tetmorph.session().stream.open")
+    assert page.evaluate("window.tetmorph.history()") == history
+    np.testing.assert_array_equal(positions(page), moved)
+    assert httpx.get(f"{page.base}/v1/sessions/{sid}").status_code == 200
+    numeric_move(page, t=(0, 0, 4))  # and it still moves
+    settle(page)
+    assert httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"]["LOAD"]["translation"][2] == 4
+    # OK: a new session at rest replaces it
+    page.click("#create")
+    confirm(page, ok=True)
+    page.wait_for_function(f"window.tetmorph.session().id !== null && window.tetmorph.session().id !== '{sid}'"
+                           " && window.tetmorph.session().stream && window.tetmorph.session().stream.open")
+    np.testing.assert_array_equal(positions(page), rest(page))
+    assert httpx.get(f"{page.base}/v1/sessions/{sid}").status_code == 404
+    # a session not moved yet is replaced without a question
+    new = page.evaluate("window.tetmorph.session().id")
+    page.click("#create")
+    page.wait_for_function(f"window.tetmorph.session().id !== null && window.tetmorph.session().id !== '{new}'"
+                           " && window.tetmorph.session().stream && window.tetmorph.session().stream.open")
+    assert page.is_hidden("#confirm-dialog")

@@ -54,8 +54,14 @@ export class SessionControl {
     const fixed = state.regions.filter((r) => r.kind === "fixed" && r.count > 0);
     if (!fixed.length || !handles.length) { showError("select a fixed region and a handle region first"); return false; }
     const spec = this.spec();
-    // this tab's session on the old regions is replaced, not left behind
+    // this tab's session on the old regions is replaced, not left behind; one that was moved is
+    // replaced only when the user agrees (Cancel keeps it open, with its moves)
     const old = state.sessionId;
+    const moves = state.history.length - 1;
+    if (old && this.own.has(old) && moves > 0 && !await ask(`Create a new session? The open session ${old} has ` +
+      `${moves} move${moves === 1 ? "" : "s"} in its history: it is deleted on the service, with its moves and ` +
+      "presets, and this cannot be undone. Cancel keeps it open as it is.", "Replace it")) return false;
+    if (state.sessionId !== old) return false;  // closed or replaced while the question was open
     if (old && this.own.has(old)) await this.remove(old, true);
     else this.close();
     setStatus("building…");

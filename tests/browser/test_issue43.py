@@ -98,3 +98,39 @@ def test_create_session_asks_before_it_replaces_a_moved_session(page):
     page.wait_for_function(f"window.tetmorph.session().id !== null && window.tetmorph.session().id !== '{new}'"
                            " && window.tetmorph.session().stream && window.tetmorph.session().stream.open")
     assert page.is_hidden("#confirm-dialog")
+
+
+def test_a_refused_typed_axis_goes_back_to_the_axes_in_use_and_says_why(page):
+    bracket_session(page)
+    page.click("#sec-csys summary")
+    page.fill("#csys-origin", "100 10 5")
+    page.fill("#csys-x", "0 1 0")
+    page.fill("#csys-z", "1 0 0")
+    page.click("#csys-set")
+    assert page.is_checked("#local")
+    in_use = page.evaluate("window.tetmorph.csys()")
+    np.testing.assert_allclose(in_use, [[0, 1, 0], [0, 0, 1], [1, 0, 0]], atol=1e-12)
+    fields = [page.input_value(f"#csys-{k}") for k in ("origin", "x", "z")]
+    # a zero z typed, Enter: refused, said, and the field shows the z in use again
+    page.fill("#csys-z", "0 0 0")
+    page.press("#csys-z", "Enter")
+    page.wait_for_selector("#errors:not([hidden])")
+    said = page.inner_text("#error-text")
+    assert "z axis is zero" in said and "z (0 0 0)" in said and "local axes in use stay" in said
+    assert [page.input_value(f"#csys-{k}") for k in ("origin", "x", "z")] == fields
+    assert page.evaluate("window.tetmorph.csys()") == in_use and page.is_checked("#local")
+    # an x along z, with the button: the same
+    page.fill("#csys-x", "2 0 0")
+    page.click("#csys-set")
+    page.wait_for_function("document.getElementById('error-text').textContent.includes('x (2 0 0)')")
+    assert "along the z axis" in page.inner_text("#error-text")
+    assert [page.input_value(f"#csys-{k}") for k in ("origin", "x", "z")] == fields
+    assert page.evaluate("window.tetmorph.csys()") == in_use
+    # and the moves still go in the axes in use: 3 along the local x is 3 along the global y
+    for k, v in (("tx", 3), ("ty", 0), ("tz", 0)):
+        page.fill(f"#{k}", str(v))
+    page.click("#apply-move")
+    settle(page)
+    sid = page.evaluate("window.tetmorph.session().id")
+    h = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"]["LOAD"]
+    np.testing.assert_allclose(h["translation"], [0, 3, 0], atol=1e-9)

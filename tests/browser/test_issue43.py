@@ -11,7 +11,17 @@ import time
 import httpx
 import numpy as np
 
-from tests.browser.conftest import bracket_session, confirm, numeric_move, positions, rest, settle
+from tests.browser.conftest import (
+    bracket_session,
+    canvas_box,
+    confirm,
+    differs,
+    load_bracket,
+    numeric_move,
+    positions,
+    rest,
+    settle,
+)
 
 
 def find_arrow(pg, axis: str = "X") -> dict:
@@ -134,3 +144,40 @@ def test_a_refused_typed_axis_goes_back_to_the_axes_in_use_and_says_why(page):
     sid = page.evaluate("window.tetmorph.session().id")
     h = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["last_move"]["handles"]["LOAD"]
     np.testing.assert_allclose(h["translation"], [0, 3, 0], atol=1e-9)
+
+
+def box_all(pg) -> np.ndarray:
+    """Box-select over the whole view (the fixed role, through the mesh): the vertex ids it selected."""
+    b = canvas_box(pg)
+    pg.mouse.move(b["x"] + 3, b["y"] + 3)
+    pg.mouse.down()
+    pg.mouse.move(b["x"] + b["w"] - 3, b["y"] + b["h"] - 3, steps=6)
+    pg.mouse.up()
+    return np.flatnonzero(np.array(pg.evaluate("window.tetmorph.role()")) == 1)
+
+
+def test_the_section_plane_flips_to_keep_the_other_side(page):
+    load_bracket(page)
+    z = rest(page)[:, 2]
+    cut = z.min() + 0.5 * (z.max() - z.min())
+    boundary = np.array(page.evaluate("window.tetmorph.boundary()"), bool)
+    page.check("#clip")  # z, half way
+    page.wait_for_function("window.tetmorph.view().cut > 0")
+    sections = page.evaluate("window.tetmorph.view().cut")
+    page.check("input[name=tool][value='box']")
+    page.check("input[name=role][value='1']")
+    below = box_all(page)  # the box takes only what the section keeps
+    assert len(below) and (z[below] <= cut + 1e-6).all()
+    np.testing.assert_array_equal(below, np.flatnonzero(boundary & (z <= cut)))
+    kept_below = page.locator("#canvas").screenshot()
+    page.click("#clip-flip")
+    assert page.get_attribute("#clip-flip", "aria-pressed") == "true"
+    above = box_all(page)
+    assert len(above) and (z[above] >= cut - 1e-6).all()
+    np.testing.assert_array_equal(above, np.flatnonzero(boundary & (z >= cut)))
+    assert page.evaluate("window.tetmorph.view().cut") == sections  # the same section, seen from the other side
+    assert differs(kept_below, page.locator("#canvas").screenshot()) > 2000
+    page.mouse.move(5, 5)
+    page.keyboard.press("n")  # the key flips it back
+    assert page.get_attribute("#clip-flip", "aria-pressed") == "false"
+    np.testing.assert_array_equal(box_all(page), below)

@@ -376,6 +376,14 @@ function syncViewOptions() {
   refreshReport();
 }
 
+/** Keep the other side of the section plane (the button, or N). */
+function flipClip() {
+  const flip = !meshView.options.clipFlip;
+  meshView.options.clipFlip = flip;
+  $("clip-flip").setAttribute("aria-pressed", String(flip));
+  syncViewOptions();
+}
+
 function setThreshold(t) {
   meshView.setThreshold(t);
   $("threshold").value = String(t);
@@ -455,6 +463,7 @@ $("color-by").addEventListener("change", () => {
 $("quality-metric").addEventListener("change", () => meshView.setQualityMetric($("quality-metric").value));
 for (const id of ["clip", "clip-axis", "clip-pos", "bad"]) $(id).addEventListener("input", syncViewOptions);
 $("clip-normal").addEventListener("change", syncViewOptions);
+$("clip-flip").addEventListener("click", flipClip);
 $("clip-from-view").addEventListener("click", () => {
   // a section facing the camera: the part between the camera and the plane is cut away
   const d = viewer.camera.position.clone().sub(viewer.orbit.target).normalize();
@@ -493,7 +502,8 @@ $("threshold").addEventListener("keydown", (ev) => {
 });
 $("preset-name").addEventListener("keydown", (ev) => { if (ev.key === "Enter" && state.sessionId) moves.savePreset($("preset-name").value); });
 
-// keyboard: Ctrl+Z / Ctrl+Shift+Z (or Ctrl+Y), F fit, W / E translate / rotate, 1 3 7 0 views, Esc cancel
+// keyboard: Ctrl+Z / Ctrl+Shift+Z (or Ctrl+Y), F fit, W / E translate / rotate, N flip the section,
+// 1 3 7 0 views, Esc cancel
 const VIEW_KEYS = { 1: "front", 3: "side", 7: "top", 0: "iso" };
 document.addEventListener("keydown", (ev) => {
   const t = ev.target;
@@ -520,6 +530,7 @@ document.addEventListener("keydown", (ev) => {
   if (key === "f") fit();
   else if (key === "w") moves.setMode("translate");
   else if (key === "e") moves.setMode("rotate");
+  else if (key === "n") flipClip();
   else if (VIEW_KEYS[ev.key]) view(VIEW_KEYS[ev.key]);
   else return;
   ev.preventDefault();

@@ -181,3 +181,58 @@ def test_the_section_plane_flips_to_keep_the_other_side(page):
     page.keyboard.press("n")  # the key flips it back
     assert page.get_attribute("#clip-flip", "aria-pressed") == "false"
     np.testing.assert_array_equal(box_all(page), below)
+
+
+SHELL_DECK = """*HEADING
+a skin: a shell and a membrane
+*NODE
+1, 0., 0., 0.
+2, 1., 0., 0.
+3, 1., 1., 0.
+4, 0., 1., 0.
+5, 2., 0., 0.
+6, 2., 1., 0.
+*ELEMENT, TYPE=S4R, ELSET=SKIN
+1, 1, 2, 3, 4
+*ELEMENT, TYPE=M3D4, ELSET=SKIN
+2, 2, 5, 6, 3
+"""
+
+
+def choose_file(pg, path) -> None:
+    """Upload… and pick the file in the chooser, as a person does."""
+    with pg.expect_file_chooser() as fc:
+        pg.click("#upload-btn")
+    fc.value.set_files(str(path))
+
+
+def test_a_shell_deck_and_an_unknown_format_are_refused_in_words(page, tmp_path):
+    deck = tmp_path / "skin.inp"
+    deck.write_text(SHELL_DECK)
+    step = tmp_path / "part.step"
+    step.write_text("ISO-10303-21;\n")
+    # REST: the codes stay, the words say what the deck has and what tetmorph needs
+    r = httpx.post(f"{page.base}/v1/meshes", files={"file": (deck.name, deck.read_bytes())})
+    e = r.json()["error"]
+    assert r.status_code == 422 and e["code"] == "no_elements" and e["details"]["cells"] == {"S4R": 1, "M3D4": 1}
+    for words in ("only shell/surface elements", "1 shell element (S4R), 1 membrane element (M3D4)",
+                  "needs a volume mesh of tetrahedra (C3D4, C3D10)", "STL or OBJ and tetrahedralize"):
+        assert words in e["message"], (words, e["message"])
+    assert "{" not in e["message"] and "its cells" not in e["message"]
+    r = httpx.post(f"{page.base}/v1/meshes", files={"file": (step.name, step.read_bytes())})
+    e = r.json()["error"]
+    assert r.status_code == 422 and e["code"] == "unknown_format"
+    assert "surface is accepted too, as STL or OBJ" in e["message"] and "tetrahedralized" in e["message"]
+    stored = httpx.get(f"{page.base}/v1/meshes").json()
+    # the page: the same, through the file chooser
+    choose_file(page, deck)
+    page.wait_for_selector("#errors:not([hidden])")
+    said = page.inner_text("#error-text")
+    assert "not a volume mesh" in said and "only shell/surface elements" in said and "(S4R)" in said
+    assert "tetrahedra" in said and "STL or OBJ" in said and "code no_elements" in said
+    choose_file(page, step)
+    page.wait_for_function("document.getElementById('error-text').textContent.includes('part.step')")
+    said = page.inner_text("#error-text")
+    assert "STL or OBJ" in said and "tetrahedralizes" in said and "code unknown_format" in said
+    assert httpx.get(f"{page.base}/v1/meshes").json() == stored  # nothing was stored
+    assert not page.evaluate("window.tetmorph.mesh().open")

@@ -6,16 +6,20 @@ Every test here failed on the editor before its fix (run against that build once
 
 from __future__ import annotations
 
+import signal
 import time
 
 import httpx
 import numpy as np
 
+from service.process import free_port, serve_process
 from tests.browser.conftest import (
+    VIEWPORT,
     bracket_session,
     canvas_box,
     confirm,
     differs,
+    drag_pivot,
     load_bracket,
     numeric_move,
     positions,
@@ -236,3 +240,53 @@ def test_a_shell_deck_and_an_unknown_format_are_refused_in_words(page, tmp_path)
     assert "STL or OBJ" in said and "tetrahedralizes" in said and "code unknown_format" in said
     assert httpx.get(f"{page.base}/v1/meshes").json() == stored  # nothing was stored
     assert not page.evaluate("window.tetmorph.mesh().open")
+
+
+def in_sight(pg, selector: str) -> bool:
+    """The element is drawn, inside the window, and not covered: what a person sees without scrolling."""
+    return pg.eval_on_selector(selector, """e => { const r = e.getBoundingClientRect();
+        if (e.hidden || r.width < 2 || r.height < 2) return false;
+        if (r.right > innerWidth || r.bottom > innerHeight || r.left < 0 || r.top < 0) return false;
+        const hit = document.elementFromPoint(r.left + r.width / 2, r.top + r.height / 2);
+        return hit === e || e.contains(hit); }""")
+
+
+def test_the_stream_status_is_in_the_top_bar_while_it_reconnects(browser, tmp_path):
+    port, data = free_port(), tmp_path / "data"
+    ctx = browser.new_context(viewport=VIEWPORT, bypass_csp=True)
+    pg = ctx.new_page()
+    errors: list[str] = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        with serve_process(data, port=port) as (base, proc):
+            pg.goto(base + "/")
+            pg.wait_for_function("window.tetmorph !== undefined")
+            bracket_session(pg)
+            numeric_move(pg, t=(0, 0, 5))
+            settle(pg)
+            assert pg.is_hidden("#stream-status")
+            pg.click("#toggle-left")  # the tools panel out of the way, as while looking at the model
+            assert pg.is_hidden("#session-status")
+            sid = pg.evaluate("window.tetmorph.session().id")
+            proc.send_signal(signal.SIGTERM)
+            proc.wait(timeout=30)
+            pg.wait_for_function("/reconnecting/.test(document.getElementById('stream-status').textContent)",
+                                 timeout=20000)
+            assert in_sight(pg, "#stream-status")
+            assert "stream lost" in pg.inner_text("#stream-status")
+            drag_pivot(pg, 40, -30)  # a drag while it is down: queued, and the top bar says so
+            pg.wait_for_function("/queued/.test(document.getElementById('stream-status').textContent)")
+            assert in_sight(pg, "#stream-status")
+        with serve_process(data, port=port) as (base, _proc):
+            pg.wait_for_selector("#stream-status", state="hidden", timeout=90000)  # back: the notice goes
+            settle(pg, timeout=90000)
+            assert "reconnected" in pg.evaluate("document.getElementById('session-status').textContent")
+            # a stream that ends for good says so in the top bar too
+            assert httpx.delete(f"{base}/v1/sessions/{sid}").status_code == 204
+            drag_pivot(pg, -30, 20)  # the service ends the stream on the next MOVE
+            pg.wait_for_function("/closed/.test(document.getElementById('stream-status').textContent)",
+                                 timeout=30000)
+            assert in_sight(pg, "#stream-status")
+    finally:
+        ctx.close()
+    assert not errors, errors

@@ -196,6 +196,8 @@ export class SessionControl {
     this.dropBoundary();  // a boundary frame of the stream being closed is never drawn
     if (own.ws) own.ws.close();
     own.ws = null; own.sessionId = null; own.specSent = null; own.presets = [];
+    this.reconnect = null;
+    streamBadge(null);
     emit("session");
     this.moves.detach();
     setStatus("no session");
@@ -300,6 +302,7 @@ export class SessionControl {
         if (code) showError({ body: { error: { code, message: ev.reason || "" } } });
         setStatus(`session ${id} · stream closed${ev.reason ? ` (${ev.reason})` : ""}: moves cannot be sent; ` +
           "reopen the session from Sessions, or create one");
+        streamBadge("stream closed: moves cannot be sent", $("session-status").textContent, true);
         setBusy(null);
       },
       onState: (what, info) => {
@@ -310,6 +313,7 @@ export class SessionControl {
         } else {
           this.reconnect = null;
           setStatus(`session ${id} · stream reconnected`);
+          streamBadge(null);
           if (state.error && state.error.code === "network") clearError();
         }
       },
@@ -325,6 +329,8 @@ export class SessionControl {
     const queued = state.lastSeq < state.seq ? "; the latest move is queued and goes out when it is back" : "";
     setStatus(`session ${state.sessionId} · stream lost, reconnecting (try ${r.attempt}, ` +
       `next in ${(r.delayMs / 1000).toFixed(1)} s)${queued}`);
+    streamBadge(`stream lost · reconnecting, try ${r.attempt}${queued ? " · move queued" : ""}`,
+      $("session-status").textContent);
   }
 
   frame({ header, data }) {
@@ -553,6 +559,18 @@ export class SessionControl {
     const t0 = performance.now();
     while (state.ws && !state.ws.open && performance.now() - t0 < ms) await new Promise((r) => setTimeout(r, 20));
   }
+}
+
+/**
+ * The stream's state in the top bar, where it is in sight whatever the panels show: `text` while it
+ * is down (`title` the whole status; `lost`: for good), hidden (null) while it works.
+ */
+function streamBadge(text, title = "", lost = false) {
+  const el = $("stream-status");
+  el.hidden = !text;
+  el.textContent = text || "";
+  el.title = title;
+  el.classList.toggle("lost", lost);
 }
 
 /** A MOVE that leaves every handle at rest (how the history on the service holds a reset). */

@@ -11,6 +11,7 @@ import time
 
 import httpx
 import numpy as np
+import pytest
 
 from service.process import free_port, serve_process
 from tests.browser.conftest import (
@@ -20,6 +21,7 @@ from tests.browser.conftest import (
     confirm,
     differs,
     drag_pivot,
+    image,
     load_bracket,
     numeric_move,
     positions,
@@ -290,3 +292,57 @@ def test_the_stream_status_is_in_the_top_bar_while_it_reconnects(browser, tmp_pa
     finally:
         ctx.close()
     assert not errors, errors
+
+
+def save_png(pg, tmp_path, name: str) -> np.ndarray:
+    """Click PNG and read the file the page gives, as RGB."""
+    with pg.expect_download() as dl:
+        pg.click("#png")
+    path = tmp_path / name
+    dl.value.save_as(path)
+    return image(path.read_bytes())
+
+
+def gizmo_pixels(img: np.ndarray, centre: tuple[int, int], r: int = 150) -> int:
+    """Pixels near the gizmo in the pure red, green or blue of its arrows."""
+    x, y = centre
+    a = img[max(0, y - r):y + r, max(0, x - r):x + r]
+    R, G, B = a[..., 0], a[..., 1], a[..., 2]
+    pure = ((R > 200) & (G < 80) & (B < 80)) | ((G > 200) & (R < 80) & (B < 80)) | ((B > 200) & (R < 80) & (G < 80))
+    return int(pure.sum())
+
+
+def test_the_png_leaves_out_the_gizmo_and_has_the_legend(page, tmp_path):
+    bracket_session(page)
+    numeric_move(page, t=(0, 0, 5))
+    settle(page)
+    b = canvas_box(page)
+    c = page.evaluate("window.tetmorph.pivotScreen()")
+    centre = (int(c["x"] - b["x"]), int(c["y"] - b["y"]))
+    on_screen = image(page.locator("#canvas").screenshot())
+    assert gizmo_pixels(on_screen, centre) > 100  # the gizmo is drawn in the view
+    png = save_png(page, tmp_path, "regions.png")
+    assert list(png.shape[1::-1]) == page.eval_on_selector("#canvas", "c => [c.width, c.height]")
+    assert gizmo_pixels(png, centre) < 5  # and not in the picture
+    assert gizmo_pixels(image(page.locator("#canvas").screenshot()), centre) > 100  # still in the view after
+    # the displacement colouring: the picture carries the scale, its values and the quantity's name
+    page.select_option("#color-by", "displacement")
+    page.wait_for_selector("#legend [data-key=disp-max]")
+    png = save_png(page, tmp_path, "displacement.png")
+    drawn = page.evaluate("window.tetmorph.pngLegend()")
+    assert drawn["title"] == "displacement magnitude (mm)"
+    top = float(drawn["ticks"][-1].replace(",", ""))
+    assert top == pytest.approx(np.linalg.norm(positions(page) - rest(page), axis=1).max(), rel=1e-3)
+    assert drawn["ticks"] == ["0", page.inner_text("#legend .ramp-ticks span:nth-child(2)"),
+                              page.inner_text("#legend [data-key=disp-max]")]
+    x, y, w, h = (int(round(drawn["box"][k])) for k in ("x", "y", "w", "h"))
+    H, W = png.shape[:2]
+    assert 0 < x and x + w <= W and 0 < y and y + h <= H  # in the lower right corner of the picture
+    assert x > W / 2 and y > H / 2
+    box = png[y:y + h, x:x + w]
+    assert (box.max(axis=2) < 90).sum() > 150  # dark text: the name and the values
+    sat = box.max(axis=2) - box.min(axis=2)  # the colour scale: the most saturated row, blue to red
+    row = box[int(np.argmax((sat > 200).sum(axis=1)))]
+    ramp = row[sat[int(np.argmax((sat > 200).sum(axis=1)))] > 200]
+    assert len(ramp) > 120
+    assert ramp[0, 2] > 200 and ramp[0, 0] < 60 and ramp[-1, 0] > 200 and ramp[-1, 2] < 60

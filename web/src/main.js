@@ -14,8 +14,8 @@ import { renderFeatures, renderHandleSelect, renderHistory, renderMeshSessions, 
   renderSessionsTable, wireRegions } from "./lists.js";
 import { loadMesh, setUnits } from "./mesh.js";
 import { MeshView, PREVIEW_COLOR, QUALITY_COLORS } from "./meshview.js";
-import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshReport, setBusy, setReport, showError,
-  showModel, showReport, unitText,
+import { ask, clearError, drawHistogram, drawLegend, fmt, legendModel, meshReport, paintLegend, refreshReport, setBusy,
+  setReport, showError, showModel, showReport, unitText,
   thresholdPageX, wireThreshold } from "./panels.js";
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
@@ -476,11 +476,24 @@ $("hide-sel").addEventListener("click", () => hideOrIsolate(false));
 $("isolate-sel").addEventListener("click", () => hideOrIsolate(true));
 $("show-all").addEventListener("click", () => { if (state.V) meshView.setFaceFilter(null); });
 $("opacity").addEventListener("input", () => meshView.setOpacity(Number($("opacity").value)));
+let pngLegend = null;  // what the last PNG's legend said, and where (the test hook reads it)
 $("png").addEventListener("click", () => {
   if (!state.V) { showError("open a mesh first"); return; }
+  // the model without the tools drawn over it (gizmo, brush ring), then the legend painted on a copy
+  const shown = [moves.helper, regions.ring].map((o) => [o, o.visible]);
+  for (const [o] of shown) o.visible = false;
   viewer.draw();  // the drawing buffer is kept (preserveDrawingBuffer): the frame just drawn
+  const src = viewer.canvas, out = document.createElement("canvas");
+  out.width = src.width;
+  out.height = src.height;
+  const g = out.getContext("2d");
+  g.drawImage(src, 0, 0);
+  for (const [o, v] of shown) o.visible = v;
+  viewer.draw();
+  pngLegend = paintLegend(g, legendModel(meshView, state.regions), out.width, out.height,
+    src.width / Math.max(1, src.clientWidth));
   const stem = (state.meshName || "view").replace(/\.[^.]+$/, "");
-  viewer.canvas.toBlob((blob) => saveBlob(blob, `${stem}.png`), "image/png");
+  out.toBlob((blob) => saveBlob(blob, `${stem}.png`), "image/png");
 });
 $("units").addEventListener("change", () => {
   setUnits($("units").value);
@@ -571,6 +584,7 @@ window.tetmorph = Object.freeze({
   sectionColors: () => meshView.sectionColors(),  // {tets, colors}: the section's tets and their colours
   qualityColors: QUALITY_COLORS,
   showGizmo: (visible) => { moves.helper.visible = visible; viewer.draw(); },
+  pngLegend: () => (pngLegend ? structuredClone(pngLegend) : null),  // {box, title, ticks, items} of the last PNG
   regions: () => state.regions.map((r) => ({ id: r.id, name: r.name, kind: r.kind, count: r.count, visible: r.visible,
     color: r.color, source: r.source })),
   spec: () => session.spec(),

@@ -346,3 +346,59 @@ def test_the_png_leaves_out_the_gizmo_and_has_the_legend(page, tmp_path):
     ramp = row[sat[int(np.argmax((sat > 200).sum(axis=1)))] > 200]
     assert len(ramp) > 120
     assert ramp[0, 2] > 200 and ramp[0, 0] < 60 and ramp[-1, 0] > 200 and ramp[-1, 2] < 60
+
+
+def box_of(pg, selector: str) -> dict:
+    return pg.eval_on_selector(selector, "e => { const r = e.getBoundingClientRect();"
+                               " return {x: r.left, y: r.top, r: r.right, b: r.bottom, hidden: e.hidden}; }")
+
+
+def overlap(a: dict, b: dict) -> bool:
+    return a["x"] < b["r"] and b["x"] < a["r"] and a["y"] < b["b"] and b["y"] < a["b"]
+
+
+def lab(rgb) -> np.ndarray:
+    """CIELAB (D65) of an sRGB colour in 0..1."""
+    c = np.asarray(rgb, float)
+    c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    xyz = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]]) @ c
+    f = np.cbrt(np.maximum(xyz / [0.95047, 1, 1.08883], 0.008856))
+    return np.array([116 * f[1] - 16, 500 * (f[0] - f[1]), 200 * (f[1] - f[2])])
+
+
+def test_the_legend_keeps_clear_of_the_gizmo_label(page):
+    bracket_session(page)
+    stage = box_of(page, "#stage")
+    for colour in ("regions", "displacement"):
+        page.select_option("#color-by", colour)
+        for t in ((0, 0, 0), (20, 0, -30), (0, 0, -10)):
+            numeric_move(page, t=t)
+            settle(page)
+            page.wait_for_timeout(150)
+            label, legend = box_of(page, "#gizmo-label"), box_of(page, "#legend")
+            assert not label["hidden"] and not legend["hidden"]
+            assert not overlap(label, legend), (colour, t, label, legend)
+            assert stage["x"] <= legend["x"] and legend["r"] <= stage["r"]  # and in the view
+            assert stage["y"] <= legend["y"] and legend["b"] <= stage["b"]
+
+
+def test_fixed_regions_get_colours_told_apart(page):
+    load_bracket(page)
+    for _ in range(4):
+        page.click("#add-fixed")
+    for _ in range(2):
+        page.click("#add-handle")
+    regions = page.evaluate("window.tetmorph.regions()")
+    fixed = [lab(r["color"]) for r in regions if r["kind"] == "fixed"]
+    handles = [lab(r["color"]) for r in regions if r["kind"] == "handle"]
+    assert len(fixed) == 4 and len(handles) == 2
+    apart = min(np.linalg.norm(a - b) for k, a in enumerate(fixed) for b in fixed[k + 1:])
+    assert apart >= 30, apart  # CIELAB units: about 2.3 is a just noticeable difference
+    assert min(np.linalg.norm(a - b) for a in fixed for b in handles) >= 30
+    for other in ("window.tetmorph.qualityColors.poor", "window.tetmorph.previewColor()"):  # poor tets, previews
+        c = lab(page.evaluate(other))
+        assert min(np.linalg.norm(a - c) for a in fixed + handles) >= 25, other
+    # the legend's swatches wear them
+    swatches = page.eval_on_selector_all("#legend [data-region] .sw", "els => els.map((e) => getComputedStyle(e)"
+                                         ".backgroundColor)")
+    assert len(swatches) == 6 and len(set(swatches)) == 6

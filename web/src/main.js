@@ -43,6 +43,7 @@ const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
 moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
 measure.changed = () => moves.loadPivot();  // the rings follow a picked pivot
+viewer.beforeRender.push(placeLegend);  // after the gizmo's read-out is placed (Moves placed it first)
 const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () => measure.values().vertices,
   refuse: showError });
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
@@ -50,7 +51,36 @@ session.openMesh = (id) => openMesh(id);
 regions.busy = (ev) => moves.dragging || (ev !== undefined && moves.under(ev));
 
 // ------------------------------------------------------------------ signals -> panels
-const legend = () => drawLegend(meshView, state.regions);
+const legend = () => { drawLegend(meshView, state.regions); placeLegend(); };
+
+/**
+ * The legend in a corner of the view where it covers neither the gizmo's read-out nor the gizmo:
+ * lower right, else upper right, else upper left (the triad has the lower left); where every corner
+ * covers the gizmo, the first that leaves the read-out free.
+ */
+function placeLegend() {
+  const el = $("legend");
+  if (el.hidden) return;
+  const W = viewer.canvas.clientWidth, H = viewer.canvas.clientHeight, w = el.offsetWidth, h = el.offsetHeight, m = 8;
+  const boxes = [];
+  const label = $("gizmo-label");
+  if (!label.hidden) boxes.push({ x: label.offsetLeft, y: label.offsetTop, w: label.offsetWidth, h: label.offsetHeight });
+  if (moves.helper.visible) {
+    const p = moves.screen(moves.pivot.position), r = moves.gizmoReach(p);
+    boxes.push({ x: p.x - r, y: p.y - r, w: 2 * r, h: 2 * r });
+  }
+  const corners = [{ x: W - m - w, y: H - m - h, at: "lower-right" }, { x: W - m - w, y: m, at: "upper-right" },
+    { x: m, y: m, at: "upper-left" }];
+  const clear = (c, list) => list.every((b) => c.x + w <= b.x || b.x + b.w <= c.x || c.y + h <= b.y || b.y + b.h <= c.y);
+  const c = corners.find((k) => clear(k, boxes)) || corners.find((k) => clear(k, boxes.slice(0, label.hidden ? 0 : 1))) ||
+    corners[0];
+  if (el.dataset.at === c.at) return;
+  el.dataset.at = c.at;
+  el.style.left = c.at === "upper-left" ? `${m}px` : "auto";
+  el.style.right = c.at === "upper-left" ? "auto" : `${m}px`;
+  el.style.top = c.at === "lower-right" ? "auto" : `${m}px`;
+  el.style.bottom = c.at === "lower-right" ? `${m}px` : "auto";
+}
 on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); cyclic.render(); targets.render(); });
 on("legend", legend);
 on("history", () => { renderHistory(moves); session.note(); session.saveHistory(); });

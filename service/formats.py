@@ -189,8 +189,12 @@ def resolve_format(fmt: str | None, filename: str | None = None,
                 names = [n for n in meshio.extension_to_filetypes[ext] if n in allowed]
                 if names:
                     return _PREFERRED.get(ext, names[0]), ext
+        surfaces = ""
+        if {"stl", "obj"} <= set(allowed) and len(allowed) > len(SURFACE_FORMATS):
+            surfaces = ("; a surface is accepted too, as STL or OBJ (or PLY, OFF), and can be tetrahedralized into "
+                        "a volume mesh (POST /v1/tetrahedralize; Tetrahedralize in the editor)")
         raise ServiceError("unknown_format", f"cannot tell the format of {filename!r} from its extension; "
-                           f"pass format= (accepted: {known})", filename=filename)
+                           f"pass format= (accepted: {known}){surfaces}", filename=filename)
     raise ServiceError("unknown_format", "no file name and no format given")
 
 

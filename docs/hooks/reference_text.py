@@ -255,8 +255,10 @@ ERRORS: dict[str, tuple[str, str]] = {
                        _REEXPORT),
     "no_nodes": ("The file defines no nodes (a Nastran deck without `BEGIN BULK`, a Gmsh file without `$Nodes`).",
                  "Export the mesh, not only the model tree."),
-    "no_elements": ("The file has no tetrahedra, other volume elements or triangles.",
-                    "Export the volume mesh (or a triangle surface)."),
+    "no_elements": ("The file has no volume elements or triangles: only shells, beams or other elements, "
+                    "counted by type in the message.",
+                    "Export the volume mesh (tetrahedra), or upload the closed surface as STL or OBJ and "
+                    "tetrahedralize it."),
     "no_triangles": ("A surface file without triangles.", "Export the surface as triangles."),
     "undefined_coordinate_system": ("A Nastran GRID's CP field, or the RID of a CORD2x card in its chain, names a "
                                     "coordinate system no CORD2R, CORD2C or CORD2S card of the deck defines "

@@ -46,6 +46,7 @@ from .abaqus_parse import (
     parse_deck,
 )
 from .diagnose import check_last_line, undefined_node_error
+from .element_words import no_volume_words
 from .patch_inp import coordinate_text
 from .patchers import Patcher
 from .read_bounds import ReadBounds, check_read_sizes
@@ -166,9 +167,13 @@ def _refuse_unsupported(deck: Deck, counts: dict[str, int]) -> None:
     if not counts:
         return  # no elements at all: the mesh's own check names it
     words = ", ".join(f"{n:,} {kind_words(t)} element{'s' if n > 1 else ''} ({t})" for t, n in counts.items())
-    raise UnreadableFileError(
-        f"{deck.name!r} holds no volume elements, only {words}: tetmorph morphs solid meshes (C3D4, C3D10, C3D8, "
-        "C3D6, C3D5)", code="no_elements", file=deck.name, cells=counts)
+    shells = all(kind_words(t) in _SHELL_KINDS for t in counts)
+    raise UnreadableFileError(no_volume_words(repr(deck.name), shells, words, "C3D4, C3D10"), code="no_elements",
+                              file=deck.name, cells=counts)
+
+
+#: Abaqus element kinds (:func:`kind_words`) that are shells or surfaces: faces without a volume.
+_SHELL_KINDS = {"shell", "membrane", "rigid"}
 
 
 def _sets(deck: Deck, res: _Resolver, cells: list[meshio.CellBlock], cell_labels: list[np.ndarray],

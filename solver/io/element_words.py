@@ -11,7 +11,7 @@ import re
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-__all__ = ["ELEMENT_WORDS", "element_words", "counted", "cell_counts"]
+__all__ = ["ELEMENT_WORDS", "SHELL_TYPES", "element_words", "counted", "cell_counts", "no_volume_words"]
 
 #: meshio cell type -> (singular, plural) words for what it is in a model.
 ELEMENT_WORDS: dict[str, tuple[str, str]] = {
@@ -27,6 +27,36 @@ ELEMENT_WORDS: dict[str, tuple[str, str]] = {
     "polyhedron": ("polyhedron", "polyhedra"),
 }
 _NODES = re.compile(r"([a-z_]+?)(\d+)\Z")
+#: meshio cell types of shell (surface) elements: faces with no volume inside them.
+SHELL_TYPES = {"triangle", "triangle6", "triangle7", "quad", "quad8", "quad9", "polygon"}
+
+
+def no_volume_words(name: str, shells: bool, words: str, solid_types: str = "") -> str:
+    """Why a file with no volume elements is refused, and what to do, in words.
+
+    Parameters
+    ----------
+    name : str
+        The file, as the message names it.
+    shells : bool
+        Every element is a shell or surface element (else beams, springs and the like are among them).
+    words : str
+        The elements it has, counted (:func:`element_words`).
+    solid_types : str
+        The format's own names of tetrahedra, in parentheses after the word.
+
+    Examples
+    --------
+    >>> no_volume_words("'a.inp'", True, "1 shell element (S4)", "C3D4, C3D10").split("; ")[0]
+    "'a.inp' has only shell/surface elements, no volume elements: 1 shell element (S4)"
+    >>> no_volume_words("the mesh", False, "2 beam/truss elements (line)").split("; ")[1][:59]
+    'tetmorph needs a volume mesh of tetrahedra, or of hexahedra'
+    """
+    what = "only shell/surface elements, no volume elements:" if shells else "no volume elements, only"
+    tets = f"tetrahedra ({solid_types})" if solid_types else "tetrahedra"
+    return (f"{name} has {what} {words}; tetmorph needs a volume mesh of {tets}, or of hexahedra, wedges and "
+            "pyramids: mesh the part's volume with tetrahedra, or upload its closed surface as STL or OBJ and "
+            "tetrahedralize it")
 
 
 def _words(kind: str, count: int) -> str:

@@ -16,7 +16,7 @@ from ..ops.elements import LINEAR_TYPES, oriented
 from ..ops.unique import unique
 from .bounds import ReadBounds, check_declared_sizes, check_read_sizes, memory_error
 from .diagnose import check_complete, check_file, diagnose
-from .element_words import cell_counts, element_words
+from .element_words import SHELL_TYPES, cell_counts, element_words, no_volume_words
 from .formats import SURFACE_FORMATS, format_of
 from .patchers import patcher_for
 from .registry import FORMATS
@@ -236,8 +236,8 @@ def read_surface(path: str | os.PathLike[str], file_format: str | None = None, *
     parts += [np.asarray(c.data, np.int64)[:, k] for c in m.cells if c.type == "quad"
               for k in ([0, 1, 2], [0, 2, 3])]
     if not parts or not sum(len(x) for x in parts):
-        raise UnreadableFileError(f"{name!r} has no triangles (its cells: {element_words(counts)})",
-                                  code="no_triangles", file=name, cells=counts)
+        raise UnreadableFileError(f"{name!r} has no triangles or quadrilaterals to read as a surface, only "
+                                  f"{element_words(counts)}", code="no_triangles", file=name, cells=counts)
     return _points(m), np.concatenate(parts)
 
 
@@ -362,10 +362,10 @@ def mesh_from_meshio(m: meshio.Mesh) -> Mesh:
     surface = np.concatenate(tris) if (tris and not len(T) and not cells) else np.zeros((0, 3), np.int64)
     if not len(T) and not cells and not len(surface):
         counts = {c.type: len(c.data) for c in m.cells}
-        raise InvalidMeshError(
-            "the mesh has no tetrahedra, other volume elements or triangles (its cells: "
-            f"{element_words(cell_counts(m.cells))}); "
-            "tetmorph morphs volume meshes and triangle surfaces", code="no_elements", cells=counts)
+        present = cell_counts(m.cells)
+        shells = bool(present) and set(present) <= SHELL_TYPES
+        raise InvalidMeshError(no_volume_words("the mesh", shells, element_words(present)), code="no_elements",
+                               cells=counts)
     return Mesh.validated(V, T, surface, cells, sets=_named_sets(m), source=m)
 
 

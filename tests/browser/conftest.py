@@ -215,10 +215,13 @@ def use_spec(pg, spec: dict) -> None:
     pg.click("#spec-close")
 
 
-def create(pg, policy: str = "warn", timeout: float = 60000) -> None:
+def create(pg, policy: str = "warn", timeout: float = 60000, replace: bool = False) -> None:
+    """Create a session; ``replace``: the open one was moved, and the question whether to replace it is answered OK."""
     pg.select_option("#policy", policy)
     before = json.dumps(pg.evaluate("window.tetmorph.session().id"))
     pg.click("#create")
+    if replace:
+        confirm(pg)
     pg.wait_for_function(f"(() => {{ const s = window.tetmorph.session(); return s.id !== null && s.id !== {before}"
                          " && s.stream && (s.stream.open || s.stream.readyState === 1); })()", timeout=timeout)
 

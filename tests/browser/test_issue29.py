@@ -64,7 +64,7 @@ def test_create_session_starts_from_the_rest_shape(page):
     settle(page)
     assert np.abs(positions(page) - rest(page)).max() > 1.0
     assert report_row(page, "max_displacement") is not None
-    create(page, "reject")  # a new session on the same regions: at rest, nothing of the old one shown
+    create(page, "reject", replace=True)  # a new session on the same regions: at rest, nothing of the old one shown
     np.testing.assert_array_equal(positions(page), rest(page))
     np.testing.assert_allclose(pivot_translation(page), [0, 0, 0], atol=1e-12)
     assert [page.input_value(f"#{k}") for k in ("tx", "ty", "tz", "angle")] == ["0", "0", "0", "0"]

@@ -68,9 +68,7 @@ export class CsysPanel {
     this.moves.setFrame(frame);
     const e = frame.axes.map((a) => a.toArray().map((x) => fmt(Number(x.toFixed(4)))).join(" "));
     $("csys-text").textContent = `x (${e[0]}) · y (${e[1]}) · z (${e[2]}), ${what}`;
-    $("csys-origin").value = text(frame.origin);
-    $("csys-x").value = text(frame.axes[0].toArray());
-    $("csys-z").value = text(frame.axes[2].toArray());
+    this.showFields(frame);
     $("local").checked = true;
     this.moves.useLocal(true);
     return true;
@@ -96,10 +94,29 @@ export class CsysPanel {
     return this.use(orthonormal(origin, across(z), z), `from the ${f.axis ? "axis" : "normal"} of ${f.name}`);
   }
 
-  /** The typed origin, x and z (x made normal to z). */
+  /**
+   * The typed origin, x and z (x made normal to z). Refused, the fields go back to the frame in use
+   * (empty with the global axes) and the refusal says what was typed and what stays in use.
+   */
   typed() {
-    const [o, x, z] = ["csys-origin", "csys-x", "csys-z"].map((id) => parseVec($(id).value));
-    return this.use(orthonormal(o, x, z), "typed");
+    const ids = ["csys-origin", "csys-x", "csys-z"], typed = ids.map((id) => $(id).value.trim());
+    const [o, x, z] = typed.map(parseVec);
+    const frame = orthonormal(o, x, z);
+    if (!frame.error) return this.use(frame, "typed");
+    const cur = this.moves.csys;
+    this.showFields(cur);
+    const kept = cur ? `the local axes in use stay: ${$("csys-text").textContent}`
+      : "the global axes stay in use";
+    this.io.refuse(`Local axes not set: ${frame.error}. Typed: origin (${typed[0]}), x (${typed[1]}), ` +
+      `z (${typed[2]}); ${kept}.`);
+    return false;
+  }
+
+  /** The typed-axes fields showing a frame (empty for none). */
+  showFields(frame) {
+    $("csys-origin").value = frame ? text(frame.origin) : "";
+    $("csys-x").value = frame ? text(frame.axes[0].toArray()) : "";
+    $("csys-z").value = frame ? text(frame.axes[2].toArray()) : "";
   }
 
   /** A new mesh: the global axes again, the fields empty. */
@@ -108,6 +125,6 @@ export class CsysPanel {
     $("local").checked = false;
     this.moves.useLocal(false);
     $("csys-text").textContent = "global x y z";
-    for (const id of ["csys-origin", "csys-x", "csys-z"]) $(id).value = "";
+    this.showFields(null);
   }
 }

@@ -109,6 +109,18 @@ export class Moves {
 
   get dragging() { return this.gizmo.dragging; }
 
+  /**
+   * True when a pointer event is over one of the gizmo's arrows, planes or rings: a press there
+   * starts a gizmo drag, which no region tool may take as its own.
+   */
+  under(ev) {
+    if (!this.helper.visible || !this.gizmo.object || !this.gizmo.enabled) return false;
+    const rect = this.viewer.canvas.getBoundingClientRect();
+    this.gizmo.pointerHover({ x: (ev.clientX - rect.left) / rect.width * 2 - 1,
+      y: -(ev.clientY - rect.top) / rect.height * 2 + 1, button: ev.button });
+    return this.gizmo.axis !== null;
+  }
+
   clear() {
     own.transforms = {};
     own.history = [{ label: "rest", move: null }];

@@ -14,8 +14,8 @@ import { renderFeatures, renderHandleSelect, renderHistory, renderMeshSessions, 
   renderSessionsTable, wireRegions } from "./lists.js";
 import { loadMesh, setUnits } from "./mesh.js";
 import { MeshView, PREVIEW_COLOR, QUALITY_COLORS } from "./meshview.js";
-import { ask, clearError, drawHistogram, drawLegend, fmt, meshReport, refreshReport, setBusy, setReport, showError,
-  showModel, showReport, unitText,
+import { ask, clearError, drawHistogram, drawLegend, fmt, legendModel, meshReport, paintLegend, refreshReport, setBusy,
+  setReport, showError, showModel, showReport, unitText,
   thresholdPageX, wireThreshold } from "./panels.js";
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
@@ -43,14 +43,44 @@ const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
 moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
 measure.changed = () => moves.loadPivot();  // the rings follow a picked pivot
+viewer.beforeRender.push(placeLegend);  // after the gizmo's read-out is placed (Moves placed it first)
 const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () => measure.values().vertices,
   refuse: showError });
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
-regions.busy = () => moves.dragging;
+regions.busy = (ev) => moves.dragging || (ev !== undefined && moves.under(ev));
 
 // ------------------------------------------------------------------ signals -> panels
-const legend = () => drawLegend(meshView, state.regions);
+const legend = () => { drawLegend(meshView, state.regions); placeLegend(); };
+
+/**
+ * The legend in a corner of the view where it covers neither the gizmo's read-out nor the gizmo:
+ * lower right, else upper right, else upper left (the triad has the lower left); where every corner
+ * covers the gizmo, the first that leaves the read-out free.
+ */
+function placeLegend() {
+  const el = $("legend");
+  if (el.hidden) return;
+  const W = viewer.canvas.clientWidth, H = viewer.canvas.clientHeight, w = el.offsetWidth, h = el.offsetHeight, m = 8;
+  const boxes = [];
+  const label = $("gizmo-label");
+  if (!label.hidden) boxes.push({ x: label.offsetLeft, y: label.offsetTop, w: label.offsetWidth, h: label.offsetHeight });
+  if (moves.helper.visible) {
+    const p = moves.screen(moves.pivot.position), r = moves.gizmoReach(p);
+    boxes.push({ x: p.x - r, y: p.y - r, w: 2 * r, h: 2 * r });
+  }
+  const corners = [{ x: W - m - w, y: H - m - h, at: "lower-right" }, { x: W - m - w, y: m, at: "upper-right" },
+    { x: m, y: m, at: "upper-left" }];
+  const clear = (c, list) => list.every((b) => c.x + w <= b.x || b.x + b.w <= c.x || c.y + h <= b.y || b.y + b.h <= c.y);
+  const c = corners.find((k) => clear(k, boxes)) || corners.find((k) => clear(k, boxes.slice(0, label.hidden ? 0 : 1))) ||
+    corners[0];
+  if (el.dataset.at === c.at) return;
+  el.dataset.at = c.at;
+  el.style.left = c.at === "upper-left" ? `${m}px` : "auto";
+  el.style.right = c.at === "upper-left" ? "auto" : `${m}px`;
+  el.style.top = c.at === "lower-right" ? "auto" : `${m}px`;
+  el.style.bottom = c.at === "lower-right" ? `${m}px` : "auto";
+}
 on("regions", () => { renderRegions(regions); legend(); showChoices(); symmetry.render(); cyclic.render(); targets.render(); });
 on("legend", legend);
 on("history", () => { renderHistory(moves); session.note(); session.saveHistory(); });
@@ -376,6 +406,14 @@ function syncViewOptions() {
   refreshReport();
 }
 
+/** Keep the other side of the section plane (the button, or N). */
+function flipClip() {
+  const flip = !meshView.options.clipFlip;
+  meshView.options.clipFlip = flip;
+  $("clip-flip").setAttribute("aria-pressed", String(flip));
+  syncViewOptions();
+}
+
 function setThreshold(t) {
   meshView.setThreshold(t);
   $("threshold").value = String(t);
@@ -455,6 +493,7 @@ $("color-by").addEventListener("change", () => {
 $("quality-metric").addEventListener("change", () => meshView.setQualityMetric($("quality-metric").value));
 for (const id of ["clip", "clip-axis", "clip-pos", "bad"]) $(id).addEventListener("input", syncViewOptions);
 $("clip-normal").addEventListener("change", syncViewOptions);
+$("clip-flip").addEventListener("click", flipClip);
 $("clip-from-view").addEventListener("click", () => {
   // a section facing the camera: the part between the camera and the plane is cut away
   const d = viewer.camera.position.clone().sub(viewer.orbit.target).normalize();
@@ -467,11 +506,24 @@ $("hide-sel").addEventListener("click", () => hideOrIsolate(false));
 $("isolate-sel").addEventListener("click", () => hideOrIsolate(true));
 $("show-all").addEventListener("click", () => { if (state.V) meshView.setFaceFilter(null); });
 $("opacity").addEventListener("input", () => meshView.setOpacity(Number($("opacity").value)));
+let pngLegend = null;  // what the last PNG's legend said, and where (the test hook reads it)
 $("png").addEventListener("click", () => {
   if (!state.V) { showError("open a mesh first"); return; }
+  // the model without the tools drawn over it (gizmo, brush ring), then the legend painted on a copy
+  const shown = [moves.helper, regions.ring].map((o) => [o, o.visible]);
+  for (const [o] of shown) o.visible = false;
   viewer.draw();  // the drawing buffer is kept (preserveDrawingBuffer): the frame just drawn
+  const src = viewer.canvas, out = document.createElement("canvas");
+  out.width = src.width;
+  out.height = src.height;
+  const g = out.getContext("2d");
+  g.drawImage(src, 0, 0);
+  for (const [o, v] of shown) o.visible = v;
+  viewer.draw();
+  pngLegend = paintLegend(g, legendModel(meshView, state.regions), out.width, out.height,
+    src.width / Math.max(1, src.clientWidth));
   const stem = (state.meshName || "view").replace(/\.[^.]+$/, "");
-  viewer.canvas.toBlob((blob) => saveBlob(blob, `${stem}.png`), "image/png");
+  out.toBlob((blob) => saveBlob(blob, `${stem}.png`), "image/png");
 });
 $("units").addEventListener("change", () => {
   setUnits($("units").value);
@@ -493,7 +545,8 @@ $("threshold").addEventListener("keydown", (ev) => {
 });
 $("preset-name").addEventListener("keydown", (ev) => { if (ev.key === "Enter" && state.sessionId) moves.savePreset($("preset-name").value); });
 
-// keyboard: Ctrl+Z / Ctrl+Shift+Z (or Ctrl+Y), F fit, W / E translate / rotate, 1 3 7 0 views, Esc cancel
+// keyboard: Ctrl+Z / Ctrl+Shift+Z (or Ctrl+Y), F fit, W / E translate / rotate, N flip the section,
+// 1 3 7 0 views, Esc cancel
 const VIEW_KEYS = { 1: "front", 3: "side", 7: "top", 0: "iso" };
 document.addEventListener("keydown", (ev) => {
   const t = ev.target;
@@ -520,6 +573,7 @@ document.addEventListener("keydown", (ev) => {
   if (key === "f") fit();
   else if (key === "w") moves.setMode("translate");
   else if (key === "e") moves.setMode("rotate");
+  else if (key === "n") flipClip();
   else if (VIEW_KEYS[ev.key]) view(VIEW_KEYS[ev.key]);
   else return;
   ev.preventDefault();
@@ -560,6 +614,7 @@ window.tetmorph = Object.freeze({
   sectionColors: () => meshView.sectionColors(),  // {tets, colors}: the section's tets and their colours
   qualityColors: QUALITY_COLORS,
   showGizmo: (visible) => { moves.helper.visible = visible; viewer.draw(); },
+  pngLegend: () => (pngLegend ? structuredClone(pngLegend) : null),  // {box, title, ticks, items} of the last PNG
   regions: () => state.regions.map((r) => ({ id: r.id, name: r.name, kind: r.kind, count: r.count, visible: r.visible,
     color: r.color, source: r.source })),
   spec: () => session.spec(),

@@ -38,8 +38,9 @@ export const css = (c) => `rgb(${Math.round(255 * c[0])}, ${Math.round(255 * c[1
 export class MeshView {
   constructor(viewer) {
     this.viewer = viewer;
-    // clipNormal: the section plane's unit normal (an axis, or any direction); clipPos: where along it, 0..1
-    this.options = { edges: true, clip: false, clipAxis: 2, clipNormal: [0, 0, 1], clipPos: 0.5, bad: true,
+    // clipNormal: the section plane's unit normal (an axis, or any direction); clipPos: where along it, 0..1;
+    // clipFlip: false keeps the side below the plane (along the normal: below the cut), true the side above
+    this.options = { edges: true, clip: false, clipAxis: 2, clipNormal: [0, 0, 1], clipPos: 0.5, clipFlip: false, bad: true,
       colorBy: "regions", ghost: false, qualityMetric: "scaled_jacobian" };
     /** Colour of vertex i by region, or null when it is in none (set by the selection). */
     this.regionColor = () => null;
@@ -450,8 +451,10 @@ export class MeshView {
         if (d > hi) hi = d;
       }
       const c = lo + o.clipPos * (hi - lo);
-      this.clipPlane.normal.set(-n[0], -n[1], -n[2]);
-      this.clipPlane.constant = c;
+      // three.js keeps what is on the plane's positive side: n·x <= c, or n·x >= c flipped
+      const sign = o.clipFlip ? 1 : -1;
+      this.clipPlane.normal.set(sign * n[0], sign * n[1], sign * n[2]);
+      this.clipPlane.constant = -sign * c;
       const tets = this.cutTets = cutTetsAlong(V, state.T, n, c);
       own.cut = tets.length;
       // with the quality contour on, the section's tets wear its metric's colours too

@@ -106,12 +106,15 @@ export function explain(e) {
       // the service's message lists every format it knows, surfaces and API names included
       text = `${d.filename ? `“${d.filename}”` : "This file"} is not a mesh file the editor reads.`;
       hint = "Upload a volume mesh: Abaqus .inp, Gmsh .msh, VTK .vtu or .vtk, Medit .mesh, Nastran .bdf, " +
-        "or TetGen .node together with its .ele.";
+        "or TetGen .node together with its .ele. A closed surface is accepted too, as STL or OBJ (or PLY, OFF): " +
+        "the editor tetrahedralizes it into a volume mesh (Tetrahedralize, in the Session section).";
       return { text, hint, code, message: "", report: null, action };
+    case "no_elements":
+      text = `The file is not a volume mesh: ${msg}.`;
+      break;
     case "unreadable_file":
     case "unsupported_element":
     case "unsupported_format":
-    case "no_elements":
       text = `The file could not be read as a volume mesh: ${msg}`;
       break;
     case "inverted_input":

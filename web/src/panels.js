@@ -262,39 +262,124 @@ export function wireThreshold(apply) {
 }
 
 // ------------------------------------------------------------------ legend
-/** The colour legend in the view: what each colour on screen means. */
-export function drawLegend(meshView, regions) {
-  const el = $("legend");
-  if (!state.V) { el.hidden = true; return; }
+/**
+ * What the colour legend says: {title, ramp, items} (null: nothing to say). ramp is the colour scale
+ * of a quantity ({stops: [css at 0, 1/4, 1/2, 3/4, 1], ticks: [{text, key}] spread from its left end to
+ * its right end}) or null; items are swatches ({color: css, text, note, key, region}).
+ */
+export function legendModel(meshView, regions) {
+  if (!state.V) return null;
   const o = meshView.options, items = [];
-  const sw = (c, extra = "") => `<span class="sw" style="background:${typeof c === "string" ? c : css(c)}${extra}"></span>`;
+  let title = "", ramp = null;
+  const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => css(rainbow(t)));
   if (o.colorBy === "quality" && meshView.qualityRange) {
     const [lo, hi] = meshView.qualityRange, high = o.qualityMetric === "aspect_ratio";
     const name = { scaled_jacobian: "scaled Jacobian", aspect_ratio: "aspect ratio", min_dihedral_deg: "min dihedral angle (°)" }[o.qualityMetric];
-    const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => `${css(rainbow(t))} ${100 * t}%`).join(", ");
-    const best = high ? lo : hi, worst = high ? hi : lo;
-    items.push(`<div class="lg-title">${name} of each element</div>`,
-      `<div class="ramp" style="background:linear-gradient(to right, ${stops})"></div>`,
-      `<div class="ramp-ticks"><span data-key="q-best">${fmt(best)}</span><span data-key="q-worst">${fmt(worst)}</span></div>`);
+    title = `${name} of each element`;
+    ramp = { stops, ticks: [{ text: fmt(high ? lo : hi), key: "q-best" }, { text: fmt(high ? hi : lo), key: "q-worst" }] };
   } else if (o.colorBy === "displacement") {
     const max = meshView.dispMax;
-    const stops = [0, 0.25, 0.5, 0.75, 1].map((t) => `${css(rainbow(t))} ${100 * t}%`).join(", ");
-    items.push(`<div class="lg-title">displacement magnitude${unitText() ? ` (${state.units})` : ""}</div>`,
-      `<div class="ramp" style="background:linear-gradient(to right, ${stops})"></div>`,
-      `<div class="ramp-ticks"><span>0</span><span>${fmt(max / 2)}</span><span data-key="disp-max">${fmt(max)}</span></div>`);
+    title = `displacement magnitude${unitText() ? ` (${state.units})` : ""}`;
+    ramp = { stops, ticks: [{ text: "0" }, { text: fmt(max / 2) }, { text: fmt(max), key: "disp-max" }] };
   } else {
     for (const r of regions) {
-      if (!r.visible) continue;
-      items.push(`<div data-region="${esc(r.name)}">${sw(r.color)}${esc(r.name)} <span class="muted">${r.kind} · ${fmt(r.count)}</span></div>`);
+      if (r.visible) items.push({ color: css(r.color), text: r.name, note: `${r.kind} · ${fmt(r.count)}`, region: r.name });
     }
   }
   if (o.bad || o.clip) {
-    items.push(`<div data-key="legend-poor">${sw(QUALITY_COLORS.poor)}poor tet, scaled Jacobian &lt; ${fmt(state.threshold)}</div>`,
-      `<div data-key="legend-inverted">${sw(QUALITY_COLORS.inverted)}inverted tet</div>`);
+    items.push({ color: css(QUALITY_COLORS.poor), text: `poor tet, scaled Jacobian < ${fmt(state.threshold)}`, key: "legend-poor" },
+      { color: css(QUALITY_COLORS.inverted), text: "inverted tet", key: "legend-inverted" });
   }
-  if (o.ghost) items.push(`<div>${sw("rgba(125,138,153,.45)")}rest shape</div>`);
-  el.innerHTML = items.join("");
-  el.hidden = items.length === 0;
+  if (o.ghost) items.push({ color: "rgba(125,138,153,.45)", text: "rest shape" });
+  return title || ramp || items.length ? { title, ramp, items } : null;
+}
+
+/** The colour legend in the view: what each colour on screen means. */
+export function drawLegend(meshView, regions) {
+  const el = $("legend"), m = legendModel(meshView, regions);
+  if (!m) { el.hidden = true; el.innerHTML = ""; return; }
+  const html = [];
+  const sw = (c) => `<span class="sw" style="background:${c}"></span>`;
+  const key = (k) => (k ? ` data-key="${k}"` : "");
+  if (m.title) html.push(`<div class="lg-title">${esc(m.title)}</div>`);
+  if (m.ramp) {
+    const stops = m.ramp.stops.map((c, k) => `${c} ${25 * k}%`).join(", ");
+    html.push(`<div class="ramp" style="background:linear-gradient(to right, ${stops})"></div>`,
+      `<div class="ramp-ticks">${m.ramp.ticks.map((t) => `<span${key(t.key)}>${esc(t.text)}</span>`).join("")}</div>`);
+  }
+  for (const it of m.items) {
+    const attr = it.region !== undefined ? ` data-region="${esc(it.region)}"` : key(it.key);
+    html.push(`<div${attr}>${sw(it.color)}${esc(it.text)}${it.note ? ` <span class="muted">${esc(it.note)}</span>` : ""}</div>`);
+  }
+  el.innerHTML = html.join("");
+  el.hidden = false;
+}
+
+/**
+ * Paint the legend onto a 2D canvas of width w and height h at its lower right corner, as the view
+ * shows it (`scale`: canvas pixels per CSS pixel). Answers what was painted: {box: {x, y, w, h} in
+ * canvas pixels, title, ticks, items}, or null when there is no legend.
+ */
+export function paintLegend(g, model, w, h, scale = 1) {
+  if (!model) return null;
+  const px = (v) => Math.round(v * scale), pad = px(7), line = px(16), rampW = px(170), rampH = px(10);
+  const font = (bold) => `${bold ? "600 " : ""}${px(12)}px system-ui, sans-serif`;
+  const rows = [];
+  let width = 0;
+  const measure = (text, bold) => { g.font = font(bold); return g.measureText(text).width; };
+  if (model.title) { rows.push({ kind: "title" }); width = Math.max(width, measure(model.title, true)); }
+  if (model.ramp) {
+    rows.push({ kind: "ramp" }, { kind: "ticks" });
+    width = Math.max(width, rampW, model.ramp.ticks.reduce((a, t) => a + measure(t.text) + px(8), 0));
+  }
+  for (const it of model.items) {
+    rows.push({ kind: "item", it });
+    width = Math.max(width, px(16) + measure(it.text) + (it.note ? px(6) + measure(it.note) : 0));
+  }
+  const heights = rows.map((r) => (r.kind === "ramp" ? rampH + px(4) : line));
+  const bw = Math.ceil(width) + 2 * pad, bh = heights.reduce((a, b) => a + b, 0) + 2 * pad;
+  const bx = w - px(8) - bw, by = h - px(8) - bh;
+  g.save();
+  g.fillStyle = "rgba(255,255,255,0.92)";
+  g.strokeStyle = "#dde1e6";
+  g.lineWidth = Math.max(1, scale);
+  g.fillRect(bx, by, bw, bh);
+  g.strokeRect(bx + 0.5, by + 0.5, bw - 1, bh - 1);
+  g.textBaseline = "middle";
+  let y = by + pad;
+  rows.forEach((r, k) => {
+    const mid = y + heights[k] / 2, x = bx + pad;
+    g.fillStyle = "#1d232b";
+    g.textAlign = "left";
+    if (r.kind === "title") { g.font = font(true); g.fillText(model.title, x, mid); }
+    else if (r.kind === "ramp") {
+      const grad = g.createLinearGradient(x, 0, x + rampW, 0);
+      model.ramp.stops.forEach((c, i) => grad.addColorStop(i / (model.ramp.stops.length - 1), c));
+      g.fillStyle = grad;
+      g.fillRect(x, y + px(2), rampW, rampH);
+    } else if (r.kind === "ticks") {
+      g.font = font(false);
+      const ticks = model.ramp.ticks, n = ticks.length;
+      ticks.forEach((t, i) => {
+        g.textAlign = i === 0 ? "left" : i === n - 1 ? "right" : "center";
+        g.fillText(t.text, x + rampW * (n === 1 ? 0 : i / (n - 1)), mid);
+      });
+    } else {
+      g.fillStyle = r.it.color;
+      g.fillRect(x, mid - px(5), px(10), px(10));
+      g.fillStyle = "#1d232b";
+      g.font = font(false);
+      g.fillText(r.it.text, x + px(16), mid);
+      if (r.it.note) {
+        g.fillStyle = "#7a8694";
+        g.fillText(r.it.note, x + px(16) + measure(r.it.text) + px(6), mid);
+      }
+    }
+    y += heights[k];
+  });
+  g.restore();
+  return { box: { x: bx, y: by, w: bw, h: bh }, title: model.title,
+    ticks: model.ramp ? model.ramp.ticks.map((t) => t.text) : [], items: model.items.map((it) => it.text) };
 }
 
 // ------------------------------------------------------------------ busy

@@ -54,8 +54,14 @@ export class SessionControl {
     const fixed = state.regions.filter((r) => r.kind === "fixed" && r.count > 0);
     if (!fixed.length || !handles.length) { showError("select a fixed region and a handle region first"); return false; }
     const spec = this.spec();
-    // this tab's session on the old regions is replaced, not left behind
+    // this tab's session on the old regions is replaced, not left behind; one that was moved is
+    // replaced only when the user agrees (Cancel keeps it open, with its moves)
     const old = state.sessionId;
+    const moves = state.history.length - 1;
+    if (old && this.own.has(old) && moves > 0 && !await ask(`Create a new session? The open session ${old} has ` +
+      `${moves} move${moves === 1 ? "" : "s"} in its history: it is deleted on the service, with its moves and ` +
+      "presets, and this cannot be undone. Cancel keeps it open as it is.", "Replace it")) return false;
+    if (state.sessionId !== old) return false;  // closed or replaced while the question was open
     if (old && this.own.has(old)) await this.remove(old, true);
     else this.close();
     setStatus("building…");
@@ -190,6 +196,8 @@ export class SessionControl {
     this.dropBoundary();  // a boundary frame of the stream being closed is never drawn
     if (own.ws) own.ws.close();
     own.ws = null; own.sessionId = null; own.specSent = null; own.presets = [];
+    this.reconnect = null;
+    streamBadge(null);
     emit("session");
     this.moves.detach();
     setStatus("no session");
@@ -294,6 +302,7 @@ export class SessionControl {
         if (code) showError({ body: { error: { code, message: ev.reason || "" } } });
         setStatus(`session ${id} · stream closed${ev.reason ? ` (${ev.reason})` : ""}: moves cannot be sent; ` +
           "reopen the session from Sessions, or create one");
+        streamBadge("stream closed: moves cannot be sent", $("session-status").textContent, true);
         setBusy(null);
       },
       onState: (what, info) => {
@@ -304,6 +313,7 @@ export class SessionControl {
         } else {
           this.reconnect = null;
           setStatus(`session ${id} · stream reconnected`);
+          streamBadge(null);
           if (state.error && state.error.code === "network") clearError();
         }
       },
@@ -319,6 +329,8 @@ export class SessionControl {
     const queued = state.lastSeq < state.seq ? "; the latest move is queued and goes out when it is back" : "";
     setStatus(`session ${state.sessionId} · stream lost, reconnecting (try ${r.attempt}, ` +
       `next in ${(r.delayMs / 1000).toFixed(1)} s)${queued}`);
+    streamBadge(`stream lost · reconnecting, try ${r.attempt}${queued ? " · move queued" : ""}`,
+      $("session-status").textContent);
   }
 
   frame({ header, data }) {
@@ -547,6 +559,18 @@ export class SessionControl {
     const t0 = performance.now();
     while (state.ws && !state.ws.open && performance.now() - t0 < ms) await new Promise((r) => setTimeout(r, 20));
   }
+}
+
+/**
+ * The stream's state in the top bar, where it is in sight whatever the panels show: `text` while it
+ * is down (`title` the whole status; `lost`: for good), hidden (null) while it works.
+ */
+function streamBadge(text, title = "", lost = false) {
+  const el = $("stream-status");
+  el.hidden = !text;
+  el.textContent = text || "";
+  el.title = title;
+  el.classList.toggle("lost", lost);
 }
 
 /** A MOVE that leaves every handle at rest (how the history on the service holds a reset). */

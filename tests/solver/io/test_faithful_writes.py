@@ -391,12 +391,13 @@ def test_shells_and_beams_are_named_in_words(tmp_path):
     with pytest.raises(InvalidMeshError) as e:
         read_mesh(src)
     assert e.value.code == "no_elements"
-    assert "(its cells: 1 quadrilateral shell element (quad) and 12 beam/truss elements (line))" in str(e.value)
+    assert "has no volume elements, only 1 quadrilateral shell element (quad) and 12 beam/truss elements (line)" \
+        in str(e.value)
     beams = tmp_path / "beams.vtu"
     meshio.write(beams, meshio.Mesh(V, [("line", lines[:2])]))
     with pytest.raises(UnreadableFileError) as e:
         read_surface(beams)
-    assert "(its cells: 2 beam/truss elements (line))" in str(e.value)
+    assert "has no triangles or quadrilaterals to read as a surface, only 2 beam/truss elements (line)" in str(e.value)
     solid = tmp_path / "solid.vtu"
     meshio.write(solid, meshio.Mesh(V, [("tetra", T), ("quad", quad)]))
     with pytest.raises(UnreadableFileError) as e:

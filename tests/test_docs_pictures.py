@@ -216,3 +216,31 @@ def test_the_target_picture_puts_the_pages_top_face_on_its_scan():
     yellow = (253, 231, 37)  # viridis at 1: the top of the dome
     assert _near(_panel(pixels, p, 0, 1), yellow, 40).sum() > 100
     assert _near(_panel(pixels, p, 0, 0), yellow, 40).sum() == 0
+
+
+def test_the_daily_edits_picture_draws_the_pages_edits_exactly():
+    import edit_pictures
+
+    d = edit_pictures.edit_variants()
+    page = (ROOT / "docs" / "tutorials" / "alter-dimensions.md").read_text()
+    assert "tests/data/make_ccx_bracket.py 4.0" in page and "img/tutorial-alter-dimensions.png" in page
+    bore_nodes = np.flatnonzero(np.isclose(np.hypot(d.V0[:, 0] - 60, d.V0[:, 1] - 10), 5.0, atol=1e-6))
+    bore, wall, twist = d.V
+    np.testing.assert_allclose(np.hypot(bore[bore_nodes, 0] - 60, bore[bore_nodes, 1] - 10), 7.0, rtol=1e-12)
+    back = np.abs(d.V0[:, 1] - 20) < 1e-6
+    np.testing.assert_allclose(wall[back, 1], 22.0, rtol=1e-12)
+    assert np.abs(wall[~back, 1]).max() < 22.0
+    skin = np.unique(d.F)
+    skin = skin[(d.V0[skin, 0] > 0.001) & (np.hypot(d.V0[skin, 1] - 10, d.V0[skin, 2] - 5) > 0)]
+    turn = np.degrees(np.angle(np.exp(1j * (np.arctan2(twist[skin, 2] - 5, twist[skin, 1] - 10)
+                                            - np.arctan2(d.V0[skin, 2] - 5, d.V0[skin, 1] - 10)))))
+    np.testing.assert_allclose(turn, 0.1 * d.V0[skin, 0], atol=1e-9)
+    p = edit_pictures.edit_scene(d)
+    np.testing.assert_allclose(_mesh(p, 0, 0, "rest").points, d.V0, atol=0)
+    largest = max(np.linalg.norm(V - d.V0, axis=1).max() for V in d.V)
+    for k, (V, title) in enumerate(zip(d.V, d.titles, strict=True), start=1):
+        actor = _actor(p, 0, k, "variant")
+        np.testing.assert_allclose(actor.mapper.dataset.points, V, atol=1e-12)
+        assert actor.mapper.scalar_range == (0.0, largest)
+        assert " ".join(_actor(p, 0, k, "title").GetText(7).split()) == title
+    p.close()

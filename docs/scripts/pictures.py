@@ -17,7 +17,9 @@ Each picture solves the morph its page shows, with the page's own SPEC and MOVE:
   scan and the morph made by the page's own first two blocks (:func:`target_morph`);
 * :func:`inversion_png` -- the first tutorial's SPEC with its move made ten times larger, the
   inverted elements the REPORT names drawn in red, beside the same move with the ``clamp``
-  inversion policy (:func:`inversion_morphs`).
+  inversion policy (:func:`inversion_morphs`);
+* ``edit_pictures.edits_png`` -- the daily-edits tutorial's bracket at rest and with its bore, wall
+  and twist edits (``docs/scripts/edit_pictures.py``).
 
 Run it alone to write the PNGs: ``python docs/scripts/pictures.py [DOCS_DIR]`` (``DOCS_DIR/img/...``,
 ``docs/`` by default).
@@ -549,11 +551,14 @@ def inversion_png() -> bytes:
 
 
 #: Every picture, by its path under ``docs/``, and the function that solves and draws it.
+from edit_pictures import edits_png  # noqa: E402 - the daily edits' picture lives in a module of its own
+
 PICTURES = {"img/tutorial-bracket-displacement.png": bracket_displacement_png,  # tutorials/morph-a-deck.md
             "img/tutorial-sector-cyclic.png": sector_png,  # tutorials/sector-symmetry.md
             "img/tutorial-doe-variants.png": doe_png,  # tutorials/design-study.md
             "img/tutorial-target-surface.png": target_png,  # tutorials/target-surface.md
-            "img/guide-inversion-clamp.png": inversion_png}  # guide/validity.md
+            "img/guide-inversion-clamp.png": inversion_png,  # guide/validity.md
+            "img/tutorial-alter-dimensions.png": edits_png}  # tutorials/alter-dimensions.md
 
 
 def write(docs: Path) -> list[Path]:

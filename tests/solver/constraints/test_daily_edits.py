@@ -489,3 +489,26 @@ def test_specs_and_moves_with_edits_read_back_as_written(plate):
            "lattice": {"box": {"displacements": {"1,2,3": [0.0, 0.0, 1.0]}}}}
     mv = parse_move(doc, [], spec.names)
     assert mv.to_dict() == {"handles": {}, **doc}
+
+
+def test_a_radius_that_would_swallow_a_held_neighbouring_bore_is_clamped_short_of_it(plate):
+    free = precompute(plate, bore_spec()).solve({"radius": {"bore": {"radius": 30.0}}}, inversion="warn")
+    held = plate.sets["HOLE3"]  # nothing holds it here: it is pushed aside, and so is the long edge at y = 0
+    assert free.report["inverted_elements"] == 0
+    assert np.linalg.norm(free.V[held] - plate.V[held], axis=1).min() > 1.0 and free.V[:, 1].min() < -1.0
+    spec = bore_spec(inversion="clamp")
+    spec["selections"]["neighbour"] = {"set": "HOLE3"}  # 26.67 mm from HOLE1's axis, radius 6
+    spec["fixed"] = ["clamp", "neighbour"]
+    d = precompute(plate, spec)
+    move = {"radius": {"bore": {"radius": 30.0}}}  # would reach across the neighbour
+    warn = d.solve(move, inversion="warn")
+    assert warn.report["inverted_elements"] > 0 and 0 < warn.report["safe_fraction"] < 1
+    r = d.solve(move)
+    f = r.report["applied_fraction"]
+    assert r.report["clamped"] and f == warn.report["safe_fraction"] and r.report["inverted_elements"] == 0
+    ids, held = plate.sets["HOLE1"], plate.sets["HOLE3"]
+    _, rad, _ = about(r.V[ids], BORE, Z)
+    assert np.abs(rad - (6.0 + f * (30.0 - 6.0))).max() <= 1e-12 * 30.0  # the stated fraction of the change
+    np.testing.assert_array_equal(r.V[held], plate.V[held])
+    gap = np.linalg.norm(r.V[ids][:, None, :2] - r.V[held][None, :, :2], axis=2).min()
+    assert gap > 0  # the bore stops short of its held neighbour

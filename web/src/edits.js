@@ -82,7 +82,12 @@ export class EditsPanel {
     });
     list.addEventListener("pointerover", (ev) => this.preview(ev.target.closest("li[data-kind]")));
     list.addEventListener("pointerleave", () => this.meshView.setPreview(null));
-    on("mesh", () => { this.values = {}; this.features = null; this.lattice = null; this.form(); this.render(); });
+    on("mesh", () => {
+      Object.assign(this, { values: {}, features: null, featuresOf: null, lattice: null });
+      $("edit-feature").innerHTML = '<option value="">— open the panel to find them —</option>';
+      this.form();
+      this.render();
+    });
     // a SPEC read back (imported, or a session opened) brings its own edits
     on("regions", () => { this.regionChoices(); if (this.names() !== this.rendered) this.render(); });
     on("session", () => this.render());
@@ -249,7 +254,7 @@ export class EditsPanel {
   form() {
     const kind = $("edit-kind").value;
     for (const el of document.querySelectorAll("#sec-edits [data-for]")) el.hidden = !el.dataset.for.split(" ").includes(kind);
-    if (kind === "radius" || kind === "twist") this.loadFeatures();
+    if ((kind === "radius" || kind === "twist") && $("sec-edits").open) this.loadFeatures();  // found when needed
     this.regionChoices();
   }
 

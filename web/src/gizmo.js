@@ -63,6 +63,7 @@ export class Moves {
     this.pending = new Map(); // seq -> history entry it commits
     this.dragSeq = null;
     this.shown = {};          // field id -> [text shown, exact value]
+    this.extra = { move: () => ({}), set: () => {} };  // the MOVE's other entries (edits.js), set by the wiring
     this.pivot = new THREE.Object3D();
     viewer.scene.add(this.pivot);
     this.gizmo = new TransformControls(viewer.camera, viewer.canvas);
@@ -140,8 +141,8 @@ export class Moves {
     }
     const first = handleRegions[0] ? handleRegions[0].handleName || handleRegions[0].name : null;
     own.centroid = first ? own.transforms[first].centroid : null;
-    this.gizmo.attach(this.pivot);
-    this.helper.visible = true;
+    if (first) this.gizmo.attach(this.pivot); else this.gizmo.detach();  // a session of edits alone has no handle
+    this.helper.visible = !!first;
     this.gizmo.setSize(0.9);
     this.setActive(first);
     this.applySnap();
@@ -288,7 +289,7 @@ export class Moves {
       if (h.s !== 1) doc.scale = h.s;
       handles[name] = doc;
     }
-    return { handles };
+    return { ...this.extra.move(), handles };
   }
 
   /** Set every handle from a MOVE (null: rest). */
@@ -300,6 +301,7 @@ export class Moves {
     }
     this.loadPivot();
     this.syncFields(true);
+    this.extra.set(move);
   }
 
   /** True when two MOVEs put every handle at the same transform (null: rest). */
@@ -325,7 +327,7 @@ export class Moves {
         rotation: { quaternion: [qs.w, qs.x, qs.y, qs.z] } };
       if (h.scale !== undefined) handles[name].scale = h.scale ** f;
     }
-    return { handles };
+    return { ...move, handles };
   }
 
   // ---------------------------------------------------------------- history
@@ -405,6 +407,7 @@ export class Moves {
     for (const h of Object.values(state.transforms)) { h.t = [0, 0, 0]; h.q = new THREE.Quaternion(); h.s = 1; h.pivot = null; }
     this.loadPivot();
     this.syncFields(true);
+    this.extra.set(null);
     if (record && state.history[state.historyIndex].move !== null) {
       this.append({ label: "reset", move: null });
     }

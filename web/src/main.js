@@ -21,6 +21,7 @@ import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
 import { ShapesPanel } from "./shapes.js";
 import { CsysPanel } from "./csys.js";
+import { EditsPanel } from "./edits.js";
 import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
@@ -46,9 +47,12 @@ measure.changed = () => moves.loadPivot();  // the rings follow a picked pivot
 viewer.beforeRender.push(placeLegend);  // after the gizmo's read-out is placed (Moves placed it first)
 const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () => measure.values().vertices,
   refuse: showError });
+const edits = new EditsPanel(viewer, meshView, regions, moves, { pickedIds: () => measure.values().vertices,
+  refuse: showError, create: () => session.create() });
+moves.extra = { move: () => edits.move(), set: (m) => edits.fromMove(m) };
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
-regions.busy = (ev) => moves.dragging || (ev !== undefined && moves.under(ev));
+regions.busy = (ev) => moves.dragging || (ev !== undefined && moves.under(ev)) || edits.busy(ev);
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => { drawLegend(meshView, state.regions); placeLegend(); };
@@ -618,6 +622,7 @@ window.tetmorph = Object.freeze({
   regions: () => state.regions.map((r) => ({ id: r.id, name: r.name, kind: r.kind, count: r.count, visible: r.visible,
     color: r.color, source: r.source })),
   spec: () => session.spec(),
+  edits: () => edits.snapshot(),  // {spec: the SPEC's edit entries, values: the MOVE's, lattice: the one drawn}
   measure: () => measure.values(),
   doeJob: () => state.doeJob,
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),

@@ -6,6 +6,7 @@
 // (listed under Sessions) until deleted or removed by the service's idle sweep.
 import { api, apiKey, getJson, headers, postJson } from "./api.js";
 import { decodeFrame } from "./binary.js";
+import { EDIT_KINDS } from "./edits.js";
 import { $ } from "./dom.js";
 import { ask, clearError, meshReport, setBusy, setProgress, setStatus, showError, showReport } from "./panels.js";
 import { claim, emit, state } from "./state.js";
@@ -52,8 +53,12 @@ export class SessionControl {
     if (state.surface) { showError("this mesh is a surface: tetrahedralize it first (Session section)"); return false; }
     const handles = this.regions.handles();
     const fixed = state.regions.filter((r) => r.kind === "fixed" && r.count > 0);
-    if (!fixed.length || !handles.length) { showError("select a fixed region and a handle region first"); return false; }
     const spec = this.spec();
+    const edits = EDIT_KINDS.some((k) => (spec[k] || []).length);  // a SPEC may hold edits alone
+    if (!edits && (!fixed.length || !handles.length)) {
+      showError("select a fixed region and a handle region first, or add an edit (Edits)");
+      return false;
+    }
     // this tab's session on the old regions is replaced, not left behind; one that was moved is
     // replaced only when the user agrees (Cancel keeps it open, with its moves)
     const old = state.sessionId;

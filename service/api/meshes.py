@@ -18,10 +18,11 @@ from solver.constraints.selection import select
 from solver.constraints.spec import parse_spec
 from solver.constraints.symmetry_candidates import abaqus_cyclic, resolve_cyclic, symmetry_candidates
 from solver.errors import InvalidMeshError, UnreadableFileError
+from solver.io.element_sets import SET_FORMATS, deck_element_ids, deck_node_ids
 from solver.io.patch_inp import node_labels
 from solver.io.read_bounds import ReadBounds, too_many
 from solver.mesh import mesh_from_arrays
-from solver.ops.elements import check_tets
+from solver.ops.elements import check_tet_elements, check_tets
 from solver.ops.unique import unique
 
 from ..binary import encode_bundle
@@ -370,8 +371,10 @@ async def mesh_geometry(meta: MeshDep, reg: RegistryDep) -> Response:
 
     Arrays: ``V`` float32 (n, 3) rest positions, ``F`` uint32 (k, 3) outward
     boundary faces, ``T`` uint32 (m, 4) tetrahedra, ``boundary`` uint8 (n,),
-    ``set:NAME`` uint32 vertex ids for every named set of the file, and for an
-    Abaqus deck ``labels`` uint32 (n,), the deck's own node number of each vertex. For
+    ``set:NAME`` uint32 vertex ids for every named set of the file; for an
+    Abaqus, Nastran, Ansys CDB or LS-DYNA deck ``labels`` uint32 (n,), the deck's own
+    node number of each vertex, and ``element_labels`` uint32 (one per row of ``T``),
+    the deck's number of the element the row belongs to. For
     hexahedra, wedges and pyramids ``T`` also holds their corner tetrahedra
     (:func:`solver.ops.elements.check_tets`): one of them inverts exactly when its
     element does, which is what the viewer shows.
@@ -383,10 +386,13 @@ async def mesh_geometry(meta: MeshDep, reg: RegistryDep) -> Response:
                   "T": check_tets(mesh.T, mesh.cells).astype(np.uint32), "boundary": mesh.boundary.astype(np.uint8)}
         for name, ids in mesh.sets.items():
             arrays[f"set:{name}"] = np.asarray(ids, np.uint32)
-        if mesh.file_format == "abaqus" and mesh.raw:
-            labels = node_labels(mesh.raw)
-            if labels.shape == (mesh.n,) and labels.min() >= 0 and labels.max() < 2**32:
-                arrays["labels"] = labels.astype(np.uint32)
+        labels = node_labels(mesh.raw) if mesh.file_format == "abaqus" and mesh.raw else deck_node_ids(mesh)
+        if labels is not None and labels.shape == (mesh.n,) and mesh.n and labels.min() >= 0 and labels.max() < 2**32:
+            arrays["labels"] = labels.astype(np.uint32)
+        if mesh.file_format in SET_FORMATS and mesh.elements:
+            eids = deck_element_ids(mesh)
+            if eids.min() >= 0 and eids.max() < 2**32:
+                arrays["element_labels"] = eids[check_tet_elements(mesh.T, mesh.cells)].astype(np.uint32)
         lo, hi = mesh.V[mesh.referenced].min(0), mesh.V[mesh.referenced].max(0)
         return encode_bundle(arrays, {"mesh_id": meta["id"], "name": meta.get("name"), "n": mesh.n,
                                       "elements": mesh.elements,

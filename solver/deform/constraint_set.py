@@ -40,6 +40,7 @@ from ..errors import ConstraintError, SpecError, format_ids
 from ..linalg.rank import RankAnalysis, rank_analysis
 from ..mesh import Mesh
 from ..ops.unique import unique
+from .conflicts import conflict_details
 from .determinacy import free_shells
 
 __all__ = ["ConstraintSet", "constraint_set", "entry_text", "edit_owner", "CONFLICT_TOL"]
@@ -314,7 +315,7 @@ def constraint_set(mesh: Mesh, spec: ResolvedSpec) -> ConstraintSet:
             f"{len(conflicting)} hard constraints conflict with the ones before them (first: "
             f"{entry_text(conflicting[0])}); SPEC.conflicts is 'reject'",
             code="conflicting_constraints", conflicting_constraints=conflicting,
-            redundant_constraints=rest_constraints["redundant_constraints"])
+            redundant_constraints=rest_constraints["redundant_constraints"], **conflict_details(conflicting, sel_ids))
     movable = mesh.interior & mesh.referenced & ~constrained_mask
     for b in blocks:
         movable[b.vert] = False

@@ -11,6 +11,7 @@ import numpy as np
 from ..constraints.move import ResolvedMove
 from ..errors import ConstraintError, InversionError, SpecError, format_ids
 from ..validity.quality import element_quality, summarize_quality
+from .conflicts import conflict_details
 from .constraint_set import entry_text
 from .policy import INVERSION_POLICIES, apply_policy
 from .precompute import DeformData
@@ -100,7 +101,8 @@ def update(data: DeformData, mv: ResolvedMove, solved: Solved, policy: str, qual
     if data.spec.conflicts == "reject" and rep.conflicting_constraints:
         raise ConstraintError(f"the move makes {len(rep.conflicting_constraints)} hard constraints conflict "
                               f"(first: {entry_text(rep.conflicting_constraints[0])}); SPEC.conflicts is 'reject'",
-                              code="conflicting_constraints", report=doc)
+                              code="conflicting_constraints", report=doc,
+                              **conflict_details(rep.conflicting_constraints, data.constraints.sel_ids))
     if policy == "reject" and rep.inverted_elements > 0:
         raise InversionError(f"the move inverts {rep.inverted_elements} elements (first "
                              f"{format_ids(rep.inverted_ids)}); policy 'reject' returns no result", doc)

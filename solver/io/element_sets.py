@@ -28,7 +28,7 @@ from ..errors import SolverError
 if TYPE_CHECKING:
     from ..mesh import Mesh
 
-__all__ = ["deck_element_ids", "element_set", "SET_FORMATS"]
+__all__ = ["deck_element_ids", "deck_node_ids", "element_set", "SET_FORMATS"]
 
 #: Formats an element set can be written for.
 SET_FORMATS = ("abaqus", "nastran", "ansys-cdb", "lsdyna")
@@ -59,6 +59,26 @@ def deck_element_ids(mesh: Mesh) -> np.ndarray:
     if ids.shape != (M,):  # the blocks do not line up with the elements: positions, never wrong ids
         return np.arange(1, M + 1, dtype=np.int64)
     return ids
+
+
+def deck_node_ids(mesh: Mesh) -> np.ndarray | None:
+    """The file's number of every vertex, in vertex order, where the file numbers its nodes.
+
+    Parameters
+    ----------
+    mesh : Mesh
+
+    Returns
+    -------
+    (n,) int64 array or None
+        The deck's node numbers (``points_id`` of an Abaqus, Nastran, Ansys CDB or
+        LS-DYNA read); None for a file without them or a mesh built from arrays.
+    """
+    ids = getattr(mesh.source, "points_id", None)
+    if ids is None:
+        return None
+    ids = np.asarray(ids, np.int64).reshape(-1)
+    return ids if ids.shape == (mesh.n,) else None
 
 
 def _rows(ids: list[int], per: int, fmt: str, sep: str) -> str:

@@ -34,7 +34,7 @@ import tetmorph_core
 from ..errors import MAX_IDS
 from .unique import unique
 
-__all__ = ["LINEAR_TYPES", "FACES", "CORNERS", "EDGES", "SJ_SCALE", "opposite_triangles",
+__all__ = ["LINEAR_TYPES", "FACES", "CORNERS", "EDGES", "check_tet_elements", "SJ_SCALE", "opposite_triangles",
            "triangulate", "element_tables", "corner_jacobians", "element_volumes", "element_edges",
            "boundary_faces", "oriented", "MIRROR", "element_blocks", "check_tets"]
 
@@ -223,6 +223,16 @@ def check_tets(T: np.ndarray, cells: dict[str, np.ndarray]) -> np.ndarray:
     parts = [np.asarray(T).reshape(-1, 4)]
     parts += [E[:, CORNERS[k]].reshape(-1, 4) for k, E in element_blocks(parts[0], cells) if k != "tetra"]
     return np.concatenate(parts) if len(parts) > 1 else parts[0]
+
+
+def check_tet_elements(T: np.ndarray, cells: dict[str, np.ndarray]) -> np.ndarray:
+    """(k,) the element (as :attr:`solver.mesh.Mesh.blocks` numbers them) of each row of :func:`check_tets`."""
+    parts, start = [], 0
+    for k, E in element_blocks(np.asarray(T).reshape(-1, 4), cells):
+        per = 1 if k == "tetra" else len(CORNERS[k])
+        parts.append(np.repeat(np.arange(start, start + len(E), dtype=np.int64), per))
+        start += len(E)
+    return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
 
 def element_edges(E: np.ndarray, kind: str) -> np.ndarray:

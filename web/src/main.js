@@ -19,6 +19,9 @@ import { ask, clearError, drawHistogram, drawLegend, fmt, legendModel, meshRepor
   thresholdPageX, wireThreshold } from "./panels.js";
 import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
+import { RegionTools, UndoKeys } from "./regions.js";
+import { FloodFill } from "./floodfill.js";
+import { CyclicPairs, Diagnostics } from "./diagnostics.js";
 import { ShapesPanel } from "./shapes.js";
 import { CsysPanel } from "./csys.js";
 import { EditsPanel } from "./edits.js";
@@ -53,6 +56,11 @@ moves.extra = { move: () => edits.move(), set: (m) => edits.fromMove(m) };
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
 regions.busy = (ev) => moves.dragging || (ev !== undefined && moves.under(ev)) || edits.busy(ev);
+const regionTools = new RegionTools(regions, showError);
+const undoKeys = new UndoKeys(regionTools.history, moves);
+new FloodFill(viewer, regions, regionTools.history);
+new Diagnostics(viewer, meshView, regions);
+const cyclicPairs = new CyclicPairs(viewer, regions);
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => { drawLegend(meshView, state.regions); placeLegend(); };
@@ -571,8 +579,9 @@ document.addEventListener("keydown", (ev) => {
     return;
   }
   if (typing || dialog) return;
-  if (ctrl && key === "z") { ev.preventDefault(); if (ev.shiftKey) moves.redo(); else moves.undo(); return; }
-  if (ctrl && key === "y") { ev.preventDefault(); moves.redo(); return; }
+  // the last kind of edit: a move, or a region edit (regions.js UndoKeys; the Regions panel says which)
+  if (ctrl && key === "z") { ev.preventDefault(); if (ev.shiftKey) undoKeys.redo(); else undoKeys.undo(); return; }
+  if (ctrl && key === "y") { ev.preventDefault(); undoKeys.redo(); return; }
   if (ctrl || ev.altKey) return;
   if (key === "f") fit();
   else if (key === "w") moves.setMode("translate");
@@ -628,6 +637,7 @@ window.tetmorph = Object.freeze({
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
   csysOrigin: () => (moves.csys ? moves.csys.origin.slice() : null),
   gizmoAxis: () => moves.gizmo.axis,
+  cyclicPairs: () => structuredClone(cyclicPairs.result),  // [{name, pairs, max, a, b, tolerance}] drawn
   targetSurfaces: () => targets.group.children.length,  // the target surfaces drawn  // the gizmo handle under the pointer ("X", "XY", ...), or null
   ring: () => ({ visible: regions.ring.visible, position: regions.ring.position.toArray(), radius: regions.ring.scale.x }),
   ghostVisible: () => meshView.ghost.visible,

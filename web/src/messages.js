@@ -64,8 +64,10 @@ export function explain(e) {
       break;
     }
     case "conflicting_constraints":
-      text = "This move makes hard constraints contradict each other (for example a vertex both fixed and " +
-        "moved), so it was not applied.";
+      text = d.report ? "This move makes hard constraints contradict each other (for example a vertex both fixed and " +
+        "moved), so it was not applied." : "The SPEC's hard constraints contradict each other at rest (for example " +
+        "a fixed vertex that a point constraint pulls away), and its conflicts setting is “reject”.";
+      if (Array.isArray(d.nodes)) hint = "Constraint diagnostics (right panel) lists the nodes: click one to see it.";
       break;
     case "missing_companion":
       text = `A TetGen mesh comes in two files: ${d.missing || "the .ele file"} is missing.`;
@@ -123,5 +125,5 @@ export function explain(e) {
     default:
       break;
   }
-  return { text, hint, code, message: msg, report: d.report || null, action };
+  return { text, hint, code, message: msg, report: d.report || null, action, details: d };
 }

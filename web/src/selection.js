@@ -68,7 +68,32 @@ export class Regions {
     this.domainSource = null;  // {set} while the domain is exactly a named set
     this.specExtra = {};
     this.extraSelections = {};
+    if (this.history) this.history.clear();  // regions.js: a new mesh starts a new region history
     emit("selection");
+  }
+
+  /** The regions as they are (membership, names, colours, the domain): what region undo restores. */
+  snapshot() {
+    return { owner: this.owner ? this.owner.slice() : null, domain: this.domain ? this.domain.slice() : null,
+      regions: state.regions.map((r) => ({ ...r })), active: state.activeRegion, nextId: this.nextId,
+      domainSource: this.domainSource };
+  }
+
+  /** Put back a snapshot() of this mesh. */
+  restore(snap) {
+    if (!this.owner || !snap.owner || snap.owner.length !== this.owner.length) return;
+    this.owner.set(snap.owner);
+    if (this.domain && snap.domain) this.domain.set(snap.domain);
+    own.regions = snap.regions.map((r) => ({ ...r }));
+    this.byId = new Map(own.regions.map((r) => [r.id, r]));
+    for (let i = 0; i < this.owner.length; i++) {
+      const r = this.byId.get(this.owner[i]);
+      own.role[i] = r ? (r.kind === "fixed" ? 1 : 2) : 0;
+    }
+    own.activeRegion = snap.active;
+    this.nextId = snap.nextId;
+    this.domainSource = snap.domainSource;
+    this.changed();
   }
 
   // ---------------------------------------------------------------- the regions

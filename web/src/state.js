@@ -23,7 +23,8 @@ const GROUPS = {
     boundary: null,    // 1 per vertex on the boundary
     used: null,        // 1 per vertex of an element (mid-side nodes of quadratic elements are not)
     sets: {},          // named node sets: name -> vertex ids
-    labels: null,      // the deck's own node number per vertex (Abaqus), or null
+    labels: null,      // the deck's own node number per vertex (Abaqus, Nastran, CDB, LS-DYNA), or null
+    elementLabels: null, // the deck's element number per row of T, or null
     elements: 0,       // element count (0: a surface)
     surface: false,    // a surface mesh (no elements): it must be tetrahedralized first
     diag: 1,           // bounding-box diagonal

@@ -1,4 +1,4 @@
-"""The geometry bundle carries an Abaqus deck's own node numbers (``labels``), vertex by vertex."""
+"""The geometry bundle carries a deck's own node numbers (``labels``), vertex by vertex, and element numbers."""
 
 from __future__ import annotations
 
@@ -41,3 +41,37 @@ def test_files_without_node_numbers_have_no_labels(client, tc):
     mesh = client.upload_mesh(DATA / "beam.node")
     arrays, _ = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
     assert "labels" not in arrays
+
+
+def _bdf_numbers(path) -> tuple[list[int], dict[int, list[int]]]:
+    """GRID ids in file order and CTETRA id -> GRID ids, read from a small-field bulk data deck's text."""
+    grids, tets = [], {}
+    for line in path.read_text().splitlines():
+        card = line[:8].strip().upper()
+        if card == "GRID":
+            grids.append(int(line[8:16]))
+        elif card == "CTETRA":
+            tets[int(line[8:16])] = [int(line[k:k + 8]) for k in (24, 32, 40, 48)]
+    return grids, tets
+
+
+def test_a_nastran_deck_s_node_and_element_numbers_come_with_its_geometry(client, tc):
+    deck = DATA / "bar_small.bdf"
+    grids, tets = _bdf_numbers(deck)
+    assert grids and tets
+    mesh = client.upload_mesh(deck)
+    arrays, _ = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    assert arrays["labels"].tolist() == grids
+    # each row of T belongs to the element the deck numbers element_labels[row], with that element's GRIDs
+    T, eids, labels = arrays["T"], arrays["element_labels"], arrays["labels"]
+    assert eids.dtype == np.uint32 and eids.shape == (len(T),)
+    for row in (0, len(T) // 2, len(T) - 1):
+        assert sorted(labels[T[row]].tolist()) == sorted(tets[int(eids[row])])
+    assert sorted(eids.tolist()) == sorted(tets)
+
+
+def test_a_gmsh_mesh_has_no_deck_numbers(client, tc):
+    """Gmsh keeps no node or element numbers the editor could pick by: neither array is sent."""
+    mesh = client.upload_mesh(DATA / "mixed.msh")
+    arrays, _ = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    assert "element_labels" not in arrays and "labels" not in arrays  # Gmsh: no deck numbers kept

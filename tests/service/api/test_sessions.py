@@ -269,6 +269,10 @@ def test_conflicting_constraints_are_reported_or_rejected(client, tc):
     e = err(r)
     assert r.status_code == 422 and e["code"] == "conflicting_constraints"
     assert e["details"]["conflicting_constraints"][0]["name"] == "pull"
+    # where: the node, the selections holding it (BRACKET_SPEC's "root", the FIXED set) and the
+    # constraint on it, and by how much
+    assert e["details"]["nodes"] == [v] and e["details"]["regions"] == [["root", "point pull"]]
+    assert abs(e["details"]["residual"] - 1) < 1e-9
     # consistent at rest, conflicting after a MOVE: that MOVE is refused, the session keeps its state
     ok = {**BRACKET_SPEC, "points": [{"name": "p", "vertices": [v]}], "conflicts": "reject"}
     s2 = client.create_session(mesh["id"], ok)

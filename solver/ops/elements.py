@@ -36,7 +36,8 @@ from .unique import unique
 
 __all__ = ["LINEAR_TYPES", "FACES", "CORNERS", "EDGES", "SJ_SCALE", "opposite_triangles",
            "triangulate", "element_tables", "corner_jacobians", "element_volumes", "element_edges",
-           "boundary_faces", "oriented", "MIRROR", "element_blocks", "check_tets"]
+           "boundary_faces", "oriented", "MIRROR", "element_blocks", "check_tets",
+           "check_tet_elements"]
 
 #: Linear volume types tetmorph deforms, in its element numbering order.
 LINEAR_TYPES = ("tetra", "hexahedron", "wedge", "pyramid")
@@ -223,6 +224,26 @@ def check_tets(T: np.ndarray, cells: dict[str, np.ndarray]) -> np.ndarray:
     parts = [np.asarray(T).reshape(-1, 4)]
     parts += [E[:, CORNERS[k]].reshape(-1, 4) for k, E in element_blocks(parts[0], cells) if k != "tetra"]
     return np.concatenate(parts) if len(parts) > 1 else parts[0]
+
+
+def check_tet_elements(T: np.ndarray, cells: dict[str, np.ndarray]) -> np.ndarray:
+    """(k,) the element (0-based, element order) of each row of :func:`check_tets`.
+
+    Examples
+    --------
+    >>> hexa = np.arange(8)[None]
+    >>> check_tet_elements(np.zeros((2, 4), int), {"hexahedron": hexa}).tolist()
+    [0, 1, 2, 2, 2, 2, 2, 2, 2, 2]
+    """
+    T = np.asarray(T).reshape(-1, 4)
+    parts = [np.arange(len(T))]
+    start = len(T)
+    for k, E in element_blocks(T, cells):
+        if k == "tetra":
+            continue
+        parts.append(np.repeat(np.arange(start, start + len(E)), len(CORNERS[k])))
+        start += len(E)
+    return np.concatenate(parts)
 
 
 def element_edges(E: np.ndarray, kind: str) -> np.ndarray:

@@ -21,6 +21,7 @@ import { Measure } from "./measure.js";
 import { Regions } from "./selection.js";
 import { ShapesPanel } from "./shapes.js";
 import { CsysPanel } from "./csys.js";
+import { ChecksPanel } from "./checks.js";
 import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
@@ -41,6 +42,7 @@ const symmetry = new SymmetryPanel(viewer, meshView, regions);
 const cyclic = new CyclicPanel(viewer, regions);
 const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
+const checks = new ChecksPanel(viewer, meshView);
 moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
 measure.changed = () => moves.loadPivot();  // the rings follow a picked pivot
 viewer.beforeRender.push(placeLegend);  // after the gizmo's read-out is placed (Moves placed it first)
@@ -620,6 +622,7 @@ window.tetmorph = Object.freeze({
   spec: () => session.spec(),
   measure: () => measure.values(),
   doeJob: () => state.doeJob,
+  checks: () => checks.values(),  // {result, isolated}: the quality check shown, the elements isolated
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
   csysOrigin: () => (moves.csys ? moves.csys.origin.slice() : null),
   gizmoAxis: () => moves.gizmo.axis,

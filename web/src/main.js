@@ -22,6 +22,7 @@ import { Regions } from "./selection.js";
 import { ShapesPanel } from "./shapes.js";
 import { CsysPanel } from "./csys.js";
 import { ChecksPanel } from "./checks.js";
+import { DoePlanPanel } from "./doeplan.js";
 import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
@@ -43,6 +44,7 @@ const cyclic = new CyclicPanel(viewer, regions);
 const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
 const checks = new ChecksPanel(viewer, meshView);
+new DoePlanPanel(shapes);
 moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
 measure.changed = () => moves.loadPivot();  // the rings follow a picked pivot
 viewer.beforeRender.push(placeLegend);  // after the gizmo's read-out is placed (Moves placed it first)

@@ -233,3 +233,31 @@ def filleted_bracket(path, size: float = 3.0, order: int = 1, radius: float = 5.
         gmsh.write(str(path))
     finally:
         gmsh.finalize()
+
+
+def cube_with_core(path, size: float = 4.0) -> None:
+    """A 40 mm cube with an inner cylinder (radius 6, z 12..28, about x = y = 20) meshed conformingly
+    with it, written to ``path`` as an Abaqus deck with node sets SKIN (the six faces) and CORE (every
+    node of the cylinder, its inside included): a morph the boundary never shows."""
+    import gmsh
+    import meshio
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        box = occ.addBox(0, 0, 0, 40, 40, 40)
+        core = occ.addCylinder(20, 20, 12, 0, 0, 16, 6)
+        occ.fragment([(3, box)], [(3, core)])
+        occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.model.mesh.generate(3)
+        V, T = _arrays(gmsh)
+    finally:
+        gmsh.finalize()
+    eps = 1e-6
+    skin = np.flatnonzero(((V < eps) | (V > 40 - eps)).any(axis=1))
+    r = np.hypot(V[:, 0] - 20, V[:, 1] - 20)
+    inside = np.flatnonzero((r < 6 + eps) & (V[:, 2] > 12 - eps) & (V[:, 2] < 28 + eps))
+    meshio.write(str(path), meshio.Mesh(V, [("tetra", T)], point_sets={"SKIN": skin, "CORE": inside}),
+                 file_format="abaqus")

@@ -377,13 +377,22 @@ async def mesh_geometry(meta: MeshDep, reg: RegistryDep) -> Response:
     the deck's number of the element the row belongs to. For
     hexahedra, wedges and pyramids ``T`` also holds their corner tetrahedra
     (:func:`solver.ops.elements.check_tets`): one of them inverts exactly when its
-    element does, which is what the viewer shows.
+    element does, which is what the viewer shows; ``tet_element`` uint32 (rows of
+    ``T``,) then names the element of each row. ``element_ids`` uint32 (elements,):
+    the deck's id of each element, where they are not 1, 2, ... (the ids the quality
+    check answers, :func:`solver.io.element_sets.deck_element_ids`).
     """
     mesh = await reg.catalogue.mesh(meta)
 
     def pack() -> bytes:
+        T = check_tets(mesh.T, mesh.cells)
         arrays: dict[str, np.ndarray] = {"V": mesh.V.astype(np.float32), "F": mesh.F.astype(np.uint32),
-                  "T": check_tets(mesh.T, mesh.cells).astype(np.uint32), "boundary": mesh.boundary.astype(np.uint8)}
+                  "T": T.astype(np.uint32), "boundary": mesh.boundary.astype(np.uint8)}
+        if len(T) != len(mesh.T):
+            arrays["tet_element"] = check_tet_elements(mesh.T, mesh.cells).astype(np.uint32)
+        ids = deck_element_ids(mesh)
+        if len(ids) and not np.array_equal(ids, np.arange(1, len(ids) + 1)) and 0 <= ids.min() and ids.max() < 2**32:
+            arrays["element_ids"] = ids.astype(np.uint32)
         for name, ids in mesh.sets.items():
             arrays[f"set:{name}"] = np.asarray(ids, np.uint32)
         labels = node_labels(mesh.raw) if mesh.file_format == "abaqus" and mesh.raw else deck_node_ids(mesh)

@@ -226,7 +226,14 @@ def check_tets(T: np.ndarray, cells: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def check_tet_elements(T: np.ndarray, cells: dict[str, np.ndarray]) -> np.ndarray:
-    """(k,) the element (as :attr:`solver.mesh.Mesh.blocks` numbers them) of each row of :func:`check_tets`."""
+    """(k,) the element (as :attr:`solver.mesh.Mesh.blocks` numbers them) of each row of :func:`check_tets`.
+
+    Examples
+    --------
+    >>> hexa = np.arange(8)[None]
+    >>> check_tet_elements(np.zeros((2, 4), int), {"hexahedron": hexa}).tolist()
+    [0, 1, 2, 2, 2, 2, 2, 2, 2, 2]
+    """
     parts, start = [], 0
     for k, E in element_blocks(np.asarray(T).reshape(-1, 4), cells):
         per = 1 if k == "tetra" else len(CORNERS[k])

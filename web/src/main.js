@@ -25,6 +25,8 @@ import { CyclicPairs, Diagnostics } from "./diagnostics.js";
 import { ShapesPanel } from "./shapes.js";
 import { CsysPanel } from "./csys.js";
 import { EditsPanel } from "./edits.js";
+import { ChecksPanel } from "./checks.js";
+import { DoePlanPanel } from "./doeplan.js";
 import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
@@ -45,6 +47,8 @@ const symmetry = new SymmetryPanel(viewer, meshView, regions);
 const cyclic = new CyclicPanel(viewer, regions);
 const targets = new TargetPanel(viewer, regions);
 const shapes = new ShapesPanel(moves, session);
+const checks = new ChecksPanel(viewer, meshView);
+new DoePlanPanel(shapes);
 moves.picked = () => measure.values().vertices.map((i) => measure.point(i).toArray());
 measure.changed = () => moves.loadPivot();  // the rings follow a picked pivot
 viewer.beforeRender.push(placeLegend);  // after the gizmo's read-out is placed (Moves placed it first)
@@ -634,6 +638,7 @@ window.tetmorph = Object.freeze({
   edits: () => edits.snapshot(),  // {spec: the SPEC's edit entries, values: the MOVE's, lattice: the one drawn}
   measure: () => measure.values(),
   doeJob: () => state.doeJob,
+  checks: () => checks.values(),  // {result, isolated}: the quality check shown, the elements isolated
   csys: () => (moves.csys ? moves.csys.axes.map((a) => a.toArray()) : null),
   csysOrigin: () => (moves.csys ? moves.csys.origin.slice() : null),
   gizmoAxis: () => moves.gizmo.axis,

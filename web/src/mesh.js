@@ -33,6 +33,8 @@ export function loadMesh(id, header, meta, arrays) {
   own.sets = sets;
   own.labels = arrays.labels || null;
   own.elementLabels = arrays.element_labels || null;
+  own.elementIds = arrays.element_ids || null;
+  own.tetElement = arrays.tet_element || null;
   const lo = header.bbox[0], hi = header.bbox[1];
   own.bbox = header.bbox;
   own.diag = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;

@@ -213,7 +213,10 @@ export class MeshView {
     return new THREE.Box3().setFromBufferAttribute(this.surfGeom.getAttribute("position"));
   }
 
-  /** Colour the surface: by region, or by displacement magnitude from the rest shape. */
+  /**
+   * Colour the surface: by region, or by displacement magnitude from the rest shape, scaled to the
+   * largest over every node, interior ones included (a morph inside a fixed skin shows in the section).
+   */
   recolor() {
     if (!state.V) return;
     const col = this.surfGeom.getAttribute("color").array;
@@ -230,7 +233,7 @@ export class MeshView {
       for (let i = 0; i < n; i++) {
         const x = V[3 * i] - V0[3 * i], y = V[3 * i + 1] - V0[3 * i + 1], z = V[3 * i + 2] - V0[3 * i + 2];
         d[i] = Math.sqrt(x * x + y * y + z * z);
-        if (state.boundary[i] && d[i] > max) max = d[i];
+        if (d[i] > max) max = d[i];
       }
       this.dispMax = max;
       for (let i = 0; i < n; i++) {
@@ -420,14 +423,17 @@ export class MeshView {
     return QUALITY_COLORS.good;
   }
 
-  /** The four faces of each listed tet, each tet in colour(t) (default: good, poor or inverted). */
+  /**
+   * The four faces of each listed tet, each corner in colour(t, v) of its tet t and vertex v (default:
+   * the tet's good, poor or inverted).
+   */
   trianglesOf(tets, geom, colour = (t) => this.colorOf(state.sj[t])) {
     const F = tetFaces(state.T, tets);
     const pos = new Float32Array(F.length * 3), col = new Float32Array(F.length * 3);
     for (let i = 0; i < F.length; i++) {
       const v = F[i];
       pos[3 * i] = state.V[3 * v]; pos[3 * i + 1] = state.V[3 * v + 1]; pos[3 * i + 2] = state.V[3 * v + 2];
-      const c = colour(tets[Math.floor(i / 12)]);
+      const c = colour(tets[Math.floor(i / 12)], v);
       col[3 * i] = c[0]; col[3 * i + 1] = c[1]; col[3 * i + 2] = c[2];
     }
     geom.setAttribute("position", new THREE.BufferAttribute(pos, 3));
@@ -457,10 +463,14 @@ export class MeshView {
       this.clipPlane.constant = -sign * c;
       const tets = this.cutTets = cutTetsAlong(V, state.T, n, c);
       own.cut = tets.length;
-      // with the quality contour on, the section's tets wear its metric's colours too
+      // with the quality contour on, the section's tets wear its metric's colours too; with the
+      // displacement on, the section is coloured by it, corner by corner, on the surface's scale
       const q = o.colorBy === "quality" && this.qualityValues && this.qualityValues.length === state.T.length / 4
         ? this.qualityValues : null;
-      this.trianglesOf(tets, this.cutGeom, q ? (t) => this.qualityColor(q[t]) : undefined);
+      const d = o.colorBy === "displacement" && this.dispScratch && this.dispScratch.length === V.length / 3
+        ? this.dispScratch : null, max = this.dispMax;
+      this.trianglesOf(tets, this.cutGeom, q ? (t) => this.qualityColor(q[t])
+        : d ? (_t, v) => rainbow(max > 0 ? d[v] / max : 0) : undefined);
     } else {
       this.cutTets = null;
       this.cutGeom.deleteAttribute("position");

@@ -25,6 +25,8 @@ const GROUPS = {
     sets: {},          // named node sets: name -> vertex ids
     labels: null,      // the deck's own node number per vertex (Abaqus, Nastran, CDB, LS-DYNA), or null
     elementLabels: null, // the deck's element number per row of T, or null
+    elementIds: null,  // the deck's id of each element where they are not 1, 2, ... (else null)
+    tetElement: null,  // the element of each row of T for mixed meshes (else null: row k is element k)
     elements: 0,       // element count (0: a surface)
     surface: false,    // a surface mesh (no elements): it must be tetrahedralized first
     diag: 1,           // bounding-box diagonal

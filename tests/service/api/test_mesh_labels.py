@@ -75,3 +75,36 @@ def test_a_gmsh_mesh_has_no_deck_numbers(client, tc):
     mesh = client.upload_mesh(DATA / "mixed.msh")
     arrays, _ = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
     assert "element_labels" not in arrays and "labels" not in arrays  # Gmsh: no deck numbers kept
+
+
+def _element_ids_of(path) -> list[int]:
+    """Element numbers of the deck's volume *ELEMENT lines (C3D*), read from its text."""
+    out, inside = [], False
+    for line in path.read_text().splitlines():
+        s = line.strip()
+        if s.startswith("**"):
+            continue
+        if s.startswith("*"):
+            inside = s.split(",")[0].strip("* ").upper() == "ELEMENT" and "TYPE=C3D" in s.upper().replace(" ", "")
+        elif inside and s:
+            out.append(int(s.split(",")[0]))
+    return out
+
+
+def test_a_deck_s_element_numbers_come_with_its_geometry(client, tc):
+    """The quality check answers deck ids; the editor finds their elements with ``element_ids``."""
+    mesh = client.upload_mesh(BRACKET)  # its tets are numbered after its surface elements
+    arrays, _ = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    assert arrays["element_ids"].dtype == np.uint32
+    assert arrays["element_ids"].tolist() == _element_ids_of(BRACKET)
+    assert arrays["element_ids"][0] != 1 and "tet_element" not in arrays  # tets only: row k of T is element k
+
+
+def test_a_mixed_mesh_names_the_element_of_each_corner_tet(client, tc):
+    mesh = client.upload_mesh(DATA / "mixed.msh")
+    arrays, head = decode_bundle(tc.get(f"/v1/meshes/{mesh['id']}/geometry").content)
+    owner, T = arrays["tet_element"], arrays["T"]
+    assert owner.shape == (len(T),) and "element_ids" not in arrays  # gmsh: positions are the ids
+    counts = np.bincount(owner, minlength=head["elements"])
+    assert counts.min() >= 1 and set(np.unique(counts)) <= {1, 4, 6, 8}  # tet; pyramid, wedge, hexahedron corners
+    assert (np.diff(owner) >= 0).all()

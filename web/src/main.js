@@ -211,7 +211,8 @@ function extOf(name) {
 function formatNote() {
   const el = $("format-note"), own = $("format").options[0];
   const mine = state.meshFormat && state.meshFormat !== "arrays" ? state.meshFormat : "vtu";
-  own.textContent = state.meshFormat ? `original format (${extOf(mine)})` : "original format";
+  // the uploaded file itself, its coordinates changed: same encoding (ASCII VTK stays ASCII), same lines
+  own.textContent = state.meshFormat ? `original format (${extOf(mine)} as uploaded)` : "original format";
   const chosen = $("format").value;
   if (!state.meshId || !chosen) { el.hidden = true; return; }
   const row = formats.find((f) => f.extension === `.${chosen}` || f.name === chosen);

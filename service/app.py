@@ -25,7 +25,7 @@ from fastapi.staticfiles import StaticFiles
 from solver.kernels import announced, load_kernels
 from solver.linalg import threads
 
-from .api import batch, check, health, history, meshes, sessions, stream, study, tetrahedralize
+from .api import batch, check, health, history, meshes, sessions, stream, study, tetrahedralize, workspace
 from .api.deps import refuse_duplicate_keys, refuse_nul
 from .api.handlers import install_handlers
 from .api.responses import JSONResponse
@@ -156,7 +156,7 @@ def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:
     app.add_middleware(BodyLimit, limit=settings.max_upload_bytes)
     app.add_middleware(ErrorShield)
     app.add_middleware(RequestContext, metrics=metrics, replica=settings.replica_id)
-    for mod in (meshes, tetrahedralize, sessions, history, check, batch, study):
+    for mod in (meshes, tetrahedralize, sessions, history, workspace, check, batch, study):
         app.include_router(mod.router, prefix="/v1",
                            dependencies=[Depends(refuse_nul), Depends(refuse_duplicate_keys)])
     app.include_router(stream.router, prefix="/v1")  # its frames are checked as they come (parse_frame)

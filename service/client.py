@@ -280,6 +280,17 @@ class Client:
         return self._request("PUT", f"/v1/sessions/{session_id}/history", idempotent=True,
                              json={"applied": applied, "undone": undone or []}).json()
 
+    def workspace(self, of: str, ident: str) -> dict[str, Any]:
+        """A workspace: ``of`` ``"meshes"`` or ``"sessions"``, ``ident`` the mesh's or session's id."""
+        return self._request("GET", f"/v1/{of}/{ident}/workspace").json()
+
+    def save_workspace(self, of: str, ident: str, doc: dict[str, Any]) -> dict[str, Any]:
+        """Replace a mesh's or session's workspace (``of`` ``"meshes"`` or ``"sessions"``); return it as stored.
+
+        Fields: ``regions`` (a SPEC draft), ``labels``, ``doe_plan``, ``shape_values``, ``session``.
+        """
+        return self._request("PUT", f"/v1/{of}/{ident}/workspace", idempotent=True, json=doc).json()
+
     def deform(self, session_id: str, move: dict[str, Any], kind: str = "positions",
                dtype: str = "float64", inversion: str | None = None
                ) -> tuple[np.ndarray, dict[str, Any]]:

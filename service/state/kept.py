@@ -1,11 +1,11 @@
-"""What a client keeps with a session apart from its morph state: its presets and its undo history.
+"""What a client keeps apart from the morph state: a session's presets and undo history, and workspaces.
 
 Both are stored apart from the session's versioned record, so saving them
 neither bumps the version nor makes a concurrent MOVE conflict, and a MOVE's
 commit never writes them. The session's lock is not taken: a MOVE being
 solved meanwhile commits as usual. With a shared store the answers that show
 presets read them from the store first (another replica may have replaced
-them); the history is always read from the store.
+them); the history and the workspaces (a session's or a mesh's) are always read from the store.
 """
 
 from __future__ import annotations
@@ -15,8 +15,9 @@ from typing import Any
 from ..errors import NotFound
 from .session import Session
 from .sessions import Sessions
+from .store import WorkspaceOf
 
-__all__ = ["set_presets", "refresh_presets", "save_history", "load_history"]
+__all__ = ["set_presets", "refresh_presets", "save_history", "load_history", "save_workspace", "load_workspace"]
 
 
 def _gone(sessions: Sessions, s: Session) -> NotFound:
@@ -71,3 +72,30 @@ def load_history(sessions: Sessions, s: Session) -> dict[str, Any]:
     if history is None:
         raise _gone(sessions, s)
     return history
+
+
+def save_workspace(sessions: Sessions, of: WorkspaceOf, ident: str, doc: dict[str, Any],
+                   s: Session | None = None) -> None:
+    """Replace a mesh's or session's workspace (validated by the route).
+
+    Raises
+    ------
+    NotFound
+        The mesh or session is gone; nothing is stored.
+    """
+    if not sessions.store.save_workspace(of, ident, doc):
+        raise _gone(sessions, s) if s is not None else NotFound(of, ident)
+
+
+def load_workspace(sessions: Sessions, of: WorkspaceOf, ident: str, s: Session | None = None) -> dict[str, Any]:
+    """A mesh's or session's workspace (the empty one when none was saved).
+
+    Raises
+    ------
+    NotFound
+        The mesh or session is gone.
+    """
+    doc = sessions.store.load_workspace(of, ident)
+    if doc is None:
+        raise _gone(sessions, s) if s is not None else NotFound(of, ident)
+    return doc

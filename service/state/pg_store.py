@@ -3,8 +3,8 @@
 Tables (created at start-up, under an advisory lock so that replicas starting
 together do not race)::
 
-    tm_meshes    id, owner, created, meta           the mesh metas
-    tm_sessions  id, owner, mesh_id, created, last_used, version, record, presets, history
+    tm_meshes    id, owner, created, meta, workspace          the mesh metas (and the mesh's workspace)
+    tm_sessions  id, owner, mesh_id, created, last_used, version, record, presets, history, workspace
     tm_expired   id, owner, expired_at              sessions removed for idleness (410 for a while)
     tm_rate      owner, tokens, at, granted         one token bucket per owner
 
@@ -12,8 +12,8 @@ Mesh *files* stay in the data directory (``meshes/<id>/``), which every
 replica mounts (a shared volume): a mesh is written once, parsed once per
 replica and then held in memory, and a path is what the mesh readers take.
 The database holds what is small and changes: metas, session records with
-their versions, expiry, rate buckets. A session's presets and its undo
-history are columns of their own: a MOVE's commit (the versioned ``record``)
+their versions, expiry, rate buckets. A session's presets, its undo
+history and its workspace are columns of their own: a MOVE's commit (the versioned ``record``)
 never writes them and their writes never touch the record or its version, so
 neither undoes the other and they never make a MOVE conflict.
 
@@ -37,7 +37,7 @@ from solver.mesh import Mesh
 from ..errors import ServiceError
 from ..security import Limiter, SharedRateLimiter
 from .pg_connection import PgConnection, jsonb
-from .store import EMPTY_HISTORY, FileStore, read_mesh_files, record_only, valid_id
+from .store import EMPTY_HISTORY, EMPTY_WORKSPACE, FileStore, WorkspaceOf, read_mesh_files, record_only, valid_id
 
 __all__ = ["PgStore", "SCHEMA", "ORPHAN_AGE_S"]
 
@@ -48,12 +48,13 @@ _SCHEMA_LOCK = 74_190_301
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS tm_meshes (
-    id text PRIMARY KEY, owner text NOT NULL, created double precision NOT NULL, meta jsonb NOT NULL);
+    id text PRIMARY KEY, owner text NOT NULL, created double precision NOT NULL, meta jsonb NOT NULL,
+    workspace jsonb);
 CREATE TABLE IF NOT EXISTS tm_sessions (
     id text PRIMARY KEY, owner text NOT NULL, mesh_id text NOT NULL, created double precision NOT NULL,
     last_used double precision NOT NULL, version bigint NOT NULL DEFAULT 0, record jsonb NOT NULL,
-    presets jsonb NOT NULL DEFAULT '[]'::jsonb, history jsonb);
-DO $$ BEGIN  -- tables made before presets (or the history) existed: their sessions have none
+    presets jsonb NOT NULL DEFAULT '[]'::jsonb, history jsonb, workspace jsonb);
+DO $$ BEGIN  -- tables made before presets (the history, workspaces) existed: their sessions have none
     IF NOT EXISTS (SELECT 1 FROM information_schema.columns WHERE table_schema = current_schema()
                    AND table_name = 'tm_sessions' AND column_name = 'presets') THEN
         ALTER TABLE tm_sessions ADD COLUMN presets jsonb NOT NULL DEFAULT '[]'::jsonb;
@@ -61,6 +62,14 @@ DO $$ BEGIN  -- tables made before presets (or the history) existed: their sessi
     IF NOT EXISTS (SELECT 1 FROM information_schema.columns WHERE table_schema = current_schema()
                    AND table_name = 'tm_sessions' AND column_name = 'history') THEN
         ALTER TABLE tm_sessions ADD COLUMN history jsonb;
+    END IF;
+    IF NOT EXISTS (SELECT 1 FROM information_schema.columns WHERE table_schema = current_schema()
+                   AND table_name = 'tm_sessions' AND column_name = 'workspace') THEN
+        ALTER TABLE tm_sessions ADD COLUMN workspace jsonb;
+    END IF;
+    IF NOT EXISTS (SELECT 1 FROM information_schema.columns WHERE table_schema = current_schema()
+                   AND table_name = 'tm_meshes' AND column_name = 'workspace') THEN
+        ALTER TABLE tm_meshes ADD COLUMN workspace jsonb;
     END IF;
 END $$;
 CREATE INDEX IF NOT EXISTS tm_sessions_owner ON tm_sessions (owner);
@@ -245,6 +254,24 @@ class PgStore:
         if not rows:
             return None
         return rows[0][0] if isinstance(rows[0][0], dict) else dict(EMPTY_HISTORY)
+
+    def save_workspace(self, of: WorkspaceOf, ident: str, doc: dict[str, Any]) -> bool:
+        """Replace a mesh's or session's workspace column (nothing else touched); False when it is gone."""
+        if not valid_id(ident):
+            return False
+        table = "tm_sessions" if of == "session" else "tm_meshes"
+        return self._db.exec(f"UPDATE {table} SET workspace = %s WHERE id = %s", (jsonb(doc), ident)) > 0
+
+    def load_workspace(self, of: WorkspaceOf, ident: str) -> dict[str, Any] | None:
+        """A mesh's or session's workspace (empty when none was saved), or None when it is gone."""
+        if not valid_id(ident):
+            return None
+        table = "tm_sessions" if of == "session" else "tm_meshes"
+        rows = self._db.rows(f"SELECT workspace FROM {table} WHERE id = %s", (ident,))
+        if not rows:
+            return None
+        doc = rows[0][0]
+        return {**EMPTY_WORKSPACE, **doc} if isinstance(doc, dict) else dict(EMPTY_WORKSPACE)
 
     def load_presets(self, session_id: str) -> list[dict[str, Any]] | None:
         """A session's presets, or None when it is gone."""

@@ -13,6 +13,8 @@ Layout (``data_dir``)::
     sessions/<session_id>.json       owner, mesh id, SPEC, last MOVE, timestamps
     sessions/presets/<id>.json       the session's named MOVEs (none when missing)
     sessions/history/<id>.json       the session's undo history (empty when missing)
+    sessions/workspace/<id>.json     the session's workspace (regions, labels, DOE plan; empty when missing)
+    meshes/<mesh_id>.workspace.json  the mesh's workspace (beside its folder; empty when missing)
     sessions/expired/<id>.json       sessions removed for idleness (they answer 410 for a while)
 
 JSON files are replaced atomically (written to a temporary file of the same
@@ -21,17 +23,15 @@ full disk never leaves a half-written record: a write that fails leaves the
 record it would have replaced as it was, and no temporary file. A restart
 reloads every session and rebuilds it on first use.
 
-A session's presets and undo history are kept apart from its record: a
-MOVE's commit writes the record (its version checked) and never them, and
-writing them never touches the record or its version.
+A session's presets, undo history and workspace are kept apart from its
+record: a MOVE's commit writes the record (its version checked) and never
+them, and writing them never touches the record or its version.
 """
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
-import re
 import secrets
 import shutil
 import tempfile
@@ -47,39 +47,19 @@ from solver.io.bounds import ReadBounds
 from solver.mesh import Mesh, mesh_from_arrays
 
 from ..security import Limiter, RateLimiter
+from .files import valid_id
+from .files import write_json as _write_json
+from .workspaces import EMPTY_WORKSPACE, FileWorkspaces, WorkspaceOf
 
-__all__ = ["Store", "FileStore", "EMPTY_HISTORY", "new_id", "valid_id", "read_mesh_files", "record_only",
-           "free_bytes"]
+__all__ = ["Store", "FileStore", "EMPTY_HISTORY", "EMPTY_WORKSPACE", "WorkspaceOf", "new_id", "valid_id",
+           "read_mesh_files", "record_only", "free_bytes"]
 
 #: The undo history of a session none was saved for: nothing applied, nothing undone.
 EMPTY_HISTORY: dict[str, Any] = {"applied": [], "undone": []}
 
-_ID = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
-
-
 def new_id(prefix: str) -> str:
     """Random resource id such as ``m_3f9c0a1b2d4e6f70``."""
     return f"{prefix}_{secrets.token_hex(8)}"
-
-
-def valid_id(ident: str) -> bool:
-    """True if ``ident`` can name a file in the data directory (no path tricks)."""
-    return bool(_ID.match(ident))
-
-
-def _write_json(path: Path, doc: dict[str, Any] | list[Any]) -> None:
-    """Replace ``path`` with ``doc`` atomically: all of it, or (the disk full, say) the file as it was."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(doc, f)
-            f.flush()
-            os.fsync(f.fileno())  # on the disk before it replaces the record: no rename of a file still empty
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
 
 
 def free_bytes(path: str | os.PathLike[str]) -> int:
@@ -163,6 +143,12 @@ class Store(Protocol):
     def load_history(self, session_id: str) -> dict[str, Any] | None:
         """A session's undo history (:data:`EMPTY_HISTORY` when none was saved), or None when it is gone."""
 
+    def save_workspace(self, of: WorkspaceOf, ident: str, doc: dict[str, Any]) -> bool:
+        """Replace a mesh's or session's workspace (nothing else touched); False when it is gone."""
+
+    def load_workspace(self, of: WorkspaceOf, ident: str) -> dict[str, Any] | None:
+        """A mesh's or session's workspace (empty when none was saved), or None when it is gone."""
+
     def list_sessions(self) -> list[dict[str, Any]]:
         """Every stored session record (with its presets)."""
 
@@ -240,7 +226,7 @@ def read_mesh_files(root: Path, meta: dict[str, Any], bounds: ReadBounds | None 
     return read_mesh(d / meta["file"], meta.get("format"), bounds=bounds)
 
 
-class FileStore:
+class FileStore(FileWorkspaces):
     """Meshes and session records on disk (one process writes them).
 
     Parameters
@@ -266,6 +252,7 @@ class FileStore:
         self.sessions_dir = self.root / "sessions"
         self.presets_dir = self.sessions_dir / "presets"
         self.history_dir = self.sessions_dir / "history"
+        self.workspace_dir = self.sessions_dir / "workspace"
         self.meshes_dir.mkdir(parents=True, exist_ok=True)
         self.sessions_dir.mkdir(parents=True, exist_ok=True)
 
@@ -301,9 +288,10 @@ class FileStore:
         return sorted(out, key=lambda m: m.get("created", 0))
 
     def delete_mesh(self, mesh_id: str) -> None:
-        """Remove a mesh and its files."""
+        """Remove a mesh, its files and its workspace."""
         if valid_id(mesh_id):
             shutil.rmtree(self.mesh_dir(mesh_id), ignore_errors=True)
+            (self.meshes_dir / f"{mesh_id}.workspace.json").unlink(missing_ok=True)
 
     def save_arrays(self, mesh_id: str, mesh: Mesh) -> None:
         """Store a mesh given as arrays (vertices, tetrahedra, named sets)."""
@@ -479,11 +467,11 @@ class FileStore:
         return out
 
     def delete_session(self, session_id: str) -> None:
-        """Remove a session record, then its presets and history."""
+        """Remove a session record, then its presets, history and workspace."""
         if valid_id(session_id):
             (self.sessions_dir / f"{session_id}.json").unlink(missing_ok=True)
-            (self.presets_dir / f"{session_id}.json").unlink(missing_ok=True)
-            (self.history_dir / f"{session_id}.json").unlink(missing_ok=True)
+            for d in (self.presets_dir, self.history_dir, self.workspace_dir):
+                (d / f"{session_id}.json").unlink(missing_ok=True)
 
     # ------------------------------------------------------------- tombstones
     def save_expired(self, session_id: str, owner: str, at: float) -> None:
@@ -516,7 +504,7 @@ class FileStore:
         upload and its summary), presets of sessions without a record (the
         process died while deleting one) and temporary files of atomic writes.
         """
-        return _remove_orphans(self.meshes_dir, self.sessions_dir, self.presets_dir)
+        return _remove_orphans(self.meshes_dir, self.sessions_dir, self.presets_dir, self.workspace_dir)
 
     def rename_owner(self, old: str, new: str) -> int:
         """Give every mesh and session of owner ``old`` to ``new``; return how many records changed."""
@@ -532,17 +520,22 @@ class FileStore:
         return n
 
 
-def _remove_orphans(meshes_dir: Path, sessions_dir: Path, presets_dir: Path) -> list[str]:
+def _remove_orphans(meshes_dir: Path, sessions_dir: Path, presets_dir: Path, workspace_dir: Path) -> list[str]:
     """:meth:`FileStore.remove_orphans` of a data directory's folders."""
     gone = []
     for d in meshes_dir.iterdir():
         if d.is_dir() and not (d / "meta.json").is_file():
             shutil.rmtree(d, ignore_errors=True)
             gone.append(d.name)
-    for p in presets_dir.glob("*.json") if presets_dir.is_dir() else []:
-        if not (sessions_dir / p.name).is_file():
+    for p in meshes_dir.glob("*.workspace.json"):
+        if not (meshes_dir / p.name.removesuffix(".workspace.json") / "meta.json").is_file():
             p.unlink(missing_ok=True)
-            gone.append(f"presets/{p.name}")
+            gone.append(p.name)
+    for folder in (presets_dir, workspace_dir):
+        for p in folder.glob("*.json") if folder.is_dir() else []:
+            if not (sessions_dir / p.name).is_file():
+                p.unlink(missing_ok=True)
+                gone.append(f"{folder.name}/{p.name}")
     for folder in (meshes_dir, sessions_dir):
         for p in folder.rglob(".tmp-*"):
             p.unlink(missing_ok=True)

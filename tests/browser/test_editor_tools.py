@@ -389,10 +389,8 @@ def test_the_undo_history_survives_a_reload_and_reopening(page):
         settle(page)
         shapes.append(positions(page))
     sid = page.evaluate("window.tetmorph.session().id")
-    page.reload()
+    page.reload()  # the address names the session: the reload reopens it
     page.wait_for_function("window.tetmorph !== undefined")
-    page.click("#sessions-btn")
-    page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
     page.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open")
     assert page.locator("#history li").count() == 4 and not page.is_disabled("#undo")
     np.testing.assert_allclose(positions(page), shapes[2], atol=1e-4)
@@ -438,10 +436,8 @@ def test_a_mirror_plane_from_the_section_goes_into_the_spec_and_is_drawn(page):
     assert stored == [{"name": "mirror1", "plane": {"point": [50, 10, 5], "normal": [0, 1, 0]}, "tolerance": 0.1}]
     numeric_move(page, t=(0, 0, 5))
     settle(page)
-    page.reload()  # reopened, the session's mirror plane is back in the panel
+    page.reload()  # reopened from the address, the session's mirror plane is back in the panel
     page.wait_for_function("window.tetmorph !== undefined")
-    page.click("#sessions-btn")
-    page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
     page.wait_for_function(f"window.tetmorph.session().id === '{sid}'")
     assert page.locator("#sym-list li").count() == 1
     assert page.evaluate("window.tetmorph.spec()")["symmetry"] == stored

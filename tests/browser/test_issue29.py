@@ -419,10 +419,8 @@ def test_a_set_region_is_the_whole_set_again_on_reopen(page):
     whole = mesh.sets["BC_RIMTIRE"]
     assert regions(page)["BC_RIMTIRE"]["count"] == whole.size
     sid = page.evaluate("window.tetmorph.session().id")
-    page.reload()
+    page.reload()  # the address names the session: the reload reopens it
     page.wait_for_function("window.tetmorph !== undefined")
-    page.click("#sessions-btn")
-    page.click(f"#sessions-table tr[data-id={sid}] button[data-act=open]")
     page.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open",
                            timeout=120000)
     r = regions(page)["BC_RIMTIRE"]

@@ -61,6 +61,15 @@ def _open_from_sessions(pg, sid: str) -> None:
     pg.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream.open")
 
 
+def _reopened(pg, sid: str) -> None:
+    """After a reload: the address reopens the session (Sessions lists it as the open one)."""
+    pg.wait_for_function(f"window.tetmorph.session().id === '{sid}' && window.tetmorph.session().stream"
+                         " && window.tetmorph.session().stream.open", timeout=60000)
+    pg.click("#sessions-btn")
+    pg.wait_for_selector(f"#sessions-table tr[data-id={sid}] button[data-act=close]")
+    pg.click("#sessions-close")
+
+
 def _editor_history(pg, doc: dict | None = None) -> tuple[list, list]:
     """The MOVEs of the editor's history before and after the entry shown (entry 0, the rest, left out);
     with the service's history `doc`, once the editor holds as many entries (it reads them after the
@@ -90,7 +99,7 @@ def test_the_undo_history_is_kept_with_the_session_on_the_service(pages, server)
 
     page.reload()
     page.wait_for_function("window.tetmorph !== undefined")
-    _open_from_sessions(page, sid)
+    _reopened(page, sid)
     assert _editor_history(page, doc) == (doc["applied"], doc["undone"])
     np.testing.assert_allclose(positions(page), shapes[1], atol=1e-4)
     page.click("#undo")
@@ -307,7 +316,7 @@ def test_a_morph_domain_from_a_named_set_is_sent_as_the_set_and_kept_on_reopen(p
     sid = page.evaluate("window.tetmorph.session().id")
     page.reload()
     page.wait_for_function("window.tetmorph !== undefined")
-    _open_from_sessions(page, sid)
+    _reopened(page, sid)
     again = page.evaluate("window.tetmorph.spec()")
     assert again["selections"][again["domain"]] == {"set": "TET"}
     assert page.inner_text("#domain-count").startswith(f"domain: {len(tet)} vertices")

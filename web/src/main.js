@@ -32,6 +32,7 @@ import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
 import { stateAccessors } from "./testhook.js";
 import { Viewer } from "./viewer.js";
+import { Workspace } from "./workspace.js";
 
 const viewer = new Viewer($("canvas"));
 const meshView = new MeshView(viewer);
@@ -59,6 +60,9 @@ const edits = new EditsPanel(viewer, meshView, regions, moves, { pickedIds: () =
 moves.extra = { move: () => edits.move(), set: (m) => edits.fromMove(m) };
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
+// the mesh's and the session's workspace, on the service and in the page's address (#m=…&s=…)
+const workspace = new Workspace({ session, regions, shapes, openMesh: (id) => openMesh(id) });
+session.workspace = workspace;
 regions.busy = (ev) => moves.dragging || (ev !== undefined && moves.under(ev)) || edits.busy(ev);
 const regionTools = new RegionTools(regions, showError);
 const undoKeys = new UndoKeys(regionTools.history, moves);
@@ -152,6 +156,7 @@ async function openMesh(id) {
     formatNote();
     brushSize();
     offerMeshSessions();
+    await workspace.meshOpened();
   } finally {
     setBusy(null);
   }
@@ -449,7 +454,7 @@ function togglePanel(side) {
 $("upload-btn").addEventListener("click", () => $("upload").click());
 $("welcome-upload").addEventListener("click", () => $("upload").click());
 $("upload").addEventListener("change", (ev) => { upload(ev.target.files); ev.target.value = ""; });
-$("open-mesh").addEventListener("click", () => { if ($("meshes").value) openMesh($("meshes").value).catch(showError); });
+$("open-mesh").addEventListener("click", () => { if ($("meshes").value) workspace.openMeshWorkspace($("meshes").value); });
 $("demo").addEventListener("click", demo);
 $("welcome-demo").addEventListener("click", demo);
 $("set-apply").addEventListener("click", () => regions.assignSet($("sets").value));
@@ -606,6 +611,7 @@ $("api-key").addEventListener("change", () => {
   listMeshes();
 });
 listMeshes();
+workspace.restore();  // what the address names: a reload, a bookmark or a second tab opens the same workspace
 loadFormats();
 drawHistogram();
 renderHistory(moves);

@@ -5,6 +5,7 @@ import { $ } from "./dom.js";
 import { explain } from "./messages.js";
 import { css, QUALITY_COLORS, rainbow } from "./meshview.js";
 import { histogram } from "./quality.js";
+import { conflictRows, freeWarning } from "./reportnotes.js";
 import { claim, emit, on, state } from "./state.js";
 
 // the owner of the state's "feedback" group: the error, the REPORT and the busy indicator shown
@@ -35,8 +36,10 @@ export function showError(e) {
     const r = x.report;
     lines.push(`inverted elements: ${fmt(r.inverted_elements)}`);
     if (r.safe_fraction !== undefined) lines.push(`safe fraction: ${fmt(r.safe_fraction)}`);
-    if (r.conflicting_constraints && r.conflicting_constraints.length)
-      lines.push(`conflicting constraints: ${r.conflicting_constraints.length}`);
+    if (r.conflicting_constraints && r.conflicting_constraints.length) {
+      const c = conflictRows(r.conflicting_constraints, state.labels);
+      lines.push(`conflicting constraints: ${c.count}`, ...(c.nodes ? [`at ${c.nodes}`] : []), c.fix);
+    }
   }
   $("error-text").innerHTML = `<div class="what">${esc(x.text)}</div>` +
     (x.hint ? `<div class="hint">${esc(x.hint)}</div>` : "") +
@@ -137,14 +140,15 @@ export function showReport(rep) {
     const bad = (k === "inverted_elements" && rep[k] > 0) || (k === "clamped" && rep[k]);
     row(k, label, fmt(rep[k]) + (withUnit ? unitText() : ""), bad);
   }
-  const hd = rep.max_handle_displacement, fd = rep.max_free_displacement;
-  if (hd !== undefined && hd !== null && fd !== undefined && fd !== null && fd > hd * (1 + 1e-6) + 1e-12) {
-    // a morph that moves something more than its handle surprises: say by how much, and where to look
-    row("free_exceeds", "warning", `a free node moves ${fmt(Number((fd / Math.max(hd, 1e-300)).toPrecision(3)))}× ` +
-      "as far as the handles: check the displacement colouring, or limit the morph with a domain", true);
+  // a morph that moves something much more than its handle surprises: say by how much, and where to look
+  const free = freeWarning(rep.max_handle_displacement, rep.max_free_displacement);
+  if (free) row("free_exceeds", "warning", free, true);
+  if (rep.conflicting_constraints && rep.conflicting_constraints.length) {
+    const c = conflictRows(rep.conflicting_constraints, state.labels);
+    row("conflicting", "conflicting constraints", c.count, true);
+    if (c.nodes) row("conflicting_nodes", "conflicting at", c.nodes, true);
+    row("conflicting_fix", "what to do", c.fix, true);
   }
-  if (rep.conflicting_constraints && rep.conflicting_constraints.length)
-    row("conflicting", "conflicting constraints", fmt(rep.conflicting_constraints.length), true);
   const rp = rep.repair;
   if (rp) {
     // the repair's own counts are of tets (a quadratic or mixed element counts as its corner tets)

@@ -1,9 +1,10 @@
 // The session's life: create it from the regions (polling a long build), open an existing one,
 // stream MOVEs and show each frame, reset, download, save and reload, close and delete, and the
 // session's named presets, which the service keeps with it (PATCH /v1/sessions/{id}).
-// A session this tab created is deleted when the tab replaces it with a new one, and when the
-// tab closes while it is still building or was never moved; a moved one stays on the service
-// (listed under Sessions) until deleted or removed by the service's idle sweep.
+// A session this tab created is deleted when the tab replaces it with a new one, when the tab
+// leaves it for another mesh before it was moved, and when the tab closes while it is still
+// building; otherwise it stays on the service (its address reopens it, Sessions lists it) until
+// deleted or removed by the service's idle sweep. A reload keeps it: the address names it.
 import { api, apiKey, getJson, headers, postJson } from "./api.js";
 import { decodeFrame } from "./binary.js";
 import { EDIT_KINDS } from "./edits.js";
@@ -36,6 +37,9 @@ export class SessionControl {
     this.historyTimer = null; // the debounced PUT of the history
     this.historyQueue = Promise.resolve(); // history PUTs, one after another
     this.displacementTimer = null; // the debounced read of the REPORT's handle and free displacements
+    this.workspace = null;   // set by the wiring (workspace.js Workspace): the history's labels come from it
+    this.openQueue = Promise.resolve(); // opens, one after another (the address's and the user's)
+    this.unmeasured = 0;     // MOVEs up to this seq went out across a reconnect: no round trip of theirs is real
     meshView.viewer.beforeRender.push(() => this.drawPendingBoundary());
     window.addEventListener("pagehide", () => this.leaving());
   }
@@ -113,6 +117,9 @@ export class SessionControl {
     own.sessionId = id;
     own.specSent = this.spec();
     own.presets = [];
+    // the MOVE counter and the round trips are the session's: a new one starts from 0
+    own.seq = 0; own.lastSeq = 0; own.roundTripMs = undefined; own.boundaryRoundTripMs = undefined;
+    this.unmeasured = 0;
     emit("session");
     this.moves.attach(handleRegions);
     this.meshView.applyPositions(state.V0);
@@ -126,28 +133,31 @@ export class SessionControl {
     const el = $("session-note");
     if (!state.sessionId) { el.hidden = true; return; }
     const mine = this.own.has(state.sessionId);
-    const moved = state.history.length > 1;
     el.textContent = !mine
       ? "Opened from the service: closing this tab leaves it there (Sessions lists it)."
-      : moved
-        ? "Kept on the service when this tab closes (reopen it from Sessions); the service removes it after " +
-          "it has been idle for its time-to-live (24 h by default)."
-        : "Deleted when this tab closes unless you move the handle first.";
+      : "Kept on the service when this tab closes: a reload or this page's address reopens it, and Sessions " +
+        "lists it; the service removes it after it has been idle for its time-to-live (24 h by default).";
     el.hidden = false;
   }
 
-  /** pagehide: delete this tab's unfinished session (still building, or never moved). */
+  /** pagehide: delete this tab's unfinished session (still building); a ready one stays for the address. */
   leaving() {
     this.flushHistory(true);
-    const id = this.building || (state.sessionId && this.own.has(state.sessionId) && state.history.length <= 1
-      ? state.sessionId : null);
+    const id = this.building;
     if (!id) return;
     try { fetch(`/v1/sessions/${id}`, { method: "DELETE", keepalive: true, headers: headers() }); } catch { /* closing */ }
   }
 
   // ---------------------------------------------------------------- open, close, delete
   /** Open an existing session: its mesh, regions from its SPEC, its current positions and last MOVE. */
-  async open(id) {
+  open(id) {
+    const run = () => this.openNow(id);
+    this.openQueue = this.openQueue.then(run, run);
+    return this.openQueue;
+  }
+
+  async openNow(id) {
+    if (state.sessionId === id && state.ws && state.ws.usable) return true;  // open here already
     clearError();
     setBusy("loading");
     try {
@@ -204,6 +214,7 @@ export class SessionControl {
     this.reconnect = null;
     streamBadge(null);
     emit("session");
+    emit("presets");  // the closed session's presets leave the screen with it
     this.moves.detach();
     setStatus("no session");
     setProgress(0);
@@ -263,11 +274,17 @@ export class SessionControl {
   /** The history kept with a session on the service as editor entries and the index shown, or null. */
   async serviceHistory(id) {
     try {
-      const doc = await getJson(`/v1/sessions/${id}/history`);
+      const [doc, ws] = await Promise.all([getJson(`/v1/sessions/${id}/history`),
+        this.workspace ? this.workspace.fetchSession(id) : null]);
       const applied = doc.applied || [], undone = doc.undone || [];
       if (!applied.length && !undone.length) return null;
-      const entry = (label) => (m) => ({ label: isRest(m) ? "rest" : label, move: isRest(m) ? null : m });
-      const history = [{ label: "rest", move: null }, ...applied.map(entry("move")), ...undone.map(entry("undone move"))];
+      // the labels kept with the session's workspace, when they are of this history (one per MOVE)
+      const labels = ws && Array.isArray(ws.labels) && ws.labels.length === applied.length + undone.length
+        ? ws.labels : null;
+      const entry = (label, at) => (m, k) => ({ label: labels ? labels[at + k] : isRest(m) ? "rest" : label,
+        move: isRest(m) ? null : m });
+      const history = [{ label: "rest", move: null }, ...applied.map(entry("move", 0)),
+        ...undone.map(entry("undone move", applied.length))];
       return { history, index: applied.length };
     } catch { return null; }
   }
@@ -283,7 +300,10 @@ export class SessionControl {
     }
     this.pendingBoundary = null;
     this.meshView.applyBoundary(p.data);
-    if (p.seq === own.seq) { own.boundaryRoundTripMs = performance.now() - own.sentAt; emit("stream"); }
+    if (p.seq === own.seq && p.seq > this.unmeasured) {
+      own.boundaryRoundTripMs = performance.now() - own.sentAt;
+      emit("stream");
+    }
   }
 
   /** Forget the pending boundary frame (counted as skipped) when its MOVE is at most ``upTo``. */
@@ -313,9 +333,11 @@ export class SessionControl {
       onState: (what, info) => {
         if (state.ws !== ws) return;
         if (what === "reconnecting") {
+          this.unmeasured = Infinity;  // until it is back: whatever is sent now waits for it
           this.reconnect = info;
           this.reconnectStatus();
         } else {
+          this.unmeasured = state.seq;  // the MOVEs sent before the reconnect waited for it
           this.reconnect = null;
           setStatus(`session ${id} · stream reconnected`);
           streamBadge(null);
@@ -350,7 +372,8 @@ export class SessionControl {
       return;
     }
     this.dropBoundary(header.seq);
-    const rtt = header.seq === state.seq ? performance.now() - state.sentAt : undefined;
+    // a round trip is measured only for a MOVE that went out and came back over one connection
+    const rtt = header.seq === state.seq && header.seq > this.unmeasured ? performance.now() - state.sentAt : undefined;
     this.meshView.applyPositions(data);
     own.lastSeq = header.seq;
     own.roundTripMs = rtt;

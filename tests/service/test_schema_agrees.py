@@ -58,14 +58,25 @@ def _csv_plan(err: dict[str, Any], case: Any) -> bool:
 
 #: Refusals of schema-valid requests that depend on what a JSON Schema cannot state, by error code:
 #: (why, which refusals of that code qualify). Every other refusal of a schema-valid request fails.
+#: Words of the refusals of relations the schema cannot state (see invalid_request below).
+_RELATIONS = ("names are unique", "exceeds max", "non-zero", "sum to 1", "sum to zero", "multiple of 360",
+              "strictly increasing 'at'", "needs toward", "runs along the axis", "goes with mode",
+              "needs a direction", "maps onto a surface", "goes with projection", "needs an opposite",
+              "another selection than", "positive extent", "needs exactly one of", "has exactly one of",
+              "[key]: String should match pattern")
+
+
+def _relation(e: dict) -> bool:
+    return any(t in e["message"] for t in _RELATIONS)
+
+
 BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {
     # the session's SPEC and the mesh (state): names a MOVE or SHAPES use must be the SPEC's; ids, sets
     # and positions must fit the mesh
     "invalid_spec": ("a MOVE names a handle, point, feature, motion, relative or target the session's SPEC "
-                     "lacks; or a selection's box has min above max, or a zero normal (relations between "
-                     "numbers of one array or object)",
-                     lambda e, c: "unknown" in e["details"] or "exceeds max" in e["message"]
-                     or "non-zero" in e["message"]),
+                     "lacks; or a SPEC or MOVE body breaks one of the relations listed under invalid_request "
+                     "(a SPEC or MOVE answers the library's code for them, invalid_spec)",
+                     lambda e, c: "unknown" in e["details"] or _relation(e)),
     "unknown_set": ("the mesh has no set of that name", _always),
     "out_of_range": ("a position or length beyond 100 bounding-box diagonals of the session's mesh", _always),
     "index_out_of_range": ("a vertex id beyond the mesh's vertex count (the stored mesh's, or the vertices "
@@ -92,12 +103,7 @@ BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {
                         "onto a surface, a symmetric offset's other opposite selection, one of two forms of "
                         "an edit); or the pattern of an object's keys (a lattice's control point 'i,j,k': "
                         "propertyNames, which the generator does not apply)",
-                        lambda e, c: any(t in e["message"] for t in (
-                            "names are unique", "exceeds max", "non-zero", "sum to 1", "sum to zero",
-                            "multiple of 360", "strictly increasing 'at'", "needs toward", "runs along the axis",
-                            "goes with mode", "needs a direction", "maps onto a surface", "goes with projection",
-                            "needs an opposite", "another selection than", "positive extent",
-                            "needs exactly one of", "has exactly one of", "[key]: String should match pattern"))),
+                        lambda e, c: _relation(e)),
     # the service's configuration
     "solver_unavailable": ("no FE solver of that name is configured (TETMORPH_STUDY_SOLVERS)", _always),
     "engine_unavailable": ("engine 'ray' without a Ray cluster (TETMORPH_RAY_ADDRESS)", _always),

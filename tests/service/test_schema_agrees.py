@@ -63,11 +63,14 @@ _RELATIONS = ("names are unique", "exceeds max", "non-zero", "sum to 1", "sum to
               "strictly increasing 'at'", "needs toward", "runs along the axis", "goes with mode",
               "needs a direction", "maps onto a surface", "goes with projection", "needs an opposite",
               "another selection than", "positive extent", "needs exactly one of", "has exactly one of",
-              "[key]: String should match pattern")
+              "[key]: String should match pattern", "one per vertex",
+              "String should match pattern '^(0|[1-9][0-9]?),")  # a lattice key, as the library names it
 
 
 def _relation(e: dict) -> bool:
-    return any(t in e["message"] for t in _RELATIONS)
+    """The refusal names such a relation (in its message, or in one of the errors the library lists)."""
+    messages = [e["message"], *(str(x.get("message", "")) for x in e["details"].get("errors", []))]
+    return any(t in m for m in messages for t in _RELATIONS)
 
 
 BEYOND_THE_SCHEMA: dict[str, tuple[str, Refusal]] = {

@@ -33,6 +33,21 @@ editor built with ``npm run build``), to compare side by side::
 
 A row says the checkout (``--label``, else its commit), the mesh, the load, the median and p95 of every
 step, each drag's median, the steps timed and missed, and the 1-minute load average before and after.
+
+A second table splits each step's time between the service and the browser, from marks the page
+itself takes (``FRAME_PROBE``, installed before the editor loads; it wraps the WebSocket, so the
+editor is unchanged and ``--root`` checkouts are measured the same way): "service update" is the
+REPORT's ``solve_ms`` of the frame (the update's own timing, on the service); "send → arrived" the
+page's time from sending the MOVE to its full frame's arrival (the update, the service's queue and
+encoding, the socket); "page: arrived → rendered" the browser's own time, from the frame's arrival
+through decoding and applying it (positions, normals, quality, colours: "of which apply") to the next
+frame drawn and read back (one pixel, which waits until the renderer has finished it). Each cell is
+the median [min-max] over the ``--repeat`` drags of each drag's median step. "frames/s" is how many
+full frames the page applied per second of dragging, and "page fps" how many frames it drew
+(``requestAnimationFrame``) meanwhile. The 1M-tet part is the bracket at ``--size 0.44``
+(``benchmarks/bench_update.py``'s, 1.03M tets)::
+
+    python benchmarks/bench_editor.py --mesh bracket --size 0.44 --drag 10 --repeat 3
 Editors from before the test hook (``window.tetmorph.session()`` and the other accessors of
 web/src/testhook.js, added later) expose their state object as ``window.tetmorph.state``;
 the drags read it through the same few accessors, added to the page (``HOOK_FALLBACK``).
@@ -186,14 +201,83 @@ def _open(pg, base: str, a: argparse.Namespace) -> str:
     return deck.name
 
 
-def _drag(pg, steps: int, sign: int) -> tuple[list[float], int]:
-    """One drag of the gizmo's centre, 4 px a step: per step, pointer move → frame applied and painted (s)."""
+#: Marks the page takes of each streamed frame (see the module's docstring). ``window.__tmFrames`` holds,
+#: per full frame applied: seq, sent (the MOVE's send), arrived, applied, rendered (performance.now() ms)
+#: and the REPORT's solve_ms; ``window.__tmDraws`` counts the frames drawn.
+FRAME_PROBE = """(() => {
+  const frames = [], sent = new Map();
+  window.__tmFrames = frames;
+  window.__tmDraws = 0;
+  const tick = () => { window.__tmDraws += 1; requestAnimationFrame(tick); };
+  requestAnimationFrame(tick);
+  const send = WebSocket.prototype.send;
+  WebSocket.prototype.send = function (data) {
+    if (typeof data === "string") {
+      try { sent.set(JSON.parse(data).seq, performance.now()); } catch (e) { /* not a MOVE */ }
+    }
+    return send.call(this, data);
+  };
+  const slot = Object.getOwnPropertyDescriptor(WebSocket.prototype, "onmessage");
+  const head = (buf) => {
+    const b = new Uint8Array(buf), h = new DataView(buf).getUint32(4, true);
+    return JSON.parse(new TextDecoder().decode(b.subarray(8, 8 + h)));
+  };
+  Object.defineProperty(WebSocket.prototype, "onmessage", { configurable: true,
+    get() { return slot.get.call(this); },
+    set(fn) {
+      if (typeof fn !== "function") { slot.set.call(this, fn); return; }
+      slot.set.call(this, (ev) => {
+        if (typeof ev.data === "string") return fn(ev);
+        const arrived = performance.now();
+        performance.mark("tetmorph:frame-arrived");
+        const h = head(ev.data);
+        fn(ev);
+        if (h.frame === "boundary") return;
+        const rec = { seq: h.seq, sent: sent.get(h.seq), arrived, applied: performance.now(), rendered: null,
+                      solve_ms: h.report ? h.report.solve_ms : null };
+        frames.push(rec);
+        requestAnimationFrame(() => {  // after the editor's own draw of this frame (its loop asked first)
+          const c = document.getElementById("canvas");
+          const gl = c.getContext("webgl2") || c.getContext("webgl");
+          if (gl) gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+          rec.rendered = performance.now();
+          performance.mark("tetmorph:frame-rendered");
+          performance.measure("tetmorph:arrived-to-rendered", { start: arrived, end: rec.rendered });
+        });
+      });
+    } });
+})()"""
+
+
+def _split(pg, seqs: list[int], t0: float, t1: float, d0: int, d1: int) -> dict[str, float]:
+    """A drag's median service and page times (ms) of the full frames of ``seqs``, and its frame rates."""
+    recs = pg.evaluate("(s) => window.__tmFrames.filter((r) => s.includes(r.seq) && r.rendered !== null)", seqs)
+    if not recs:
+        return {}
+    med = lambda xs: float(np.median([x for x in xs if x is not None])) if any(x is not None for x in xs) \
+        else float("nan")  # noqa: E731
+    applied = pg.evaluate("([a, b]) => window.__tmFrames.filter((r) => r.applied >= a && r.applied <= b).length",
+                          [t0, t1])
+    secs = max((t1 - t0) / 1e3, 1e-9)
+    return {"update": med([r["solve_ms"] for r in recs]),
+            "sent_arrived": med([r["arrived"] - r["sent"] if r["sent"] is not None else None for r in recs]),
+            "page": med([r["rendered"] - r["arrived"] for r in recs]),
+            "apply": med([r["applied"] - r["arrived"] for r in recs]),
+            "fps_applied": applied / secs, "fps_drawn": (d1 - d0) / secs}
+
+
+def _drag(pg, steps: int, sign: int) -> tuple[list[float], int, dict[str, float]]:
+    """One drag of the gizmo's centre, 4 px a step: per step, pointer move → frame applied and painted (s).
+
+    Also answers the drag's split (:func:`_split`) between the service and the page, from the page's marks.
+    """
     if pg.is_checked("#snap"):
         pg.uncheck("#snap")
     c = pg.evaluate("window.tetmorph.pivotScreen()")
     pg.mouse.move(c["x"], c["y"])
     pg.mouse.down()
-    out, missed = [], 0
+    out, missed, seqs = [], 0, []
+    p0, d0 = pg.evaluate("[performance.now(), window.__tmDraws || 0]")
     for k in range(1, steps + 1):
         seq = pg.evaluate("window.tetmorph.session().seq")
         t0 = time.perf_counter()
@@ -206,8 +290,11 @@ def _drag(pg, steps: int, sign: int) -> tuple[list[float], int]:
             continue
         pg.evaluate(RAF)
         out.append(time.perf_counter() - t0)
+        seqs.append(pg.evaluate("window.tetmorph.session().lastSeq"))
+    p1, d1 = pg.evaluate("[performance.now(), window.__tmDraws || 0]")
     pg.mouse.up()
-    return out, missed
+    pg.evaluate(RAF)
+    return out, missed, _split(pg, seqs, p0, p1, d0, d1)
 
 
 def drags(a: argparse.Namespace) -> None:
@@ -233,7 +320,9 @@ def drags(a: argparse.Namespace) -> None:
         b = p.chromium.launch(executable_path=shutil.which("chromium"),
                               args=["--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
         # bypass_csp: Playwright's string predicates run as eval, which the page's CSP refuses
-        pg = b.new_context(viewport={"width": 1300, "height": 800}, bypass_csp=True).new_page()
+        ctx = b.new_context(viewport={"width": 1300, "height": 800}, bypass_csp=True)
+        ctx.add_init_script(FRAME_PROBE)
+        pg = ctx.new_page()
         pg.goto(base + "/")
         pg.wait_for_function("window.tetmorph !== undefined")
         pg.evaluate(HOOK_FALLBACK)
@@ -245,11 +334,12 @@ def drags(a: argparse.Namespace) -> None:
             load = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(a.load)]
             for proc in load:
                 proc.start()
-            per, missed = [], 0
+            per, missed, splits = [], 0, []
             for r in range(a.repeat):
-                t, m = _drag(pg, a.drag, -1 if r % 2 else 1)
+                t, m, sp = _drag(pg, a.drag, -1 if r % 2 else 1)
                 per.append(t)
                 missed += m
+                splits.append(sp)
         finally:
             for proc in load:
                 proc.terminate()
@@ -258,10 +348,42 @@ def drags(a: argparse.Namespace) -> None:
         b.close()
     every = np.concatenate(per) * 1e3
     medians = [float(np.median(t)) * 1e3 for t in per if t]
-    print(f"| {commit} | {what} ({int(tets):,} tets) | {'quiet' if not a.load else f'{a.load} CPU-bound'} | "
+    load_word = "quiet" if not a.load else f"{a.load} CPU-bound"
+    print("| checkout | mesh | load | drag → frame ms (median) | p95 ms | each drag's median ms | steps | missed "
+          "| load average before / after |")
+    print("|---|---|---|---:|---:|---|---:|---:|---|")
+    print(f"| {commit} | {what} ({int(tets):,} tets) | {load_word} | "
           f"{np.median(every):.0f} | {np.percentile(every, 95):.0f} | "
           f"{' / '.join(f'{m:.0f}' for m in medians)} | {len(every)} | {missed} | "
           f"{load_before:.1f} / {load_after:.1f} |")
+    print()
+    print(split_table(f"{what} ({int(tets):,} tets)", load_word, a.drag, splits, medians))
+
+
+def _cell(xs: list[float], digits: int = 0) -> str:
+    """median [min-max] of the finite values of ``xs``."""
+    v = [x for x in xs if np.isfinite(x)]
+    if not v:
+        return "n/a"
+    return f"{np.median(v):,.{digits}f} [{min(v):,.{digits}f}-{max(v):,.{digits}f}]"
+
+
+def split_table(what: str, load: str, steps: int, splits: list[dict[str, float]], medians: list[float]) -> str:
+    """The service / browser split of the drags, one row: median [min-max] over the drags' medians."""
+    got = [s for s in splits if s]
+    col = lambda k: [s[k] for s in got]  # noqa: E731
+    share = [s["page"] / (s["page"] + s["sent_arrived"]) for s in got
+             if np.isfinite(s["page"]) and np.isfinite(s["sent_arrived"])]
+    return "\n".join([
+        f"{what}, {load}: {len(got)} drags of {steps} steps; median [min-max] over the drags of each drag's median",
+        "",
+        "| drag → frame on screen ms | service update ms (REPORT) | page: send → frame arrived ms "
+        "| page: arrived → rendered ms | of which apply ms | page share of send → rendered | frames/s applied "
+        "| page fps |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|",
+        f"| {_cell(medians)} | {_cell(col('update'), 1)} | {_cell(col('sent_arrived'))} | {_cell(col('page'))} "
+        f"| {_cell(col('apply'), 1)} | {_cell(share, 2)} | {_cell(col('fps_applied'), 1)} "
+        f"| {_cell(col('fps_drawn'), 1)} |"])
 
 
 #: (label, page script switching the view on, script switching it off)

@@ -10,7 +10,8 @@ __all__ = ["COORD_MAX", "MAX_POINTS", "MAX_CELLS", "EXTENT", "SCALE_MIN", "SCALE
            "WALL_WEIGHT_MAX", "POINT_WEIGHT_MAX", "ID_MAX", "ANGLE_MAX", "ANGLE_BETWEEN_MAX",
            "TARGET_AMOUNT_MAX", "SHAPES_MAX", "SHAPE_NAME_MAX", "PLAN_ROWS_MAX", "PLAN_TEXT_MAX", "BLOCK_MAX",
            "SHAPE_VALUE_MAX", "BOUNDS_TOL_MAX", "MAX_EXPANDED_BYTES",
-           "THREADS_MAX", "LATTICE_COUNT_MAX"]
+           "THREADS_MAX", "LATTICE_COUNT_MAX", "EDGE_LENGTH_FAC_MIN", "EDGE_LENGTH_FAC_MAX",
+           "ENVELOPE_MAX"]
 
 #: Largest magnitude of a mesh coordinate, and of any coordinate, direction or target in a
 #: document. Far beyond any part in any unit, and small enough that squared distances and
@@ -79,3 +80,13 @@ THREADS_MAX = 1024
 #: Most control points of a morph volume's lattice along one axis (SPEC ``lattice[].counts``): a
 #: Bernstein polynomial of degree 15 at most per axis, 4,096 control points in all.
 LATTICE_COUNT_MAX = 16
+#: Smallest target edge length of a tetrahedralization, as a fraction of the surface's bounding-box
+#: diagonal (``edge_length_fac``, and an absolute ``edge_length`` divided by the diagonal). A tet mesh's
+#: count grows as the cube of the inverse: at a thousandth of the diagonal a cube holds some
+#: 10^8 tetrahedra, beyond what fTetWild finishes within the service's time limit or memory.
+EDGE_LENGTH_FAC_MIN = 1e-3
+#: Largest target edge length, as a fraction of the bounding-box diagonal: one edge across the part.
+EDGE_LENGTH_FAC_MAX = 1.0
+#: Largest fTetWild envelope (``epsilon``), as a fraction of the bounding-box diagonal: a tenth of the
+#: part's size is no longer its shape.
+ENVELOPE_MAX = 0.1

@@ -157,8 +157,11 @@ ERRORS: dict[str, tuple[str, str]] = {
                         "Fix the named field (see the document reference)."),
     "invalid_message": ("A WebSocket frame is not a JSON object `{seq, move}` (binary, not JSON, no `move`).",
                         "Send text frames `{\"seq\": k, \"move\": MOVE}`."),
-    "out_of_range": ("A translation, pivot or target lies farther than 100 bounding-box diagonals from the mesh.",
-                     "Check the units of the MOVE against the mesh's."),
+    "out_of_range": ("A translation, pivot or target lies farther than 100 bounding-box diagonals from the mesh; "
+                     "or a tetrahedralization's `edge_length` (`details.field`) is outside [0.001, 1] diagonals "
+                     "of the surface.",
+                     "Check the units of the MOVE against the mesh's; give an edge length within "
+                     "`details.min` and `details.max`."),
     "solve_option_not_allowed": ("The SPEC's `solve_options` set a field the service leaves to its operator "
                                  "(by default `backend`, `sweeps` and `basis`).",
                                  "Leave the field out, or ask the operator to add it to "

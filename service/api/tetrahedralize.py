@@ -3,8 +3,10 @@
 fTetWild runs in a worker process (:mod:`service.state.jobs`) with a time
 limit. POST answers 201 with the mesh when the job ends within
 ``job_wait_s``, else 202 with the job (poll ``GET /v1/jobs/{id}``; cancel with
-``DELETE``). Surfaces that cannot work (open, too large, bad indices) answer
-422 before any worker starts.
+``DELETE``); ``wait=false`` answers 202 at once, for a client that shows the
+job's stages and offers to cancel it. Surfaces and options that cannot work
+(open, too large, bad indices, an edge length outside the bounds of
+:mod:`solver.limits`) answer 422 before any worker starts.
 """
 
 from __future__ import annotations
@@ -17,8 +19,8 @@ from pydantic import Field
 from pydantic.json_schema import SkipJsonSchema
 
 from solver.errors import InvalidMeshError
-from solver.io.tetrahedralize import open_edges
-from solver.limits import COORD_MAX
+from solver.io.tetrahedralize import check_edge_length, open_edges
+from solver.limits import COORD_MAX, EDGE_LENGTH_FAC_MAX, EDGE_LENGTH_FAC_MIN, ENVELOPE_MAX
 from solver.mesh import mesh_from_arrays
 
 from ..errors import error_from_dict
@@ -53,14 +55,19 @@ async def tetrahedralize(
         max_length=10, description="stl, obj, ply or off; default from the file name",
         json_schema_extra={"enum": SURFACE_FORMAT_VALUES})] = None,
     edge_length: Annotated[Annotated[float, Field(gt=0, le=COORD_MAX, allow_inf_nan=False)] | SkipJsonSchema[None],
-                           Form(description="absolute target edge length")] = None,
-    edge_length_fac: Annotated[float, Form(gt=0, le=1, allow_inf_nan=False, description="target edge "
-                                           "length / bounding-box diagonal")] = 0.05,
-    epsilon: Annotated[float, Form(gt=0, le=0.1, allow_inf_nan=False,
+                           Form(description="absolute target edge length; overrides edge_length_fac, and must "
+                                f"lie within [{EDGE_LENGTH_FAC_MIN:g}, {EDGE_LENGTH_FAC_MAX:g}] bounding-box "
+                                "diagonals of the surface (422 out_of_range, field edge_length)")] = None,
+    edge_length_fac: Annotated[float, Form(ge=EDGE_LENGTH_FAC_MIN, le=EDGE_LENGTH_FAC_MAX, allow_inf_nan=False,
+                                           description="target edge length / bounding-box diagonal: smaller "
+                                           "gives more tetrahedra (about its inverse cubed)")] = 0.05,
+    epsilon: Annotated[float, Form(gt=0, le=ENVELOPE_MAX, allow_inf_nan=False,
                                    description="envelope / bounding-box diagonal")] = 1e-3,
     optimize: Annotated[bool, Form()] = True,
     allow_open: Annotated[bool, Form(description="accept border edges")] = False,
     name: Annotated[str | None, Form(max_length=200)] = None,
+    wait: Annotated[bool, Form(description="wait up to the service's job_wait_s for the mesh (201); false: "
+                               "answer 202 with the job at once")] = True,
 ) -> JSONResponse:
     """Fill the surface with tetrahedra in a worker process, orient them positively, store the mesh."""
     settings = request.app.state.settings
@@ -76,6 +83,7 @@ async def tetrahedralize(
             f"the surface is not closed: {len(opened)} edges are not shared by exactly two triangles "
             f"(first {opened[:3].tolist()}); close it, or pass allow_open", code="open_surface",
             open_edges=int(len(opened)))
+    check_edge_length(V, edge_length, edge_length_fac, epsilon)  # 422 out_of_range naming the field; no job
     options = {"edge_length": edge_length, "edge_length_fac": edge_length_fac, "epsilon": epsilon,
                "optimize": optimize, "allow_open": allow_open}
 
@@ -94,7 +102,7 @@ async def tetrahedralize(
     job = jobs.submit(owner, tetra_worker.run, (V, F, options), store, unstore)
     assert job.task is not None
     try:
-        await asyncio.wait_for(asyncio.shield(job.task), settings.job_wait_s)
+        await asyncio.wait_for(asyncio.shield(job.task), settings.job_wait_s if wait else 0)
     except TimeoutError:
         pass
     if job.status == "done" and job.result is not None:

@@ -64,8 +64,14 @@ class JobDoc(BaseModel):
     id: str
     kind: Literal["tetrahedralize", "batch", "study"] = "tetrahedralize"
     status: Literal["queued", "running", "done", "failed", "cancelled"]
-    stage: str = Field(description="reading, tetrahedralizing, storing, solving, done")
-    progress: float = Field(description="0 to 1: rows done / rows of a batch; fTetWild reports no finer progress")
+    stage: str = Field(description="a tetrahedralization: queued, starting (its worker process), "
+                       "tetrahedralizing (fTetWild), checking (orienting and validating the tets), storing, done; "
+                       "a batch: queued, solving, done; failed or cancelled")
+    progress: float | None = Field(description="0 to 1: rows done / rows of a batch; for a tetrahedralization "
+                                   "null until it is done (1): fTetWild reports no progress, so its stage and "
+                                   "elapsed_s say where it is")
+    stages: list[dict[str, Any]] | None = Field(None, description="a tetrahedralization's stages so far, in "
+                                                "order: [{stage, at_s}], at_s the seconds since it started")
     elapsed_s: float
     time_limit_s: float
     created: float

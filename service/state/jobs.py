@@ -61,19 +61,31 @@ class Job:
     #: The finished batch's zip, and its summary counts.
     result_path: Any = None
     summary: dict[str, Any] | None = None
+    #: Each stage a tetrahedralization entered, with the seconds since it started: ``[(stage, at_s)]``.
+    stages: list[tuple[str, float]] = field(default_factory=list)
+
+    def enter(self, stage: str) -> None:
+        """Enter ``stage`` (a tetrahedralization's), unless the job has ended; noted in :attr:`stages`."""
+        with self.lock:
+            if self.status in ("queued", "running"):
+                self.stage = stage
+                self.stages.append((stage, round(time.time() - (self.started or time.time()), 3)))
 
     def doc(self) -> dict[str, Any]:
         """The public description (GET /v1/jobs/{id})."""
         end = self.finished or time.time()
-        if self.kind == "tetrahedralize":
-            frac = {"queued": 0.0, "reading": 0.05, "tetrahedralizing": 0.1, "storing": 0.9}.get(self.stage, 1.0)
+        frac: float | None
+        if self.kind == "tetrahedralize":  # fTetWild tells nothing of how far it is: its stage and time say it
+            frac = 1.0 if self.status == "done" else None
         else:
-            frac = 1.0 if self.status == "done" else self.done / max(self.total, 1)
-        doc = {"id": self.id, "kind": self.kind, "status": self.status, "stage": self.stage,
-               "progress": round(frac, 4), "elapsed_s": round(end - (self.started or end), 3),
-               "time_limit_s": self.time_limit_s, "created": self.created, "error": self.error,
-               "mesh": self.result}
-        if self.kind != "tetrahedralize":
+            frac = round(1.0 if self.status == "done" else self.done / max(self.total, 1), 4)
+        doc: dict[str, Any] = {
+            "id": self.id, "kind": self.kind, "status": self.status, "stage": self.stage, "progress": frac,
+            "elapsed_s": round(end - (self.started or end), 3), "time_limit_s": self.time_limit_s,
+            "created": self.created, "error": self.error, "mesh": self.result}
+        if self.kind == "tetrahedralize":
+            doc["stages"] = [{"stage": name, "at_s": at} for name, at in self.stages]
+        else:
             base = f"/v1/sessions/{self.session_id}/{'study' if self.kind == 'study' else 'batch'}/{self.id}"
             doc.update({"session_id": self.session_id, "rows_done": self.done, "rows_total": self.total,
                         "summary": self.summary, "result": base + "/result" if self.status == "done" else None})
@@ -251,7 +263,8 @@ class JobRunner:
         async with self._slots:
             if job.status == "cancelled":
                 return
-            job.status, job.stage, job.started = "running", "tetrahedralizing", time.time()
+            job.status, job.stage, job.started = "running", "starting", time.time()
+            job.stages.append(("starting", 0.0))
             parent, child = _SPAWN.Pipe(duplex=False)
             work = tempfile.mkdtemp(prefix=f"tetmorph-job-{job.id}-")
             proc = _SPAWN.Process(target=target, args=(child, work, *args), daemon=True)
@@ -259,7 +272,7 @@ class JobRunner:
             try:
                 proc.start()
                 child.close()
-                msg = await asyncio.to_thread(self._wait, parent, proc, job.time_limit_s)
+                msg = await asyncio.to_thread(self._wait, parent, proc, job)
             finally:
                 self._kill(job)
                 parent.close()
@@ -278,10 +291,11 @@ class JobRunner:
             if msg[0] == "error":
                 job.status, job.stage, job.finished, job.error = "failed", "failed", time.time(), msg[1]
                 return
-            with job.lock:
+            with job.lock:  # storing starts unless cancelled first: cancel() then leaves the undoing to this task
                 if job.status == "cancelled":
                     return
                 job.stage = "storing"
+                job.stages.append(("storing", round(time.time() - job.started, 3)))
             try:
                 result = await finish(msg)
             except Exception as e:  # noqa: BLE001 - stored on the job, answered by GET /v1/jobs/{id}
@@ -299,17 +313,24 @@ class JobRunner:
                 await undo(result)
 
     @staticmethod
-    def _wait(conn: Any, proc: Any, limit: float) -> Any:
-        """The child's message, or None when it died or ran past ``limit`` seconds."""
-        deadline = time.monotonic() + limit
+    def _wait(conn: Any, proc: Any, job: Job) -> Any:
+        """The child's last message, or None when it died or ran past the job's time limit.
+
+        ``("stage", name)`` messages before it move the job to that stage.
+        """
+        deadline = time.monotonic() + job.time_limit_s
         while True:
             left = deadline - time.monotonic()
             if left <= 0:
                 return None
             if conn.poll(min(left, 0.5)):
                 try:
-                    return conn.recv()
+                    msg = conn.recv()
                 except (EOFError, OSError):
                     return None
+                if isinstance(msg, tuple) and len(msg) == 2 and msg[0] == "stage":
+                    job.enter(str(msg[1]))
+                    continue
+                return msg
             if not proc.is_alive() and not conn.poll(0):
                 return None

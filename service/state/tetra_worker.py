@@ -18,6 +18,9 @@ __all__ = ["run"]
 def run(conn: Connection, work: str, V: np.ndarray, F: np.ndarray, options: dict[str, Any]) -> None:
     """Tetrahedralize in the folder ``work``; send ``("ok", V, T, info)`` or ``("error", error_dict)``.
 
+    Before it, ``("stage", name)`` says each step as it starts (``tetrahedralizing``, ``checking``):
+    fTetWild reports no progress of its own.
+
     ``work`` belongs to the job runner, which removes it when this process has ended.
     """
     from solver.errors import SolverError
@@ -25,7 +28,7 @@ def run(conn: Connection, work: str, V: np.ndarray, F: np.ndarray, options: dict
 
     os.chdir(work)  # fTetWild writes into the working directory
     try:
-        mesh, info = tetrahedralize(V, F, **options)
+        mesh, info = tetrahedralize(V, F, **options, stage=lambda name: conn.send(("stage", name)))
         conn.send(("ok", mesh.V, mesh.T, info))
     except SolverError as e:
         conn.send(("error", e.to_dict()))

@@ -14,11 +14,12 @@ from typing import Any
 import numpy as np
 
 from ..errors import InvalidMeshError
+from ..limits import EDGE_LENGTH_FAC_MAX, EDGE_LENGTH_FAC_MIN, ENVELOPE_MAX
 from ..mesh import Mesh, mesh_from_arrays
 from ..ops.unique import unique
 from ..validity.quality import signed_volumes
 
-__all__ = ["tetrahedralize", "open_edges"]
+__all__ = ["tetrahedralize", "open_edges", "check_edge_length"]
 
 #: File fTetWild writes into the working directory on every run.
 TRACKED_SURFACE = "__tracked_surface.stl"
@@ -46,9 +47,65 @@ def open_edges(F: np.ndarray) -> np.ndarray:
     return uniq[counts != 2]
 
 
+def check_edge_length(V: np.ndarray, edge_length: float | None, edge_length_fac: float,
+                      epsilon: float = 1e-3) -> float:
+    """The target edge length relative to the bounding-box diagonal of ``V``, checked against its bounds.
+
+    Parameters
+    ----------
+    V : (n, 3) float array
+        Surface vertices.
+    edge_length : float or None
+        Absolute target edge length; when given, it decides (``edge_length_fac`` is not used).
+    edge_length_fac : float
+        Target edge length / bounding-box diagonal.
+    epsilon : float
+        Envelope / bounding-box diagonal.
+
+    Returns
+    -------
+    float
+        The relative edge length fTetWild will aim at.
+
+    Raises
+    ------
+    InvalidMeshError
+        ``out_of_range`` naming the ``field`` (``edge_length``, ``edge_length_fac`` or ``epsilon``),
+        the value, the bounds and the diagonal, when a length lies outside
+        [:data:`~solver.limits.EDGE_LENGTH_FAC_MIN`, :data:`~solver.limits.EDGE_LENGTH_FAC_MAX`] of the
+        diagonal or the envelope outside (0, :data:`~solver.limits.ENVELOPE_MAX`].
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [3, 0, 0], [0, 4, 0], [0, 0, 0]])
+    >>> check_edge_length(V, 0.5, 0.05)
+    0.1
+    """
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) if len(V) else 0.0
+    if not (np.isfinite(epsilon) and 0 < epsilon <= ENVELOPE_MAX):
+        raise InvalidMeshError(f"epsilon {epsilon!r} lies outside (0, {ENVELOPE_MAX:g}] (a fraction of the "
+                               "bounding-box diagonal)", code="out_of_range", field="epsilon", value=epsilon,
+                               min=0.0, max=ENVELOPE_MAX)
+    if edge_length is None:
+        field, value, rel = "edge_length_fac", edge_length_fac, edge_length_fac
+    else:
+        field, value = "edge_length", edge_length
+        rel = edge_length / diag if diag > 0 and np.isfinite(edge_length) else float("nan")
+    if not (np.isfinite(rel) and EDGE_LENGTH_FAC_MIN <= rel <= EDGE_LENGTH_FAC_MAX):
+        absolute = (f" (of a bounding-box diagonal of {diag:.6g}: between {EDGE_LENGTH_FAC_MIN * diag:.6g} and "
+                    f"{EDGE_LENGTH_FAC_MAX * diag:.6g})" if field == "edge_length" else "")
+        raise InvalidMeshError(
+            f"{field} {value!r} lies outside [{EDGE_LENGTH_FAC_MIN:g}, {EDGE_LENGTH_FAC_MAX:g}] of the "
+            f"bounding-box diagonal{absolute}", code="out_of_range", field=field, value=value,
+            min=EDGE_LENGTH_FAC_MIN * (diag if field == "edge_length" else 1.0),
+            max=EDGE_LENGTH_FAC_MAX * (diag if field == "edge_length" else 1.0), diagonal=diag)
+    return float(rel)
+
+
 def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length_fac: float = 0.05,
                    epsilon: float = 1e-3, optimize: bool = True, allow_open: bool = False, retry: bool = True,
-                   log: Callable[[str], None] | None = None, threads: int = 0) -> tuple[Mesh, dict[str, Any]]:
+                   log: Callable[[str], None] | None = None, threads: int = 0,
+                   stage: Callable[[str], None] | None = None) -> tuple[Mesh, dict[str, Any]]:
     """Fill a closed surface with tetrahedra (fTetWild), checked as a manifold tet mesh.
 
     fTetWild's output is validated like any input mesh (:func:`solver.mesh.validate`).
@@ -80,6 +137,10 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
         Run once more with ``epsilon / 2`` when the output is not a valid mesh.
     log : callable, optional
         ``log(message)`` is told about a retry.
+    stage : callable, optional
+        ``stage(name)`` is told when each step starts: ``"tetrahedralizing"`` (fTetWild's run, the
+        long part; again on a retry) and ``"checking"`` (orienting and validating its output).
+        fTetWild reports no progress of its own, so there is no finer measure of how far it is.
     threads : int
         fTetWild's threads (0: every core). fTetWild is not deterministic,
         even on one thread: two runs may differ, and one may need the retry
@@ -97,7 +158,8 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
     Raises
     ------
     InvalidMeshError
-        Bad arrays, an open surface (unless allowed), bad options, or a
+        Bad arrays, an open surface (unless allowed), bad options (``bad_option``; ``out_of_range``
+        from :func:`check_edge_length`, naming the field), or a
         tetrahedralization that is not a valid mesh after the retry
         (``tetrahedralization_failed``, with the attempts).
     """
@@ -120,6 +182,7 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
     if not (edge_length is None or edge_length > 0) or not edge_length_fac > 0 or not epsilon > 0:
         raise InvalidMeshError(f"edge_length ({edge_length}), edge_length_fac ({edge_length_fac}) "
                                f"and epsilon ({epsilon}) must be positive", code="bad_option")
+    check_edge_length(V, edge_length, edge_length_fac, epsilon)
     opened = open_edges(F)
     if opened.size and not allow_open:
         raise InvalidMeshError(
@@ -130,7 +193,11 @@ def tetrahedralize(V: Any, F: Any, edge_length: float | None = None, edge_length
     tries = (epsilon, epsilon / 2) if retry else (epsilon,)
     mesh, flipped = None, 0
     for k, eps in enumerate(tries):
+        if stage is not None:
+            stage("tetrahedralizing")
         Vt, Tt = _ftetwild(V, F, edge_length, edge_length_fac, eps, optimize, threads)
+        if stage is not None:
+            stage("checking")
         try:
             mesh, flipped = _checked(Vt, Tt)
         except InvalidMeshError as e:

@@ -30,6 +30,7 @@ import { DoePlanPanel } from "./doeplan.js";
 import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
 import { saveBlob, SessionControl } from "./session.js";
 import { on, state } from "./state.js";
+import { TetraDialog } from "./tetradialog.js";
 import { stateAccessors } from "./testhook.js";
 import { Viewer } from "./viewer.js";
 import { Workspace } from "./workspace.js";
@@ -69,6 +70,7 @@ const undoKeys = new UndoKeys(regionTools.history, moves);
 new FloodFill(viewer, regions, regionTools.history);
 new Diagnostics(viewer, meshView, regions);
 const cyclicPairs = new CyclicPairs(viewer, regions);
+const tetraDialog = new TetraDialog({ opened: async (id) => { await listMeshes(); await openMesh(id); } });
 
 // ------------------------------------------------------------------ signals -> panels
 const legend = () => { drawLegend(meshView, state.regions); placeLegend(); };
@@ -244,42 +246,6 @@ function showSurface() {
   el.hidden = false;
 }
 
-/** Fill the open surface with tetrahedra on the service (POST /v1/tetrahedralize) and open the result. */
-async function tetrahedralize() {
-  if (!state.surface || !state.meshId) return;
-  clearError();
-  setBusy("tetrahedralizing");
-  try {
-    const stem = state.meshName.replace(/\.[^.]+$/, "");
-    let file;
-    if (["stl", "obj", "ply", "off"].includes(state.meshFormat)) {
-      file = new File([await (await api(`/v1/meshes/${state.meshId}/file`)).blob()], state.meshName);
-    } else {  // another format holding triangles: its surface as an OFF file
-      const V = state.V0, F = state.F, lines = ["OFF", `${V.length / 3} ${F.length / 3} 0`];
-      for (let i = 0; i < V.length; i += 3) lines.push(`${V[i]} ${V[i + 1]} ${V[i + 2]}`);
-      for (let f = 0; f < F.length; f += 3) lines.push(`3 ${F[f]} ${F[f + 1]} ${F[f + 2]}`);
-      file = new File([lines.join("\n") + "\n"], `${stem}.off`);
-    }
-    const fd = new FormData();
-    fd.append("file", file, file.name);
-    fd.append("name", `${stem}.tet`);
-    const r = await api("/v1/tetrahedralize", { method: "POST", body: fd });
-    let doc = await r.json();
-    if (r.status === 202) {  // still running: poll the job
-      for (;;) {
-        if (doc.status === "done") { doc = doc.mesh; break; }
-        if (doc.status === "failed" || doc.status === "cancelled")
-          throw Object.assign(new Error(`tetrahedralization ${doc.status}`), { body: { error: doc.error } });
-        setBusy(`tetrahedralizing (${doc.stage})`);
-        await new Promise((res) => setTimeout(res, 1000));
-        doc = await getJson(`/v1/jobs/${doc.id}`);
-      }
-    }
-    await listMeshes();
-    await openMesh(doc.id);
-  } catch (e) { showError(e); } finally { setBusy(null); }
-}
-
 async function listMeshes() {
   try {
     const list = await getJson("/v1/meshes");
@@ -311,6 +277,7 @@ async function upload(files) {
     await listMeshes();
     $("meshes").value = meta.id;
     await openMesh(meta.id);
+    if (state.surface) tetraDialog.open();  // a surface has nothing to morph: offer to fill it
   } catch (e) { showError(e); } finally { setBusy(null); }
 }
 
@@ -501,7 +468,7 @@ $("reset").addEventListener("click", async () => {
 });
 $("download").addEventListener("click", () => session.download());
 $("format").addEventListener("change", formatNote);
-$("tetrahedralize").addEventListener("click", tetrahedralize);
+$("tetrahedralize").addEventListener("click", () => tetraDialog.open());
 $("handle-select").addEventListener("change", () => moves.setActive($("handle-select").value));
 $("preset-save").addEventListener("click", () => { if (state.sessionId) moves.savePreset($("preset-name").value); });
 $("fit").addEventListener("click", fit);

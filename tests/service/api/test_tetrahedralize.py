@@ -222,3 +222,125 @@ def test_a_surface_declaring_more_than_the_settings_allow_is_refused_before_it_i
             else:
                 assert e["details"]["declared"] == 4_000_000_000, (case, e)
             assert tc.get("/v1/meshes").json() == [], case
+
+
+def test_bad_edge_lengths_answer_typed_errors_naming_the_field_and_start_no_job(tmp_path):
+    """Lengths outside solver/limits.py's bounds: 422 naming the field, before any worker starts; nothing stored."""
+    from solver.limits import EDGE_LENGTH_FAC_MAX, EDGE_LENGTH_FAC_MIN, ENVELOPE_MAX
+
+    V, F = sphere_surface(1, 1.0)
+    path = tmp_path / "ball.stl"
+    meshio.write(path, meshio.Mesh(V, [("triangle", F)]))
+    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    form = [({"edge_length_fac": str(EDGE_LENGTH_FAC_MIN / 2)}, "invalid_request", "edge_length_fac"),
+            ({"edge_length_fac": "1.5"}, "invalid_request", "edge_length_fac"),
+            ({"edge_length_fac": "nan"}, "invalid_request", "edge_length_fac"),
+            ({"edge_length": "-1"}, "invalid_request", "edge_length"),
+            ({"edge_length": "inf"}, "invalid_request", "edge_length"),
+            ({"epsilon": str(2 * ENVELOPE_MAX)}, "invalid_request", "epsilon")]
+    with running(tmp_path / "d") as tc:
+        for data, code, field in form:
+            r = tc.post("/v1/tetrahedralize", files=[("file", ("ball.stl", path.read_bytes()))], data=data)
+            e = err(r)
+            assert r.status_code == 422 and e["code"] == code, (data, e)
+            assert {tuple(x["loc"][:2]) for x in e["details"]["errors"]} == {("body", field)}, (data, e)
+            assert f"body.{field}" in e["message"], e
+        # an absolute length is bounded by the surface's own diagonal, known once it is read
+        for length, bound in ((diag * EDGE_LENGTH_FAC_MIN / 10, "min"), (diag * EDGE_LENGTH_FAC_MAX * 3, "max")):
+            r = tc.post("/v1/tetrahedralize", files=[("file", ("ball.stl", path.read_bytes()))],
+                        data={"edge_length": repr(length)})
+            e = err(r)
+            assert r.status_code == 422 and e["code"] == "out_of_range", e
+            d = e["details"]
+            assert d["field"] == "edge_length" and d["value"] == length and abs(d["diagonal"] / diag - 1) < 1e-9
+            assert (length < d["min"]) if bound == "min" else (length > d["max"]), e
+            assert abs(d["min"] - EDGE_LENGTH_FAC_MIN * diag) < 1e-9 * diag, e
+        assert tc.get("/v1/meshes").json() == [] and tc.app.state.jobs.jobs == {}
+
+
+def test_the_library_refuses_an_edge_length_beyond_its_bounds_naming_the_field():
+    from solver.errors import InvalidMeshError
+    from solver.io.tetrahedralize import check_edge_length, tetrahedralize
+
+    V, F = sphere_surface(1, 1.0)
+    with pytest.raises(InvalidMeshError) as ex:
+        tetrahedralize(V, F, edge_length_fac=1e-4)
+    assert ex.value.code == "out_of_range" and ex.value.details["field"] == "edge_length_fac"
+    with pytest.raises(InvalidMeshError) as ex:
+        tetrahedralize(V, F, edge_length=10.0)  # the diagonal is 2 * sqrt(3)
+    assert ex.value.code == "out_of_range" and ex.value.details["field"] == "edge_length"
+    assert check_edge_length(V, 0.2 * np.linalg.norm(V.max(0) - V.min(0)), 0.05) == pytest.approx(0.2)
+
+
+def _real_surface():
+    """tests/data/42400-IDGH.stl: a CAD part with ten holes (tests/data/README.md)."""
+    from pathlib import Path
+
+    return Path(__file__).resolve().parents[2] / "data" / "42400-IDGH.stl"
+
+
+def _finish(tc, job, limit=600):
+    deadline = time.monotonic() + limit
+    while (doc := tc.get(f"/v1/jobs/{job['id']}").json())["status"] in ("queued", "running"):
+        assert doc["progress"] is None  # fTetWild tells nothing of how far it is: no made-up fraction
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+    return doc
+
+
+@pytest.mark.slow
+def test_a_shorter_edge_length_gives_more_tetrahedra_on_a_real_surface(tmp_path):
+    """Keenan Crane's spot (shared data) at two edge lengths, through the job queue: the shorter gives more tets.
+
+    Above about 0.1 of the diagonal fTetWild keeps the surface's own triangles and the count hardly
+    changes (0.3 and 0.1 both gave 11,859 to 13,068 tets); at 0.03 it is about 1.7 times that, and
+    fTetWild's run-to-run spread is about 10 %.
+    """
+    from tests.conftest import shared_file
+
+    m = meshio.read(shared_file("surface/spot.vtu"))
+    path = tmp_path / "spot.stl"
+    meshio.write(path, meshio.Mesh(m.points, [("triangle", m.cells_dict["triangle"])]))
+    counts = {}
+    with running(tmp_path / "d") as tc:
+        for fac in ("0.1", "0.03"):
+            r = tc.post("/v1/tetrahedralize", files=[("file", (path.name, path.read_bytes()))],
+                        data={"edge_length_fac": fac, "wait": "false"})
+            assert r.status_code == 202, r.text
+            doc = _finish(tc, r.json())
+            assert doc["status"] == "done" and doc["progress"] == 1.0, doc
+            stages = [s["stage"] for s in doc["stages"]]
+            assert stages[:2] == ["starting", "tetrahedralizing"] and stages[-2:] == ["checking", "storing"], stages
+            assert [s["at_s"] for s in doc["stages"]] == sorted(s["at_s"] for s in doc["stages"])
+            mid = doc["mesh"]["id"]
+            (tmp_path / f"{fac}.vtu").write_bytes(tc.get(f"/v1/meshes/{mid}/file").content)
+            counts[fac] = len(meshio.read(tmp_path / f"{fac}.vtu").cells_dict["tetra"])
+            assert doc["mesh"]["tetrahedralization"]["used"]["edge_length_fac"] == float(fac)
+    assert counts["0.03"] > 1.3 * counts["0.1"], counts
+
+
+def test_a_cancelled_tetrahedralization_stops_its_worker_and_stores_nothing(tmp_path):
+    """wait=false answers 202 at once; the job says its stage; DELETE mid-run kills the worker, stores nothing."""
+    import psutil
+
+    path = _real_surface()
+    with running(tmp_path / "d") as tc:
+        r = tc.post("/v1/tetrahedralize", files=[("file", (path.name, path.read_bytes()))],
+                    data={"edge_length_fac": "0.01", "wait": "false"})  # minutes of fTetWild
+        assert r.status_code == 202 and r.json()["progress"] is None, r.text
+        job = r.json()
+        deadline = time.monotonic() + 120
+        while (doc := tc.get(f"/v1/jobs/{job['id']}").json())["stage"] != "tetrahedralizing":
+            assert doc["status"] == "running" and time.monotonic() < deadline, doc
+            time.sleep(0.1)
+        worker = tc.app.state.jobs.jobs[job["id"]].process
+        kid = psutil.Process(worker.pid)
+        assert kid.is_running()
+        r = tc.delete(f"/v1/jobs/{job['id']}")
+        assert r.status_code == 200 and r.json()["status"] == "cancelled", r.text
+        assert [s["stage"] for s in r.json()["stages"]] == ["starting", "tetrahedralizing"]
+        psutil.wait_procs([kid], timeout=10)
+        assert not kid.is_running() or kid.status() == psutil.STATUS_ZOMBIE
+        time.sleep(0.5)
+        assert tc.get("/v1/meshes").json() == []
+        assert tc.get(f"/v1/jobs/{job['id']}").json()["status"] == "cancelled"

@@ -36,10 +36,13 @@ export function showError(e) {
     const r = x.report;
     lines.push(`inverted elements: ${fmt(r.inverted_elements)}`);
     if (r.safe_fraction !== undefined) lines.push(`safe fraction: ${fmt(r.safe_fraction)}`);
-    if (r.conflicting_constraints && r.conflicting_constraints.length) {
-      const c = conflictRows(r.conflicting_constraints, state.labels);
-      lines.push(`conflicting constraints: ${c.count}`, ...(c.nodes ? [`at ${c.nodes}`] : []), c.fix);
-    }
+  }
+  // a MOVE's refusal carries them in its REPORT, a refusal at rest (Create session) in its details
+  const conflicts = x.report ? x.report.conflicting_constraints
+    : x.code === "conflicting_constraints" ? (x.details || {}).conflicting_constraints : null;
+  if (conflicts && conflicts.length) {
+    const c = conflictRows(conflicts, state.labels);
+    lines.push(`conflicting constraints: ${c.count}`, ...(c.nodes ? [`at ${c.nodes}`] : []), c.fix);
   }
   $("error-text").innerHTML = `<div class="what">${esc(x.text)}</div>` +
     (x.hint ? `<div class="hint">${esc(x.hint)}</div>` : "") +

@@ -18,6 +18,10 @@ Sections (all by default, or pick with --only):
                1M tets) factored by PARDISO with its default iparm (iparm(1) = 0) and with
                tetmorph's (no iterative refinement): solve time for 3 right-hand sides, residual;
                and CHOLMOD on the same pattern symmetrised, as a floor for a direct solve.
+``nd-threads`` PARDISO's fill-reducing ordering, METIS's nested dissection on one thread
+               (iparm(2) = 2, tetmorph's) against the OpenMP one (3), on the bracket's interior
+               system (107k and 1M tets): factor time, and how many distinct solutions the
+               repeated factorizations give (run it under load too).
 ``kernels``    the compiled per-update and assembly kernels against the same formulas as numpy
                array expressions (bracket 0.95): quality check, rotation of the normals,
                mean-value weights.
@@ -720,6 +724,35 @@ def library() -> None:
         print(f"| {label} | {cost(block)} | {'yes' if effective(block) else 'no'} |", flush=True)
 
 
+def nd_threads() -> None:
+    """METIS's nested dissection on one thread (iparm(2) = 2) against the OpenMP one (3): time and bits."""
+    import hashlib
+
+    from solver import precompute, read_mesh
+
+    print("| mesh | interior unknowns | iparm(2) | factor s, median [range] | distinct solutions |")
+    print("|---|---:|---|---:|---:|")
+    for size, runs in ((0.95, 7), (0.44, 3)):
+        mesh = read_mesh(deck("bracket", size))
+        d = precompute(mesh, end_spec(mesh))
+        A = d.data.positions.Mfi[:, d.data.positions.free_interior].tocsr()
+        b = np.asfortranarray(np.random.default_rng(0).standard_normal((A.shape[0], 3)))
+        del d
+        times: dict[int, list[float]] = {2: [], 3: []}
+        bits: dict[int, set[str]] = {2: set(), 3: set()}
+        for _ in range(runs):  # alternated, so that a change of load meets both
+            for nd in (2, 3):
+                t = time.perf_counter()
+                f = _pardiso_with(A, single=False, iparm={2: nd})
+                times[nd].append(time.perf_counter() - t)
+                bits[nd].add(hashlib.sha256(np.ascontiguousarray(f.solve(b)).tobytes()).hexdigest())
+                f.release()
+        for nd, label in ((2, "2 (one thread)"), (3, "3 (OpenMP)")):
+            ts = times[nd]
+            print(f"| bracket {size:g} | {A.shape[0]:,} | {label} | {np.median(ts):.2f} [{min(ts):.2f}-{max(ts):.2f}] "
+                  f"| {len(bits[nd])} of {runs} |", flush=True)
+
+
 def distinct() -> None:
     from solver import read_mesh
     from solver.ops.unique import unique
@@ -738,7 +771,7 @@ def distinct() -> None:
 SECTIONS = {"orderings": orderings, "small-lu": small_lu, "penalty": penalty, "refine": refine, "midside": midside,
             "constraints": constraints, "pardiso": pardiso, "interior": interior, "layout": layout, "kernels": kernels,
             "check": check, "supernodal": supernodal,
-            "interior-1m": interior_1m, "distinct": distinct, "library": library}
+            "interior-1m": interior_1m, "distinct": distinct, "nd-threads": nd_threads, "library": library}
 
 
 def main() -> None:

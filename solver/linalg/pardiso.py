@@ -46,6 +46,12 @@ from .threads import WIDE_COLUMNS, solve_threads
 
 __all__ = ["PardisoFactor", "mkl_runtime", "loaded_mkl", "nested_dissection"]
 
+#: iparm(2), the fill-reducing ordering: METIS's nested dissection on OpenMP threads. MKL's manual
+#: says this ordering schedules its work dynamically (it rules out MKL's reproducible mode); one
+#: thread is 2. ``benchmarks/measure_choices.py --only nd-threads`` times both and counts the
+#: distinct solutions of repeated factorizations, quiet and under load (docs/benchmarks.md).
+ORDERING = 3
+
 _LIB: tetmorph_core.Mkl | None = None
 _LOCK = threading.Lock()
 
@@ -158,7 +164,7 @@ class PardisoFactor:
         self.shape = (n, n)
         self._pt = np.zeros(64, np.int64)
         self._iparm = np.zeros(64, np.int32)
-        for k, v in {1: 1, 2: 3, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1, 35: 1}.items():
+        for k, v in {1: 1, 2: ORDERING, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1, 35: 1}.items():
             self._iparm[k - 1] = v
         if mtype == -2:
             self._iparm[7], self._iparm[20] = 2, 1
@@ -267,7 +273,8 @@ def nested_dissection(A: sp.spmatrix) -> np.ndarray:
     ja = np.ascontiguousarray(M.indices, dtype=np.int32)
     pt = np.zeros(64, np.int64)
     iparm = np.zeros(64, np.int32)
-    for k, v in {1: 1, 2: 3, 5: 2, 8: 0, 10: 13, 11: 0, 13: 0, 35: 1}.items():  # iparm(5) = 2: return the ordering
+    # iparm(5) = 2: return the ordering
+    for k, v in {1: 1, 2: ORDERING, 5: 2, 8: 0, 10: 13, 11: 0, 13: 0, 35: 1}.items():
         iparm[k - 1] = v
     perm = np.zeros(n, np.int32)
     dummy = np.zeros(1)

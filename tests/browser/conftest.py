@@ -253,6 +253,23 @@ def numeric_move(pg, t=(0, 0, 0), axis=(0, 0, 1), angle=0.0) -> None:
     pg.click("#apply-move")
 
 
+def steady_point(pg, q, tries: int = 30) -> dict:
+    """The page point of world point ``q`` once the view has stopped changing.
+
+    A layout change (a panel shown, a scroll bar) resizes the canvas a frame or more later, and moves
+    every point on it: a click at a point read before that misses. Read after two animation frames
+    until two readings agree.
+    """
+    last = None
+    for _ in range(tries):
+        got = pg.evaluate("(q) => new Promise((ok) => requestAnimationFrame(() => requestAnimationFrame("
+                          "() => ok(window.tetmorph.worldToPage(q)))))", list(map(float, q)))
+        if got == last:
+            return got
+        last = got
+    raise AssertionError(f"the page point of {q} kept changing over {tries} readings")
+
+
 def positions(pg) -> np.ndarray:
     return np.array(pg.evaluate("window.tetmorph.positions()")).reshape(-1, 3)
 

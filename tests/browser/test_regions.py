@@ -27,6 +27,7 @@ from tests.browser.conftest import (
     rest,
     settle,
     shared_file,
+    steady_point,
     upload,
     use_spec,
 )
@@ -161,12 +162,12 @@ def test_flood_fill_a_face_up_to_a_feature_angle(page):
     end = np.flatnonzero(np.all(np.abs(V[F][:, :, 0] - 100) < 1e-9, axis=1))
     c = V[F[end]].mean(axis=1)
     seed = int(end[np.argmin(np.linalg.norm(c - c.mean(0), axis=1))])
-    p = page.evaluate("(q) => window.tetmorph.worldToPage(q)", V[F[seed]].mean(0).tolist())
     page.check("input[name=tool][value='fill']")
     for angle, name in ((30, "fixed1"), (100, "fixed2")):
         page.fill("#fill-angle", str(angle))
         if angle == 100:
             page.click("#add-fixed")
+        p = steady_point(page, V[F[seed]].mean(0))  # read once the tool's panel is laid out
         page.mouse.click(p["x"], p["y"])
         faces = _flood(F, V, seed, angle)
         want = sorted(set(F[sorted(faces)].ravel().tolist()))

@@ -17,6 +17,7 @@ import httpx
 import numpy as np
 
 from tests.browser.conftest import (
+    BRACKET,
     DATA,
     bracket_session,
     create,
@@ -41,6 +42,35 @@ def wait_for(fn, what: str, timeout: float = 15.0):
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out waiting for {what}")
         time.sleep(0.1)
+
+
+# one tetrahedron: a mesh that is quick to store, to fill the service past one page of its listing
+ONE_TET = b"*NODE\n1, 0, 0, 0\n2, 1, 0, 0\n3, 0, 1, 0\n4, 0, 0, 1\n*ELEMENT, TYPE=C3D4, ELSET=E\n1, 1, 2, 3, 4\n"
+PAGE = 100  # the service's default page of GET /v1/meshes
+
+
+def stored_meshes(base: str) -> list[dict]:
+    """Every mesh the service lists, oldest first, read page by page with the test's own requests."""
+    out: list[dict] = []
+    params: dict = {"limit": 1000}
+    with httpx.Client(base_url=base) as c:
+        for _ in range(100):
+            r = c.get("/v1/meshes", params=params)
+            assert r.status_code == 200, r.text
+            out += r.json()
+            if "X-Next-Cursor" not in r.headers:
+                return out
+            params["cursor"] = r.headers["X-Next-Cursor"]
+    raise AssertionError("GET /v1/meshes gave more than 100 pages")
+
+
+def more_than_a_page(base: str) -> None:
+    """Store one-tetrahedron meshes until the service holds more meshes than its listing's default page."""
+    n = len(stored_meshes(base))
+    with httpx.Client(base_url=base, timeout=60) as c:
+        for k in range(max(0, PAGE + 1 - n)):
+            r = c.post("/v1/meshes", files={"file": (f"tet{k}.inp", ONE_TET)})
+            assert r.status_code == 201, r.text
 
 
 def workspace(base: str, of: str, ident: str) -> dict:
@@ -143,10 +173,27 @@ def test_a_reload_and_a_second_tab_reopen_the_workspace_from_the_address(pages, 
     same_workspace(tab, was)
 
 
+def test_the_stored_meshes_list_every_mesh_newest_first(page):
+    # more meshes than one page of the listing: the one uploaded last was not on the first page
+    more_than_a_page(page.base)
+    upload(page, BRACKET)
+    mid = page.evaluate("window.tetmorph.mesh().id")
+    stored = stored_meshes(page.base)
+    assert len(stored) > PAGE and stored[-1]["id"] == mid
+    listed = page.eval_on_selector_all("#meshes option", "(os) => os.map((o) => o.value)")
+    assert listed == [""] + [m["id"] for m in reversed(stored)]  # every mesh, the newest first
+    assert page.input_value("#meshes") == mid
+    # the oldest, from the bottom of the list, opens
+    page.select_option("#meshes", stored[0]["id"])
+    page.click("#open-mesh")
+    page.wait_for_function("(id) => window.tetmorph.mesh().id === id && window.tetmorph.mesh().open",
+                           arg=stored[0]["id"])
+
+
 def test_another_mesh_shows_its_own_workspace_and_the_first_comes_back(page, tmp_path):
+    more_than_a_page(page.base)  # the bracket is then not on the listing's first page
     was = make_workspace(page)
-    # a mesh no other test of the session's server has stored (an identical upload is the same mesh, whose
-    # workspace another test may have filled): plate.inp with a comment line of its own
+    # a mesh of its own (each upload is stored as a new mesh): plate.inp with a comment line of its own
     plate_file = tmp_path / "plate.inp"
     plate_file.write_bytes((DATA / "plate.inp").read_bytes() + f"** {tmp_path.name}\n".encode())
     upload(page, plate_file)  # the file chooser's input, as Upload… gives it

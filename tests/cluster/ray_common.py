@@ -36,4 +36,22 @@ def same_decks(a: Path, b: Path, rows: int) -> None:
     names = sorted(f"plate_{i}.inp" for i in range(1, rows + 1))
     assert sorted(p.name for p in b.iterdir() if p.name != "summary.csv") == names
     for n in names:
-        assert (a / n).read_bytes() == (b / n).read_bytes(), n
+        x, y = (a / n).read_bytes(), (b / n).read_bytes()
+        assert x == y, f"{n}: {_difference(x, y)}"
+
+
+def _difference(x: bytes, y: bytes) -> str:
+    """Where two decks differ: the count of differing lines, the first, and the largest difference of a number."""
+    lx, ly = x.decode().splitlines(), y.decode().splitlines()
+    if len(lx) != len(ly):
+        return f"{len(lx)} lines against {len(ly)}"
+    rows = [k for k, (p, q) in enumerate(zip(lx, ly, strict=True)) if p != q]
+    worst = 0.0
+    for k in rows:
+        try:
+            worst = max(worst, max(abs(float(u) - float(v)) for u, v in
+                                   zip(lx[k].split(",")[1:], ly[k].split(",")[1:], strict=True)))
+        except ValueError:
+            worst = float("nan")
+    return (f"{len(rows)} lines differ, the first {rows[0] + 1}: {lx[rows[0]]!r} against {ly[rows[0]]!r}; "
+            f"largest {worst:.3g}")

@@ -27,6 +27,28 @@ export async function api(path, opts = {}) {
 
 export async function getJson(path) { return (await api(path)).json(); }
 
+// a listing is read this many items a page (the service's most), at most this many pages
+const PAGE_LIMIT = 1000;
+const PAGES_MAX = 100;
+
+/**
+ * Every item of a paged listing (/v1/meshes, /v1/sessions): the pages in order, each after the
+ * X-Next-Cursor of the one before, so that a store with more items than one page lists them all.
+ */
+export async function getAll(path) {
+  const items = [];
+  let cursor = null;
+  for (let k = 0; k < PAGES_MAX; k++) {
+    const q = new URLSearchParams({ limit: String(PAGE_LIMIT) });
+    if (cursor) q.set("cursor", cursor);
+    const r = await api(`${path}${path.includes("?") ? "&" : "?"}${q}`);
+    items.push(...await r.json());
+    cursor = r.headers.get("X-Next-Cursor");
+    if (!cursor) break;
+  }
+  return items;
+}
+
 export async function postJson(path, doc) {
   return (await api(path, { method: "POST", headers: { "Content-Type": "application/json" },
     body: JSON.stringify(doc) })).json();

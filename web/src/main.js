@@ -6,7 +6,7 @@
 // messages.js (errors in words), api.js (REST) and stream.js (WebSocket), around the shared
 // state of state.js.
 import * as THREE from "three";
-import { api, getJson, setApiKey } from "./api.js";
+import { api, getAll, getJson, setApiKey } from "./api.js";
 import { decodeBundle } from "./binary.js";
 import { $ } from "./dom.js";
 import { Moves } from "./gizmo.js";
@@ -248,7 +248,8 @@ function showSurface() {
 
 async function listMeshes() {
   try {
-    const list = await getJson("/v1/meshes");
+    // the newest first: the one just uploaded heads the list, however many are stored
+    const list = (await getAll("/v1/meshes")).reverse();
     $("meshes").innerHTML = '<option value="">— stored meshes —</option>' +
       list.map((m) => `<option value="${m.id}">${m.name || m.id} (${m.id})</option>`).join("");
     return list;
@@ -329,7 +330,7 @@ async function openSessionsDialog() {
   const dlg = $("sessions-dialog");
   const refresh = async () => {
     try {
-      const [sessions, meshes] = await Promise.all([session.list(), getJson("/v1/meshes")]);
+      const [sessions, meshes] = await Promise.all([session.list(), getAll("/v1/meshes")]);
       renderSessionsTable(sessions, new Map(meshes.map((m) => [m.id, m.name || m.id])), sessionHandlers(refresh));
       dlg.dataset.count = String(sessions.length);
       // "all but the open one" with none open would be all of them: offered only beside an open session

@@ -5,7 +5,7 @@
 // leaves it for another mesh before it was moved, and when the tab closes while it is still
 // building; otherwise it stays on the service (its address reopens it, Sessions lists it) until
 // deleted or removed by the service's idle sweep. A reload keeps it: the address names it.
-import { api, apiKey, getJson, headers, postJson } from "./api.js";
+import { api, apiKey, getAll, getJson, headers, postJson } from "./api.js";
 import { decodeFrame } from "./binary.js";
 import { EDIT_KINDS } from "./edits.js";
 import { $ } from "./dom.js";
@@ -237,7 +237,7 @@ export class SessionControl {
     return true;
   }
 
-  async list() { return getJson("/v1/sessions"); }
+  async list() { return getAll("/v1/sessions"); }
 
   // ---------------------------------------------------------------- history kept with the session
   /**
@@ -562,7 +562,7 @@ export class SessionControl {
   async restore(doc) {
     clearError();
     if (!doc || doc.format !== "tetmorph-session") { showError("this file is not a saved tetmorph session"); return false; }
-    const meshes = await getJson("/v1/meshes");
+    const meshes = await getAll("/v1/meshes");
     const m = meshes.find((x) => x.id === doc.mesh.id) || meshes.find((x) => x.name === doc.mesh.name);
     if (!m) { showError(`the mesh ${doc.mesh.name} (${doc.mesh.id}) is not on this service: upload it first`); return false; }
     if (state.meshId !== m.id) await this.openMesh(m.id);

@@ -5,7 +5,7 @@
 // offers the deck's own sector definitions the same way. They go into the SPEC Create session
 // sends and come back from a session's SPEC when it is reopened.
 import * as THREE from "three";
-import { api, getJson } from "./api.js";
+import { api, getAll, getJson } from "./api.js";
 import { decodeBundle } from "./binary.js";
 import { $ } from "./dom.js";
 import { fmt } from "./panels.js";
@@ -299,7 +299,7 @@ export class TargetPanel {
   /** The stored meshes that are surfaces (no volume elements), offered as targets. */
   async offerSurfaces() {
     try {
-      const meshes = await getJson("/v1/meshes");
+      const meshes = await getAll("/v1/meshes");
       this.surfaces = meshes.filter((m) => m.info && m.info.elements === 0).map((m) => ({ id: m.id, name: m.name || m.id }));
     } catch { this.surfaces = []; }
     const el = $("tgt-surface"), cur = el.value;

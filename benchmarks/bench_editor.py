@@ -158,7 +158,7 @@ def _spin() -> None:
         x = (x * 1103515245 + 12345) % 2147483648
 
 
-WHEEL = Path("/work/shared/data/tet/tractor_wheel_coarse.INP")
+WHEEL = ROOT.parent / "shared" / "data" / "tet" / "tractor_wheel_coarse.INP"  # the shared data beside the clone
 RAF = "() => new Promise((r) => requestAnimationFrame(() => r()))"
 #: The accessors the drags read, for an editor that has only ``window.tetmorph.state`` (no test hook yet).
 HOOK_FALLBACK = """() => {
@@ -181,7 +181,7 @@ def _open(pg, base: str, a: argparse.Namespace) -> str:
                              " && window.tetmorph.session().stream.open", timeout=300000)
         return "Demo beam"
     if a.mesh == "wheel":
-        deck = WHEEL if WHEEL.exists() else ROOT.parent / "shared" / "data" / "tet" / WHEEL.name
+        deck = WHEEL
         sets = ("BC_RIMTIRE", "BC_SURF")
     else:
         deck = Path(tempfile.gettempdir()) / f"tetmorph-bracket-{a.size:g}.inp"

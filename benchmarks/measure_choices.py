@@ -18,10 +18,10 @@ Sections (all by default, or pick with --only):
                1M tets) factored by PARDISO with its default iparm (iparm(1) = 0) and with
                tetmorph's (no iterative refinement): solve time for 3 right-hand sides, residual;
                and CHOLMOD on the same pattern symmetrised, as a floor for a direct solve.
-``nd-threads`` PARDISO's fill-reducing ordering, METIS's nested dissection on one thread
-               (iparm(2) = 2, tetmorph's) against the OpenMP one (3), on the bracket's interior
-               system (107k and 1M tets): factor time, and how many distinct solutions the
-               repeated factorizations give (run it under load too).
+``nd-threads`` PARDISO's factor of the bracket's interior system (107k and 1M tets) with the
+               settings before its reproducible mode (OpenMP ordering, iparm(2) = 3) and with
+               tetmorph's (iparm(2) = 2, iparm(34) = 4): whether a process on one MKL thread
+               and one on two solve to the same bits, and the factor time.
 ``kernels``    the compiled per-update and assembly kernels against the same formulas as numpy
                array expressions (bracket 0.95): quality check, rotation of the normals,
                mean-value weights.
@@ -724,33 +724,57 @@ def library() -> None:
         print(f"| {label} | {cost(block)} | {'yes' if effective(block) else 'no'} |", flush=True)
 
 
+#: PARDISO settings nd-threads compares (MKL's 1-based iparm numbers): the ones before the
+#: reproducible mode, and tetmorph's (solver/linalg/pardiso.py)
+ND_SETTINGS = {"OpenMP ordering, no reproducible mode": {2: 3, 34: 0},
+               "one-thread ordering, reproducible mode": {2: 2, 34: 4}}
+
+_ND_CHILD = """
+import hashlib, sys
+import numpy as np, scipy.sparse as sp
+sys.path.insert(0, sys.argv[1])
+import measure_choices as mc
+A = sp.load_npz(sys.argv[2]).tocsr()
+b = np.asfortranarray(np.random.default_rng(0).standard_normal((A.shape[0], 3)))
+for label, iparm in mc.ND_SETTINGS.items():
+    f = mc._pardiso_with(A, single=False, iparm=iparm)
+    print(hashlib.sha256(np.ascontiguousarray(f.solve(b)).tobytes()).hexdigest())
+    f.release()
+"""
+
+
 def nd_threads() -> None:
-    """METIS's nested dissection on one thread (iparm(2) = 2) against the OpenMP one (3): time and bits."""
-    import hashlib
+    """PARDISO's factor on one MKL thread and on two, in separate processes: the same bits or not; factor time."""
+    import scipy.sparse as sp
 
     from solver import precompute, read_mesh
 
-    print("| mesh | interior unknowns | iparm(2) | factor s, median [range] | distinct solutions |")
-    print("|---|---:|---|---:|---:|")
+    print("| mesh | interior unknowns | settings | factor s, median [range] | 1 thread = 2 threads |")
+    print("|---|---:|---|---:|---|")
     for size, runs in ((0.95, 7), (0.44, 3)):
         mesh = read_mesh(deck("bracket", size))
         d = precompute(mesh, end_spec(mesh))
         A = d.data.positions.Mfi[:, d.data.positions.free_interior].tocsr()
-        b = np.asfortranarray(np.random.default_rng(0).standard_normal((A.shape[0], 3)))
         del d
-        times: dict[int, list[float]] = {2: [], 3: []}
-        bits: dict[int, set[str]] = {2: set(), 3: set()}
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "A.npz")
+            sp.save_npz(path, A)
+            hashes = []
+            for n in (1, 2):
+                env = {**os.environ, "MKL_NUM_THREADS": str(n), "OMP_NUM_THREADS": str(n)}
+                hashes.append(subprocess.run([sys.executable, "-c", _ND_CHILD, os.path.dirname(__file__), path],
+                                             env=env, capture_output=True, text=True, check=True).stdout.split())
+        times: dict[str, list[float]] = {k: [] for k in ND_SETTINGS}
         for _ in range(runs):  # alternated, so that a change of load meets both
-            for nd in (2, 3):
+            for label, iparm in ND_SETTINGS.items():
                 t = time.perf_counter()
-                f = _pardiso_with(A, single=False, iparm={2: nd})
-                times[nd].append(time.perf_counter() - t)
-                bits[nd].add(hashlib.sha256(np.ascontiguousarray(f.solve(b)).tobytes()).hexdigest())
+                f = _pardiso_with(A, single=False, iparm=iparm)
+                times[label].append(time.perf_counter() - t)
                 f.release()
-        for nd, label in ((2, "2 (one thread)"), (3, "3 (OpenMP)")):
-            ts = times[nd]
+        for k, (label, ts) in enumerate(times.items()):
+            same = "yes" if hashes[0][k] == hashes[1][k] else "no"
             print(f"| bracket {size:g} | {A.shape[0]:,} | {label} | {np.median(ts):.2f} [{min(ts):.2f}-{max(ts):.2f}] "
-                  f"| {len(bits[nd])} of {runs} |", flush=True)
+                  f"| {same} |", flush=True)
 
 
 def distinct() -> None:

@@ -17,8 +17,9 @@ through pypardiso, which this module replaces for tetmorph's systems:
   float32 matrices;
 * several right-hand sides are solved in one call (``nrhs``).
 
-Settings (MKL's 1-based iparm numbers): parallel nested dissection
-(``iparm(2) = 3``); no iterative refinement (``iparm(8) = 0``; tetmorph solves
+Settings (MKL's 1-based iparm numbers): nested dissection (``iparm(2) = 2``);
+the reproducible mode, whose factor has the same bits on any number of threads
+(``iparm(34) = 4``); no iterative refinement (``iparm(8) = 0``; tetmorph solves
 in residual form and refines where it measures that it matters); pivot
 perturbation 1e-13 (``iparm(10) = 13``); scaling and weighted matching for
 non-symmetric and indefinite matrices (``iparm(11) = iparm(13) = 1``); the
@@ -46,11 +47,14 @@ from .threads import WIDE_COLUMNS, solve_threads
 
 __all__ = ["PardisoFactor", "mkl_runtime", "loaded_mkl", "nested_dissection"]
 
-#: iparm(2), the fill-reducing ordering: METIS's nested dissection on OpenMP threads. MKL's manual
-#: says this ordering schedules its work dynamically (it rules out MKL's reproducible mode); one
-#: thread is 2. ``benchmarks/measure_choices.py --only nd-threads`` times both and counts the
-#: distinct solutions of repeated factorizations, quiet and under load (docs/benchmarks.md).
-ORDERING = 3
+#: iparm(2), the fill-reducing ordering: METIS's nested dissection on one thread. (The OpenMP one,
+#: 3, rules out the reproducible mode below: MKL's manual.)
+ORDERING = 2
+#: iparm(34): the factorization's reproducible mode, its work split as for this many threads
+#: whatever number runs it. Without it, the numeric factorization's rounding follows MKL's thread
+#: count, so that a process on one thread (a Ray worker, ``--threads 1``) wrote other bits than
+#: one on two. ``benchmarks/measure_choices.py --only nd-threads`` measures its cost.
+REPRODUCIBLE_THREADS = 4
 
 _LIB: tetmorph_core.Mkl | None = None
 _LOCK = threading.Lock()
@@ -164,7 +168,8 @@ class PardisoFactor:
         self.shape = (n, n)
         self._pt = np.zeros(64, np.int64)
         self._iparm = np.zeros(64, np.int32)
-        for k, v in {1: 1, 2: ORDERING, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1, 35: 1}.items():
+        for k, v in {1: 1, 2: ORDERING, 8: 0, 10: 13, 11: 1, 13: 1, 18: -1, 34: REPRODUCIBLE_THREADS,
+                     35: 1}.items():
             self._iparm[k - 1] = v
         if mtype == -2:
             self._iparm[7], self._iparm[20] = 2, 1

@@ -1,6 +1,6 @@
 """The Edits panel's other daily edits: a fillet's radius, the distance and the angle between two
 features, a twist's table law and a bend, a map onto a cylinder and a sphere (projected along a
-direction), each made in a real browser as a person
+direction), and a Shapes slider whose shape sets an edit, each made in a real browser as a person
 makes them (named sets as regions, nodes picked on the model, typed values, a slider).
 
 Each test solves the MOVE with ``solver.precompute(...).solve(...)`` in the test and compares the
@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from solver import precompute, read_mesh
+from solver.workflows.shapes import combine, parse_shapes
 from tests.browser.conftest import BRACKET, assign_set, create, load_bracket, positions, settle, upload
 from tests.browser.test_editor_edits import choose_region, load_corners, open_edits, pick, row, sent_spec, type_value
 from tests.gmsh_parts import filleted_bracket
@@ -273,3 +274,44 @@ def test_a_map_onto_a_sphere_through_picked_nodes(page, bracket):
     want = precompute(bracket, sent_spec(page)).solve({"map": {"ball": {"amount": 0.25}}}).V
     np.testing.assert_allclose(positions(page), want, rtol=0, atol=SHOWN)
 
+
+def test_a_shape_slider_carries_the_edit_value_of_its_preset(page, bracket):
+    from solver.constraints.features import feature_candidates
+
+    load_bracket(page)
+    assign_set(page, "FIXED", 1)
+    open_edits(page, "radius")
+    page.wait_for_function("[...document.querySelectorAll('#edit-feature option')].some((o) => "
+                           "o.textContent.startsWith('hole_1 '))")
+    page.select_option("#edit-feature", page.evaluate("[...document.querySelectorAll('#edit-feature option')]"
+                                                      ".find((o) => o.textContent.startsWith('hole_1 ')).value"))
+    add_edit(page, "bore")
+    create(page)
+    type_value(page, "bore", 6)
+    page.fill("#preset-name", "wider")
+    page.click("#preset-save")
+    page.wait_for_selector("#shapes input[data-shape='wider']")
+    preset = page.evaluate("window.tetmorph.session().presets")[0]["move"]
+    assert preset["radius"] == {"bore": {"radius": 6}}
+    slider = page.locator("#shapes input[data-shape='wider']")
+    slider.scroll_into_view_if_needed()
+    box = slider.bounding_box()  # from -1 to 2: dragged from 0 to about 0.5
+    y = box["y"] + box["height"] / 2
+    page.mouse.move(box["x"] + box["width"] / 3, y)
+    page.mouse.down()
+    page.mouse.move(box["x"] + box["width"] / 2, y, steps=6)
+    page.mouse.up()
+    settle(page)
+    theta = float(page.input_value("#shapes input[data-shape='wider']"))
+    assert 0.2 < theta < 0.8
+    h = next(c for c in feature_candidates(bracket, 30, 1e-3) if c.name == "hole_1")
+    spec = {"selections": {"FIXED": {"set": "FIXED"}, "hole": {"ids": h.ids.tolist()}}, "fixed": ["FIXED"],
+            "radius": [{"name": "bore", "selection": "hole", "axis": sent_spec(page)["radius"][0]["axis"]}]}
+    d = precompute(bracket, spec)
+    move = combine(parse_shapes({"shapes": {"wider": preset}}, d), [theta])
+    np.testing.assert_allclose(positions(page), d.solve(move).V, rtol=0, atol=SHOWN)
+    r0 = d.data.constraints.rest.nominal["radius"]["bore"]
+    sent = page.evaluate("window.tetmorph.session().lastMove")["radius"]["bore"]
+    assert sent["delta"] == pytest.approx(theta * (6 - r0), rel=1e-5)
+    shown = float(page.input_value(f"{row('bore')} input[type=number]"))
+    assert shown == pytest.approx(r0 + theta * (6 - r0), rel=1e-5)

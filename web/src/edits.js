@@ -1,9 +1,11 @@
 // The Edits panel: the daily edits of the SPEC and their MOVE parameters (docs/guide/constraints.md,
 // "Daily edits"), made as a CAE user makes them. A hole's or a boss's radius (a feature candidate,
 // with its axis), a wall's thickness (a face region along its normal, with an optional opposite face,
-// symmetric or not), a twist about an axis (two picked nodes, or a hole's axis), a node set snapped to
-// a line, a circle or a plane through picked nodes, and a morph volume (a box lattice around a region,
-// or typed, whose control points the gizmo drags).
+// symmetric or not), a twist or a bend about an axis (two picked nodes, or a hole's axis; a rate or a
+// table, twisttable.js), a node set mapped onto a line, a circle, a plane, a cylinder or a sphere
+// (through picked nodes, or typed; editgeometry.js), a morph volume (a box lattice around a region, or
+// typed, whose control points the gizmo drags), a fillet's radius, and the distance or the angle
+// between two features (featureedits.js).
 //
 // An edit is a SPEC entry: it goes into the SPEC Create session sends (the regions' `specExtra`, as
 // the symmetry panel's entries do), so a session has the edits it was created with; one added or
@@ -14,38 +16,34 @@
 // the history, Undo and presets keep them with the handles'.
 import { getJson } from "./api.js";
 import { $ } from "./dom.js";
+import { circleThrough, mapGeometry, mapProjection, twistMode } from "./editgeometry.js";
+import { BETWEEN, betweenControls, betweenEntry, restBetween } from "./featureedits.js";
 import { controlKeys, controlPoint, LatticeView } from "./lattice.js";
 import { fmt } from "./panels.js";
 import { on, state } from "./state.js";
+import { editTable, readTable, showLaw, syncTwist, twistControls } from "./twisttable.js";
+
+export { circleThrough };
 
 /** The SPEC's (and the MOVE's) keys of the edits (solver/documents/edits.py). */
 export const EDIT_KINDS = ["radius", "twist", "map", "offset", "lattice", "fillet", "distance", "angle"];
 /** The edits this panel makes, and what its list calls each. */
-const TOOLS = { radius: "radius", offset: "wall", twist: "twist", map: "map", lattice: "lattice" };
+const TOOLS = { radius: "radius", offset: "wall", twist: "twist", map: "map", lattice: "lattice", fillet: "fillet",
+  distance: "distance", angle: "angle" };
 /** The MOVE parameter a row's number field sets, by edit. */
-const PARAM = { radius: "radius", offset: "distance", twist: "angle_deg_per_length", map: "amount" };
+const PARAM = { radius: "radius", offset: "distance", twist: "angle_deg_per_length", map: "amount", fillet: "radius",
+  distance: "distance", angle: "angle_deg" };
 
 const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
 const num = (x) => String(Number(Number(x).toPrecision(10)));
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
 const norm = (a) => Math.hypot(...a);
 
 /** Three numbers typed in a field ("x y z" or "x, y, z"), or null. */
 function triple(text) {
   const v = String(text).trim().split(/[\s,;]+/).map(Number);
   return v.length === 3 && v.every(Number.isFinite) ? v : null;
-}
-
-/** The circle through three points: {center, normal, radius}, or null when they are on one line. */
-export function circleThrough(a, b, c) {
-  const ab = sub(b, a), ac = sub(c, a), n = cross(ab, ac), nn = dot(n, n);
-  if (!(nn > 1e-24 * dot(ab, ab) * dot(ac, ac))) return null;
-  // the centre a + (|ab|² (ac × n) + |ac|² (n × ab)) / (2 |n|²)
-  const p = cross(ac, n).map((x) => x * dot(ab, ab)), q = cross(n, ab).map((x) => x * dot(ac, ac));
-  const center = a.map((x, k) => x + (p[k] + q[k]) / (2 * nn));
-  return { center, normal: n, radius: norm(sub(a, center)) };
 }
 
 export class EditsPanel {
@@ -77,8 +75,11 @@ export class EditsPanel {
       if (ev.key === "Enter" && ev.target.matches("input[type=number], input[data-axis]")) { ev.preventDefault(); this.setRow(ev.target); }
     });
     list.addEventListener("click", (ev) => {
-      const b = ev.target.closest("button[data-act]");
-      if (b) (b.dataset.act === "set" ? this.setRow(b) : this.remove(b.closest("li").dataset.kind, b.closest("li").dataset.name));
+      const b = ev.target.closest("button[data-act]"), li = b && b.closest("li[data-kind]");
+      if (!b) return;
+      if (b.dataset.act === "set") this.setRow(b);
+      else if (b.dataset.act.startsWith("point-")) editTable(li, b.dataset.act, b);
+      else this.remove(li.dataset.kind, li.dataset.name);
     });
     list.addEventListener("pointerover", (ev) => this.preview(ev.target.closest("li[data-kind]")));
     list.addEventListener("pointerleave", () => this.meshView.setPreview(null));
@@ -185,6 +186,7 @@ export class EditsPanel {
       if (r) { this.take(r, sel); out.selection = sel; }
       return out;
     }
+    if (BETWEEN[kind]) return betweenEntry(this, kind, name, sel, r);
     if (!need(r, "choose the region the edit moves")) return null;
     if (kind === "offset") {
       const opp = this.region($("edit-opposite").value);
@@ -198,14 +200,17 @@ export class EditsPanel {
     }
     if (kind === "twist") {
       const axis = this.axis();
-      if (!axis) return null;
+      const mode = axis && twistMode(axis, () => this.io.pickedIds().map((i) => [0, 1, 2].map((k) => state.V0[3 * i + k])),
+        this.io.refuse);
+      if (!mode) return null;
       this.take(r, sel);
-      return { name, selection: sel, axis };
+      return { name, selection: sel, axis, ...mode };
     }
-    const geometry = this.geometry();
-    if (!geometry) return null;
+    const geometry = mapGeometry((n, what) => this.picks(n, what), this.io.refuse);
+    const projection = geometry && mapProjection(geometry, this.io.refuse);
+    if (!projection) return null;
     this.take(r, sel);
-    return { name, selection: sel, geometry };
+    return { name, selection: sel, geometry, ...projection };
   }
 
   /** The twist's axis: the line from picked node A to B, or a hole's or boss's axis. */
@@ -222,26 +227,14 @@ export class EditsPanel {
     return f ? { point: f.center.slice(), direction: f.axis.slice() } : (this.io.refuse("choose an axis"), null);
   }
 
-  /** The map's geometry through the picked nodes: a line (A, B), a circle or a plane (A, B, C). */
-  geometry() {
-    const g = $("edit-geometry").value;
-    const p = this.picks(g === "line" ? 2 : 3, g);
-    if (!p) return null;
-    if (g === "line") {
-      const d = sub(p[1], p[0]);
-      if (!(norm(d) > 0)) { this.io.refuse("the picked nodes A and B are the same point"); return null; }
-      return { line: { point: p[0], direction: d } };
-    }
-    const c = circleThrough(...p);
-    if (!c) { this.io.refuse("the picked nodes A, B and C are on one line: they make no plane or circle"); return null; }
-    return g === "plane" ? { plane: { point: p[0], normal: c.normal } } : { circle: c };
-  }
+  /** The selections an edit entry names (its own, an opposite face, a fillet's faces, a reference). */
+  selectionsOf(e) { return [e.selection, e.opposite, e.reference, ...(e.faces || [])].filter(Boolean); }
 
   remove(kind, name) {
     const e = this.list(kind).find((x) => x.name === name);
     if (!e) return;
     this.setList(kind, this.list(kind).filter((x) => x !== e));
-    for (const s of [e.selection, e.opposite]) if (s) delete this.regions.extraSelections[s];
+    for (const s of this.selectionsOf(e)) delete this.regions.extraSelections[s];
     if (this.values[kind]) delete this.values[kind][name];
     if (this.lattice && kind === "lattice" && this.lattice.name === name) this.lattice = null;
     this.meshView.setPreview(null);
@@ -261,7 +254,8 @@ export class EditsPanel {
   regionChoices() {
     const opts = state.regions.filter((r) => r.count > 0)
       .map((r) => `<option value="${r.id}">${esc(r.name)} (${r.kind}, ${fmt(r.count)})</option>`).join("");
-    for (const [id, none] of [["edit-region", "— region —"], ["edit-opposite", "— none —"]]) {
+    for (const [id, none] of [["edit-region", "— region —"], ["edit-opposite", "— none —"], ["edit-face-a", "— region —"],
+      ["edit-face-b", "— region —"], ["edit-reference", "— region —"]]) {
       const el = $(id), cur = el.value;
       el.innerHTML = `<option value="">${$("edit-kind").value === "lattice" && id === "edit-region"
         ? "— none: boundary nodes in the box —" : none}</option>${opts}`;
@@ -310,6 +304,19 @@ export class EditsPanel {
     return ids.length ? s / ids.length : 1;
   }
 
+  /**
+   * The rest value of a radius, fillet, distance or angle edit, measured on the page (null: none);
+   * `kind` and `name` name the SPEC's entry (what the Shapes panel asks for, to add changes).
+   */
+  rest(kind, name) {
+    const e = this.list(kind).find((x) => x.name === name);
+    if (!e || !(kind === "radius" || BETWEEN[kind])) return null;
+    if (kind === "radius") return this.restRadius(e);
+    this.rests = this.rests || new WeakMap();  // a fillet's fit is not redone at every frame
+    if (!this.rests.has(e)) this.rests.set(e, restBetween(this, kind, e));
+    return this.rests.get(e);
+  }
+
   /** The edits listed, by name (what the list shows). */
   names() { return JSON.stringify(Object.keys(TOOLS).map((k) => this.list(k).map((e) => e.name))); }
 
@@ -324,8 +331,12 @@ export class EditsPanel {
           const keys = controlKeys(e).map((k) => `<option>${k}</option>`).join("");
           controls = `<label>point <select data-param="point">${keys}</select></label>` +
             [0, 1, 2].map((a) => `<input data-axis="${a}" type="number" step="any" aria-label="d${"xyz"[a]}">`).join("");
+        } else if (BETWEEN[kind]) {
+          controls = betweenControls(kind, e, this.rest(kind, e.name));
+        } else if (kind === "twist") {
+          controls = twistControls();
         } else {
-          const unit = { radius: "r", offset: "d", twist: "°/length", map: "amount" }[kind];
+          const unit = { radius: "r", offset: "d", map: "amount" }[kind];
           controls = `<label>${unit} <input type="number" step="any" data-param="${PARAM[kind]}"></label>`;
           if (kind === "radius") {
             const r0 = this.restRadius(e);
@@ -360,8 +371,9 @@ export class EditsPanel {
         for (const el of li.querySelectorAll("input[data-axis]")) put(el, d[Number(el.dataset.axis)]);
         continue;
       }
-      const rest = kind === "radius" ? this.restRadius(e) : 0;
-      const x = v[PARAM[kind]] ?? (kind === "radius" && v.delta !== undefined ? rest + v.delta : rest);
+      if (kind === "twist") { syncTwist(li, v); continue; }
+      const rest = this.rest(kind, name) ?? 0, change = (BETWEEN[kind] || { delta: "delta" }).delta;
+      const x = v[PARAM[kind]] ?? (v[change] !== undefined ? rest + v[change] : rest);
       for (const el of li.querySelectorAll(`input[data-param]`)) put(el, x);
     }
     this.showLattice();
@@ -394,7 +406,7 @@ export class EditsPanel {
   preview(li) {
     const e = li && this.list(li.dataset.kind).find((x) => x.name === li.dataset.name);
     const ids = [];
-    for (const s of e ? [e.selection, e.opposite] : []) if (s && this.regions.extraSelections[s]) ids.push(...this.regions.resolve(this.regions.extraSelections[s]));
+    for (const s of e ? this.selectionsOf(e) : []) if (this.regions.extraSelections[s]) ids.push(...this.regions.resolve(this.regions.extraSelections[s]));
     this.meshView.setPreview(ids.length ? ids : null);
   }
 
@@ -441,16 +453,25 @@ export class EditsPanel {
       this.apply(kind, name, { displacements: { ...prev.displacements, [key]: d } }, `lattice ${name} ${key} (${d.map(fmt).join(", ")})`);
       return;
     }
+    if (kind === "twist" && li.querySelector("select[data-param=law]").value === "table") {
+      const table = readTable(li);
+      if (typeof table === "string") { this.io.refuse(`twist ${name}: ${table}`); return; }
+      document.activeElement.blur();
+      this.apply(kind, name, { table }, `twist ${name} table (${table.length} point${table.length === 1 ? "" : "s"})`);
+      return;
+    }
     const field = li.querySelector("input[type=number]"), x = Number(field.value);
     if (field.value.trim() === "" || !Number.isFinite(x)) { this.io.refuse(`type a number for the ${TOOLS[kind]} edit ${name}`); return; }
-    if (kind === "radius" && !(x > 0)) { this.io.refuse("a radius is a positive length"); this.sync(); return; }
+    if ((kind === "radius" || kind === "fillet") && !(x > 0)) { this.io.refuse("a radius is a positive length"); this.sync(); return; }
+    if (kind === "angle" && !(x >= 0 && x <= 180)) { this.io.refuse("an angle between two features is 0° to 180°"); this.sync(); return; }
     field.blur();
     this.apply(kind, name, { [PARAM[kind]]: x }, this.label(kind, name, x));
   }
 
   label(kind, name, x) {
     return { radius: `radius ${name} r ${fmt(x)}`, offset: `wall ${name} ${fmt(x)}`,
-      twist: `twist ${name} ${fmt(x)}°/length`, map: `map ${name} ${fmt(x)}` }[kind];
+      twist: `twist ${name} ${fmt(x)}°/length`, map: `map ${name} ${fmt(x)}`, fillet: `fillet ${name} r ${fmt(x)}`,
+      distance: `distance ${name} ${fmt(x)}`, angle: `angle ${name} ${fmt(x)}°` }[kind];
   }
 
   /** A slider moved: the value goes out at once, as a drag (its release commits it). */
@@ -471,6 +492,8 @@ export class EditsPanel {
     } else if (t.matches("select[data-param=point]")) {
       this.lattice = { name: li.dataset.name, key: t.value };
       this.sync();
+    } else if (t.matches("select[data-param=law]")) {
+      showLaw(li);
     }
   }
 

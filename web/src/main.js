@@ -59,6 +59,7 @@ const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () 
 const edits = new EditsPanel(viewer, meshView, regions, moves, { pickedIds: () => measure.values().vertices,
   refuse: showError, create: () => session.create() });
 moves.extra = { move: () => edits.move(), set: (m) => edits.fromMove(m) };
+shapes.editRest = (kind, name) => edits.rest(kind, name);
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);
 // the mesh's and the session's workspace, on the service and in the page's address (#m=…&s=…)

@@ -6,6 +6,7 @@
 import * as THREE from "three";
 import { api, getJson, postJson } from "./api.js";
 import { $ } from "./dom.js";
+import { combineEdits } from "./editshapes.js";
 import { parseHandleMove } from "./gizmo.js";
 import { clearError, fmt, setBusy, showError } from "./panels.js";
 import { saveBlob } from "./session.js";
@@ -30,8 +31,11 @@ function qexp(r) {
   return new THREE.Quaternion(r.x * k, r.y * k, r.z * k, Math.cos(a));
 }
 
-/** The MOVE of shape values {name: theta}: the DOE's combination of the shapes (MOVEs at value 1). */
-export function combine(shapes, values) {
+/**
+ * The MOVE of shape values {name: theta}: the DOE's combination of the shapes (MOVEs at value 1),
+ * handles and edits (`rest(kind, name)`: an edit's rest value, editshapes.js).
+ */
+export function combine(shapes, values, rest = () => null) {
   const handles = {};
   for (const [name, h] of Object.entries(state.transforms)) {
     const t = new THREE.Vector3(), r = new THREE.Vector3();
@@ -49,7 +53,7 @@ export function combine(shapes, values) {
     if (s !== 1) doc.scale = s;
     handles[name] = doc;
   }
-  return { handles };
+  return { ...combineEdits(shapes, values, rest), handles };
 }
 
 /** Names and sizes of the files of a zip (its central directory). */
@@ -76,6 +80,7 @@ export class ShapesPanel {
     this.moves = moves;
     this.session = session;
     this.values = {};
+    this.editRest = () => null;  // an edit's rest value (the Edits panel's), set by the wiring
     const el = $("shapes");
     el.addEventListener("input", (ev) => { if (ev.target.dataset.shape) this.slide(ev.target, false); });
     el.addEventListener("change", (ev) => { if (ev.target.dataset.shape) this.slide(ev.target, true); });
@@ -130,7 +135,7 @@ export class ShapesPanel {
     const span = [...$("shapes").querySelectorAll("[data-val]")].find((s) => s.dataset.val === name);
     if (span) span.textContent = fmt(this.values[name]);
     if (!state.sessionId) return;
-    const move = combine(this.shapes(), this.values);
+    const move = combine(this.shapes(), this.values, this.editRest);
     this.moves.setFromMove(move);
     if (done) {
       const label = Object.entries(this.values).filter(([, v]) => v).map(([k, v]) => `${k} ${fmt(v)}`).join(" + ");

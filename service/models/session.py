@@ -5,7 +5,7 @@ from __future__ import annotations
 import enum
 import json
 import re
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictStr, field_validator
 
@@ -97,6 +97,16 @@ class PresetDoc(BaseModel):
     move: dict[str, Any] = Field(description="the MOVE, as given")
 
 
+class EditDimension(BaseModel):
+    """An edit's dimension at rest: what its MOVE parameter changes from."""
+
+    kind: Literal["radius", "fillet", "distance", "angle"] = Field(description="the SPEC key of the edit")
+    name: str
+    parameter: Literal["radius", "distance", "angle_deg"] = Field(
+        description="the MOVE parameter that sets it (MOVE.<kind>.<name>.<parameter>)")
+    rest: float = Field(description="a radius or a distance in the mesh's units, or an angle in degrees")
+
+
 class SessionDoc(BaseModel):
     """A session: its status, progress, set-up figures and the last MOVE and REPORT."""
 
@@ -105,7 +115,7 @@ class SessionDoc(BaseModel):
         "progress": 1.0, "error": None, "created": 1764579600.0, "last_used": 1764579660.0,
         "expires_at": 1764666060.0, "updates": 1, "builds": 1, "handles": ["tip"],
         "last_move": {"handles": {"tip": {"translation": [0, 0, 4]}}}, "spec": {}, "setup_timings": None,
-        "factor_bytes": 1048576, "constraints_at_rest": None, "last_report": None,
+        "factor_bytes": 1048576, "constraints_at_rest": None, "edits_at_rest": [], "last_report": None,
         "presets": [{"name": "lift 4", "move": {"handles": {"tip": {"translation": [0, 0, 4]}}}}]}]})
 
     id: str
@@ -126,6 +136,9 @@ class SessionDoc(BaseModel):
     setup_timings: dict[str, Any] | None
     factor_bytes: int | None
     constraints_at_rest: dict[str, Any] | None
+    edits_at_rest: list[EditDimension] | None = Field(
+        None, description="each radius, fillet, distance and angle edit's dimension at rest, as the set-up "
+                          "measured it (None while building)")
     last_report: Report | None
     presets: list[PresetDoc] = Field(default_factory=list, description="named MOVEs kept with the session "
                                      "(PATCH /v1/sessions/{id}); not part of its morph state or version")

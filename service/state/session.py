@@ -87,5 +87,6 @@ class Session:
             "setup_timings": d.setup_timings if d is not None else None,
             "factor_bytes": d.nbytes if d is not None else None,
             "constraints_at_rest": d.rest_constraints if d is not None else None,
+            "edits_at_rest": d.edit_dimensions if d is not None else None,
             "last_report": self.report, "presets": self.presets,
         }

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -106,6 +106,16 @@ class Edit:
         """
         return self.change(step)
 
+    #: The MOVE parameter that sets the dimension this edit measures at rest (``radius``,
+    #: ``distance``, ``angle_deg``); None for an edit without one (twist, map, offset, lattice).
+    parameter: ClassVar[str | None] = None
+
+    @property
+    def dimension(self) -> float | None:
+        """The dimension at rest that :attr:`parameter` sets: a radius, a distance, or an angle in degrees."""
+        nominal = getattr(self, "nominal", None)
+        return None if self.parameter is None or nominal is None else float(nominal)
+
     def check(self, value: Any, where: str) -> None:
         """Refuse a value without meaning on this mesh (``where`` names it, ``MOVE.radius.bore``)."""
 
@@ -138,6 +148,7 @@ class RadiusEdit(Edit):
     u: np.ndarray
     r: np.ndarray
     nominal: float
+    parameter: ClassVar[str | None] = "radius"
 
     def change(self, value: RadiusValue) -> np.ndarray:
         """``(r' - r) u``: every node to the new radius, or its radius changed by ``delta``."""

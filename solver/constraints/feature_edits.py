@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -82,6 +82,7 @@ class FilletEdit(Edit):
     reach: np.ndarray
     room: np.ndarray
     nominal: float
+    parameter: ClassVar[str | None] = "radius"
     slide_ids: np.ndarray
     slide_normals: np.ndarray
 
@@ -243,6 +244,7 @@ class DistanceEdit(Edit):
 
     n: np.ndarray
     nominal: float
+    parameter: ClassVar[str | None] = "distance"
     signed: bool
 
     def distance_of(self, value: DistanceValue) -> float:
@@ -311,6 +313,7 @@ class AngleEdit(Edit):
     coef: tuple[float, float, float]
     flat: bool
     nominal: float
+    parameter: ClassVar[str | None] = "angle_deg"
 
     def angle_of(self, value: AngleValue | None) -> float:
         """The angle in degrees a value sets (None: the rest angle)."""

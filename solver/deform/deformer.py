@@ -99,6 +99,11 @@ class Deformer:
         self.mesh, self.spec, self.handle_names = mesh, self.data.spec, cs.handle_names
         self.setup_timings, self.factorizations = self.data.setup_timings, self.data.factorizations
         self.rest_constraints, self.solve_mode = cs.rest_constraints, cs.mode
+        #: Each edit's dimension at rest, as the set-up measured it: ``{"kind", "name", "parameter",
+        #: "rest"}`` (a radius, a distance, or an angle in degrees), for the edits that have one.
+        self.edit_dimensions: list[dict[str, Any]] = [
+            {"kind": e.kind, "name": e.name, "parameter": e.parameter, "rest": e.dimension}
+            for e in cs.edits if e.dimension is not None]
 
     @property
     def nbytes(self) -> int:

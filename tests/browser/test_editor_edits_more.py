@@ -11,6 +11,7 @@ tools existed.
 
 from __future__ import annotations
 
+import httpx
 import numpy as np
 import pytest
 
@@ -82,6 +83,13 @@ def test_a_fillet_radius_from_its_fitted_rest_value_typed_and_refused(page, fill
     # the field starts at the radius fitted on the page, the library's fit of the rest positions
     assert float(page.input_value(f"{row('corner')} input[type=number]")) == pytest.approx(r0, rel=1e-5)
     assert rest_shown(page, "corner") == pytest.approx(r0, rel=1e-5)
+    # once the session is ready, the row shows the rest radius the service states (its own request here)
+    sid = page.evaluate("window.tetmorph.session().id")
+    stated = httpx.get(f"{page.base}/v1/sessions/{sid}").json()["edits_at_rest"]
+    assert stated == [{"kind": "fillet", "name": "corner", "parameter": "radius", "rest": pytest.approx(r0, rel=1e-12)}]
+    page.wait_for_function("(s) => document.querySelector(s).title.includes('by the service')",
+                           arg=f"{row('corner')} [data-rest]")
+    assert rest_shown(page, "corner") == float(f"{stated[0]['rest']:.6g}")
     sent = sent_spec(page)
     assert sent["fillet"] == [{"name": "corner", "selection": "fillet.corner",
                                "faces": ["fillet.corner.face1", "fillet.corner.face2"]}]

@@ -91,8 +91,30 @@ export class EditsPanel {
     });
     // a SPEC read back (imported, or a session opened) brings its own edits
     on("regions", () => { this.regionChoices(); if (this.names() !== this.rendered) this.render(); });
-    on("session", () => this.render());
+    on("session", () => { this.render(); this.loadServiceRest(); });
     this.form();
+  }
+
+  /**
+   * The rest values the service measured at set-up (the session's `edits_at_rest`): the library's
+   * own fits, which the Shapes panel's changes and the rows' "rest" then use in place of the page's.
+   */
+  async loadServiceRest() {
+    const id = state.sessionId;
+    this.serviceRest = new Map();
+    if (!id) return;
+    let doc;
+    try { doc = await getJson(`/v1/sessions/${id}`); } catch { return; }
+    if (state.sessionId !== id || !doc.edits_at_rest) return;
+    for (const d of doc.edits_at_rest) this.serviceRest.set(`${d.kind}/${d.name}`, d.rest);
+    this.render();
+  }
+
+  /** The service's rest value of an edit the open session has as the page has it (undefined: none). */
+  restOfService(kind, name) {
+    const e = this.list(kind).find((x) => x.name === name), sent = this.sent(kind, name);
+    if (!this.serviceRest || !e || !sent || JSON.stringify(sent) !== JSON.stringify(e)) return undefined;
+    return this.serviceRest.get(`${kind}/${name}`);
   }
 
   // ---------------------------------------------------------------- SPEC entries
@@ -311,6 +333,8 @@ export class EditsPanel {
   rest(kind, name) {
     const e = this.list(kind).find((x) => x.name === name);
     if (!e || !(kind === "radius" || BETWEEN[kind])) return null;
+    const measured = this.restOfService(kind, name);
+    if (measured !== undefined) return measured;
     if (kind === "radius") return this.restRadius(e);
     this.rests = this.rests || new WeakMap();  // a fillet's fit is not redone at every frame
     if (!this.rests.has(e)) this.rests.set(e, restBetween(this, kind, e));
@@ -332,14 +356,14 @@ export class EditsPanel {
           controls = `<label>point <select data-param="point">${keys}</select></label>` +
             [0, 1, 2].map((a) => `<input data-axis="${a}" type="number" step="any" aria-label="d${"xyz"[a]}">`).join("");
         } else if (BETWEEN[kind]) {
-          controls = betweenControls(kind, e, this.rest(kind, e.name));
+          controls = betweenControls(kind, e, this.rest(kind, e.name), this.restOfService(kind, e.name) !== undefined);
         } else if (kind === "twist") {
           controls = twistControls();
         } else {
           const unit = { radius: "r", offset: "d", map: "amount" }[kind];
           controls = `<label>${unit} <input type="number" step="any" data-param="${PARAM[kind]}"></label>`;
           if (kind === "radius") {
-            const r0 = this.restRadius(e);
+            const r0 = this.rest(kind, e.name);
             controls += `<input type="range" data-param="radius" min="${num(0.5 * r0)}" max="${num(1.5 * r0)}" step="${num(r0 / 200)}">`;
           } else if (kind === "map") {
             controls += '<input type="range" data-param="amount" min="0" max="1" step="0.01">';

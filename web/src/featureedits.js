@@ -61,12 +61,13 @@ export function restBetween(panel, kind, e) {
 }
 
 /** The row's controls: the value field, a slider about the rest value, the rest value said. */
-export function betweenControls(kind, e, rest) {
+export function betweenControls(kind, e, rest, byService = false) {
   const b = BETWEEN[kind], r0 = rest ?? 1;
   const [lo, hi] = kind === "angle" ? [Math.max(0, r0 - 30), Math.min(180, r0 + 30)] : [0.5 * r0, 1.5 * r0];
   const n = (x) => String(Number(Number(x).toPrecision(10)));
   const said = rest === null ? "rest: no fit on the page" : `rest ${Number(rest.toPrecision(6))}`;
   return `<label>${b.unit} <input type="number" step="any" data-param="${b.param}"></label>` +
     `<input type="range" data-param="${b.param}" min="${n(lo)}" max="${n(hi)}" step="${n((hi - lo) / 200)}">` +
-    `<span class="muted" data-rest title="${b.rest}, measured on the page from the rest positions">${said}</span>`;
+    `<span class="muted" data-rest title="${b.rest}, measured ${byService ? "by the service at set-up" :
+      "on the page from the rest positions"}">${said}</span>`;
 }

@@ -52,3 +52,24 @@ def test_a_bad_fillet_move_answers_the_librarys_code_over_rest(part, client, tc)
                         ({"fillet": {"nope": {"radius": 7.0}}}, "MOVE.fillet")):
         e = err(tc.post(f"/v1/sessions/{sid}/deform", json=move))
         assert e["code"] == "invalid_spec" and e["details"]["field"] == field, e
+
+
+def test_the_session_names_each_edits_dimension_at_rest(part, client, tc):
+    mesh = read_mesh(part)
+    sid = client.create_session(client.upload_mesh(part)["id"], SPEC)["id"]
+    doc = tc.get(f"/v1/sessions/{sid}").json()
+    rest = {(d["kind"], d["name"]): d for d in doc["edits_at_rest"]}
+    assert set(rest) == {("fillet", "corner"), ("distance", "pitch")}
+    # the fillet was meshed on an arc of radius 5 (tests/gmsh_parts.py): its nodes lie on it
+    assert rest["fillet", "corner"]["parameter"] == "radius"
+    assert rest["fillet", "corner"]["rest"] == pytest.approx(5.0, rel=1e-9)
+    # the distance between the centroids of the two sets, computed here from the mesh
+    bore, load = mesh.V[mesh.sets["BORE"]].mean(0), mesh.V[mesh.sets["LOAD"]].mean(0)
+    assert rest["distance", "pitch"]["parameter"] == "distance"
+    assert rest["distance", "pitch"]["rest"] == pytest.approx(float(np.linalg.norm(bore - load)), rel=1e-12)
+    # a change by delta lands at the stated rest value plus delta, measured on the positions answered
+    r = tc.post(f"/v1/sessions/{sid}/deform", json={"distance": {"pitch": {"delta": 1.5}}})
+    assert r.status_code == 200, r.text
+    got = np.asarray(r.json()["positions"])
+    measured = np.linalg.norm(got[mesh.sets["BORE"]].mean(0) - got[mesh.sets["LOAD"]].mean(0))
+    assert measured == pytest.approx(rest["distance", "pitch"]["rest"] + 1.5, rel=1e-12)

@@ -149,6 +149,16 @@ def test_the_axis_is_fitted_to_the_bore_when_not_given(plate):
     assert flat.code == "not_a_cylinder" and flat.details["field"] == "radius[0]"
 
 
+def test_the_rest_radius_is_stated_with_the_parameter_that_sets_it(plate):
+    spec = bore_spec(twist=[{"name": "t", "selection": "hole2", "axis": {"point": [0, 0, 0], "direction": [1, 0, 0]}}])
+    spec["selections"]["hole2"] = {"set": "HOLE2"}
+    d = precompute(plate, spec)
+    ids = d.data.constraints.sel_ids["hole1"]
+    _, r0, _ = about(plate.V[ids], BORE, Z)  # measured here: the mean radius of the bore's nodes
+    assert d.edit_dimensions == [{"kind": "radius", "name": "bore", "parameter": "radius",
+                                  "rest": pytest.approx(float(r0.mean()), rel=1e-12)}]  # a twist has none
+
+
 def test_nodes_on_the_axis_are_refused():
     mesh = mesh_from_arrays(*cube_mesh(2))  # nodes at 0, 0.5, 1: the axis x = y = 0.5 holds some
     spec = {"selections": {"skin": {"box": {"min": [0, 0, 0], "max": [1, 1, 1]}, "boundary_only": True}},

@@ -134,6 +134,39 @@ def test_an_angle_between_two_faces_from_its_rest_angle(page, filleted):
                                          "reference": "angle.tilt.reference"}]
 
 
+def test_an_angle_about_a_typed_axis_and_pivot_with_a_typed_planar_tolerance(page, filleted):
+    mesh = read_mesh(filleted)
+    upload(page, filleted)
+    regions_of(page, "LOAD", fixed=None)
+    assign_set(page, "FIXED", 2)
+    open_edits(page, "angle")
+    choose_region(page, "#edit-region", "LOAD")
+    choose_region(page, "#edit-reference", "FIXED")
+    page.fill("#edit-turn-axis", "0 0 1")
+    page.fill("#edit-pivot", "3 50")  # two numbers: refused, nothing added
+    page.fill("#edit-planar", "2")
+    add_edit(page, "tilt")
+    page.wait_for_selector("#errors:not([hidden])")
+    assert "the pivot is three numbers" in page.inner_text("#error-text")
+    assert page.locator(row("tilt")).count() == 0
+    page.fill("#edit-pivot", "3, 50, 10")
+    add_edit(page, "tilt")
+    create(page)
+    entry = {"name": "tilt", "selection": "angle.tilt", "reference": "angle.tilt.reference", "axis": [0, 0, 1],
+             "pivot": [3, 50, 10], "planar_deg": 2}
+    assert sent_spec(page)["angle"] == [entry]
+    spec = {"selections": {"FIXED": {"set": "FIXED"}, "LOAD": {"set": "LOAD"}},
+            "angle": [{**entry, "selection": "LOAD", "reference": "FIXED"}]}
+    d = precompute(mesh, spec)
+    type_value(page, "tilt", 80)
+    np.testing.assert_allclose(positions(page), d.solve({"angle": {"tilt": {"angle_deg": 80.0}}}).V, rtol=0,
+                               atol=SHOWN)
+    # the turn is about the typed axis through the typed pivot: the pivot's line stays, the face's normal turns
+    P, load = positions(page), mesh.sets["LOAD"]
+    n = np.linalg.svd(P[load] - P[load].mean(0))[2][2]
+    assert abs(n[2]) <= 1e-4 and np.degrees(np.arccos(abs(n @ [1, 0, 0]))) == pytest.approx(80, abs=1e-3)
+
+
 def test_a_distance_between_two_features_typed_and_dragged(page, filleted):
     mesh = read_mesh(filleted)
     upload(page, filleted)

@@ -13,12 +13,15 @@ export const BETWEEN = {
   angle: { param: "angle_deg", delta: "delta_deg", unit: "°", rest: "the rest angle" },
 };
 
-/** Three numbers typed in a field ("x y z" or "x, y, z"), null when empty, false when not three numbers. */
-function typedDirection(id) {
+/**
+ * Three numbers typed in a field ("x y z" or "x, y, z"), null when empty, false when not three numbers
+ * (or, for a direction, all zero).
+ */
+function typedTriple(id, direction = true) {
   const text = $(id).value.trim();
   if (!text) return null;
   const v = text.split(/[\s,;]+/).map(Number);
-  return v.length === 3 && v.every(Number.isFinite) && v.some((x) => x !== 0) ? v : false;
+  return v.length === 3 && v.every(Number.isFinite) && (!direction || v.some((x) => x !== 0)) ? v : false;
 }
 
 /**
@@ -40,13 +43,24 @@ export function betweenEntry(panel, kind, name, sel, r) {
   const ref = panel.region($("edit-reference").value);
   if (!need(ref, "choose the reference region (it stays where it is)")) return null;
   if (!need(ref !== r, "the reference is another region than the one that moves")) return null;
-  const typed = typedDirection(kind === "distance" ? "edit-along" : "edit-turn-axis");
-  if (!need(typed !== false, `the ${kind === "distance" ? "direction" : "axis"} is three numbers, not all zero ` +
-    "(or leave it empty)")) return null;
+  // the optional typed fields: SPEC key, field, what the refusal calls it, whether it is a direction
+  const fields = kind === "distance" ? [["direction", "edit-along", "direction", true]]
+    : [["axis", "edit-turn-axis", "axis", true], ["direction", "edit-dir-moving", "direction", true],
+      ["reference_direction", "edit-dir-reference", "reference direction", true], ["pivot", "edit-pivot", "pivot", false]];
+  const out = { name, selection: sel, reference: `${sel}.reference` };
+  for (const [key, id, said, direction] of fields) {
+    const typed = typedTriple(id, direction);
+    if (!need(typed !== false, `the ${said} is three numbers${direction ? ", not all zero" : ""} (or leave it empty)`)) return null;
+    if (typed) out[key] = typed;
+  }
+  if (kind === "angle") {
+    const planar = Number($("edit-planar").value);
+    if (!need($("edit-planar").value.trim() !== "" && planar >= 0 && planar <= 180,
+      "planar within is an angle in degrees, 0 to 180")) return null;
+    if (planar !== 1) out.planar_deg = planar;  // 1°: the SPEC's default
+  }
   panel.take(r, sel);
   panel.take(ref, `${sel}.reference`);
-  const out = { name, selection: sel, reference: `${sel}.reference` };
-  if (typed) out[kind === "distance" ? "direction" : "axis"] = typed;
   return out;
 }
 

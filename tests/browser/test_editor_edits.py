@@ -297,3 +297,45 @@ def test_a_lattice_around_a_region_dragged_and_typed(page, bracket, tmp_path):
     u = (V[load] - box["min"]) / (np.array(box["max"]) - box["min"])
     w = u.prod(axis=1)
     np.testing.assert_allclose(want[load, 2] - V[load, 2], 3 * w, atol=1e-9)
+
+
+def test_a_clamped_radius_is_kept_as_the_service_applied_it(page, bracket):
+    load_bracket(page)
+    assign_set(page, "FIXED", 1)
+    open_edits(page, "radius")
+    page.wait_for_function("[...document.querySelectorAll('#edit-feature option')].some((o) => "
+                           "o.textContent.startsWith('hole_1 '))")
+    value = page.evaluate("[...document.querySelectorAll('#edit-feature option')]"
+                          ".find((o) => o.textContent.startsWith('hole_1 ')).value")
+    page.select_option("#edit-feature", value)
+    page.fill("#edit-name", "bore")
+    page.click("#edit-add")
+    create(page, "clamp")
+    type_value(page, "bore", 40)  # past what the part takes: the service scales it back
+    sid = page.evaluate("window.tetmorph.session().id")
+    doc = httpx.get(f"{page.base}/v1/sessions/{sid}").json()
+    f = doc["last_report"]["applied_fraction"]
+    r0 = doc["edits_at_rest"][0]["rest"]
+    assert doc["last_report"]["clamped"] and 0 < f < 1
+    applied = doc["last_move"]["radius"]["bore"]["radius"]
+    assert applied == pytest.approx(r0 + f * (40 - r0), rel=1e-12)  # the library's scaling, read back
+    # the history keeps the MOVE as applied, and the field shows it
+    last = page.evaluate("window.tetmorph.history()")["entries"][-1]
+    assert last["move"]["radius"]["bore"]["radius"] == pytest.approx(applied, rel=1e-12)
+    assert "clamped" in last["label"]
+    assert float(page.input_value(f"{row('bore')} input[type=number]")) == pytest.approx(applied, rel=1e-9)
+    h = hole(bracket)
+    axis = {"point": h.params["center"].tolist(), "direction": h.params["axis"].tolist()}
+    spec = {"selections": {"FIXED": {"set": "FIXED"}, "hole": {"ids": h.ids.tolist()}}, "fixed": ["FIXED"],
+            "radius": [{"name": "bore", "selection": "hole", "axis": axis}], "inversion": "clamp"}
+    want = precompute(bracket, spec).solve({"radius": {"bore": {"radius": 40.0}}}).V
+    np.testing.assert_allclose(positions(page), want, rtol=0, atol=SHOWN)
+    # Undo, then Redo: the applied radius goes out again, which the part takes as it is
+    page.click("#undo")
+    settle(page)
+    page.click("#redo")
+    settle(page)
+    doc = httpx.get(f"{page.base}/v1/sessions/{sid}").json()
+    assert not doc["last_report"]["clamped"]
+    assert doc["last_move"]["radius"]["bore"]["radius"] == pytest.approx(applied, rel=1e-12)
+    np.testing.assert_allclose(positions(page), want, rtol=0, atol=SHOWN)

@@ -66,3 +66,40 @@ export function combineEdits(shapes, values, rest) {
   }
   return out;
 }
+
+/**
+ * The MOVE's edit entries scaled by f in [0, 1], as the service's clamp scales them
+ * (solver/constraints/edit_values.py `scaled_value`): a new radius, fillet radius, distance or angle
+ * goes f of the way from its rest value `rest(kind, name)` (the value itself when that is unknown:
+ * the service then keeps it), a change (delta) and every other parameter are multiplied by f.
+ */
+export function scaleEdits(move, f, rest) {
+  const out = {};
+  for (const kind of EDIT_KINDS) {
+    if (!move || !move[kind]) continue;
+    out[kind] = {};
+    for (const [name, v] of Object.entries(move[kind])) {
+      let s;
+      if (CHANGE[kind]) {
+        const [key, change] = CHANGE[kind];
+        if (v[key] !== undefined) {
+          const r0 = rest(kind, name);
+          s = { [key]: f === 1 || r0 === null || r0 === undefined ? v[key] : r0 + f * (v[key] - r0) };
+        } else {
+          s = { [change]: f * (v[change] || 0) };
+        }
+      } else if (kind === "twist") {
+        s = v.table ? { table: v.table.map((r) => ({ at: r.at, angle_deg: f * r.angle_deg })) }
+          : { angle_deg_per_length: f * v.angle_deg_per_length };
+      } else if (kind === "map") {
+        s = { amount: f * (v.amount ?? 1) };
+      } else if (kind === "offset") {
+        s = { distance: f * v.distance };
+      } else {
+        s = { displacements: Object.fromEntries(Object.entries(v.displacements || {}).map(([k, d]) => [k, d.map((x) => f * x)])) };
+      }
+      out[kind][name] = s;
+    }
+  }
+  return out;
+}

@@ -63,7 +63,8 @@ export class Moves {
     this.pending = new Map(); // seq -> history entry it commits
     this.dragSeq = null;
     this.shown = {};          // field id -> [text shown, exact value]
-    this.extra = { move: () => ({}), set: () => {} };  // the MOVE's other entries (edits.js), set by the wiring
+    // the MOVE's other entries (edits.js), set by the wiring: read, set, and scaled as a clamp scales them
+    this.extra = { move: () => ({}), set: () => {}, scaled: () => ({}) };
     this.pivot = new THREE.Object3D();
     viewer.scene.add(this.pivot);
     this.gizmo = new TransformControls(viewer.camera, viewer.canvas);
@@ -424,7 +425,7 @@ export class Moves {
     const f = report.applied_fraction;
     const sent = entry ? entry.move : state.lastMove;
     if (!sent) return;
-    const applied = Moves.scaled(sent, f);
+    const applied = { ...Moves.scaled(sent, f), ...this.extra.scaled(sent, f) };
     if (entry) { entry.move = applied; entry.label += ` · clamped to ${fmt(f)}`; emit("history"); }
     if (seq === state.seq) { own.lastMove = applied; emit("last-move"); }  // what the session holds
     if (!this.dragging && (!entry || entry === state.history[state.historyIndex])) this.setFromMove(applied);

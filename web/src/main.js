@@ -25,6 +25,7 @@ import { CyclicPairs, Diagnostics } from "./diagnostics.js";
 import { ShapesPanel } from "./shapes.js";
 import { CsysPanel } from "./csys.js";
 import { EditsPanel } from "./edits.js";
+import { scaleEdits } from "./editshapes.js";
 import { ChecksPanel } from "./checks.js";
 import { DoePlanPanel } from "./doeplan.js";
 import { CyclicPanel, SymmetryPanel, TargetPanel } from "./symmetry.js";
@@ -58,7 +59,8 @@ const csys = new CsysPanel(moves, { picked: () => moves.picked(), pickedIds: () 
   refuse: showError });
 const edits = new EditsPanel(viewer, meshView, regions, moves, { pickedIds: () => measure.values().vertices,
   refuse: showError, create: () => session.create() });
-moves.extra = { move: () => edits.move(), set: (m) => edits.fromMove(m) };
+moves.extra = { move: () => edits.move(), set: (m) => edits.fromMove(m),
+  scaled: (m, f) => scaleEdits(m, f, (kind, name) => edits.rest(kind, name)) };
 shapes.editRest = (kind, name) => edits.rest(kind, name);
 $("doe-plan").addEventListener("input", () => { $("doe-plan").dataset.edited = "1"; });
 session.openMesh = (id) => openMesh(id);

@@ -1,4 +1,5 @@
-"""PARDISO's factor gives the same bits on one thread and on two (its reproducible mode).
+"""PARDISO's factor gives the same bits on one thread and on two (its reproducible mode), and so
+does its ordering alone.
 
 Each count runs in a fresh interpreter, since MKL reads its thread count from the
 environment. The systems are large enough (8,000 unknowns) for MKL to factor them
@@ -24,11 +25,15 @@ SCRIPT = """
 import hashlib, sys
 import numpy as np
 from tests.solver.linalg.test_pardiso import grid_system
-from solver.linalg.pardiso import PardisoFactor
+from solver.linalg import pardiso
 for mtype in (11, 2):
     A, b = grid_system(20, symmetric=mtype == 2)
-    x = PardisoFactor(A, "grid", mtype=mtype).solve(b)
+    x = pardiso.PardisoFactor(A, "grid", mtype=mtype).solve(b)
     print(mtype, hashlib.sha256(np.ascontiguousarray(x).tobytes()).hexdigest())
+A, _ = grid_system(20, symmetric=False)
+for ordering in (pardiso.ORDERING_ONLY, pardiso.ORDERING):
+    pardiso.ORDERING_ONLY = ordering
+    print("perm", hashlib.sha256(pardiso.nested_dissection(A).tobytes()).hexdigest())
 """
 
 
@@ -54,8 +59,10 @@ def _solutions(threads: int) -> list[str]:
 
 def test_one_thread_and_two_give_the_same_bits():
     one, two = _solutions(1), _solutions(2)
-    assert len(one) == 4  # LU and Cholesky, each with its hash
+    assert len(one) == 8  # LU and Cholesky, each with its hash; the two orderings' permutations
     assert one == two
+    # the ordering alone (the multifrontal LU's), OpenMP's: the one-thread ordering's permutation
+    assert one[5] == one[7]
 
 
 def test_the_grid_systems_are_solved():

@@ -751,6 +751,7 @@ def nd_threads() -> None:
 
     print("| mesh | interior unknowns | settings | factor s, median [range] | 1 thread = 2 threads |")
     print("|---|---:|---|---:|---|")
+    orderings = []
     for size, runs in ((0.95, 7), (0.44, 3)):
         mesh = read_mesh(deck("bracket", size))
         d = precompute(mesh, end_spec(mesh))
@@ -775,6 +776,30 @@ def nd_threads() -> None:
             same = "yes" if hashes[0][k] == hashes[1][k] else "no"
             print(f"| bracket {size:g} | {A.shape[0]:,} | {label} | {np.median(ts):.2f} [{min(ts):.2f}-{max(ts):.2f}] "
                   f"| {same} |", flush=True)
+        orderings.append((size, A))
+    # the ordering alone (the multifrontal LU's): OpenMP's against one thread's, time and permutation
+    from solver.linalg import pardiso as pm
+
+    print("\n| mesh | ordering alone, iparm(2) | s, median [range] | the one-thread permutation |")
+    print("|---|---|---:|---|")
+    for size, A in orderings:
+        perms: dict[int, list[bytes]] = {3: [], 2: []}
+        took: dict[int, list[float]] = {3: [], 2: []}
+        keep = pm.ORDERING_ONLY
+        try:
+            for _ in range(3):
+                for nd in (3, 2):
+                    pm.ORDERING_ONLY = nd
+                    t = time.perf_counter()
+                    perms[nd].append(pm.nested_dissection(A).tobytes())
+                    took[nd].append(time.perf_counter() - t)
+        finally:
+            pm.ORDERING_ONLY = keep
+        for nd in (3, 2):
+            same = "yes" if set(perms[nd]) == set(perms[2]) and len(set(perms[2])) == 1 else "no"
+            ts = took[nd]
+            print(f"| bracket {size:g} | {nd} | {np.median(ts):.2f} [{min(ts):.2f}-{max(ts):.2f}] | {same} |",
+                  flush=True)
 
 
 def distinct() -> None:

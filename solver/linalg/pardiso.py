@@ -57,7 +57,8 @@ ORDERING = 2
 REPRODUCIBLE_THREADS = 4
 #: iparm(2) of :func:`nested_dissection`, the ordering alone (the multifrontal LU's): the OpenMP
 #: nested dissection, which gave the one-thread ordering's permutation on every system measured,
-#: on one thread and two (``tests/solver/linalg/test_pardiso.py``), 0.35 s sooner at 1M tets.
+#: on one thread and two (``tests/solver/linalg/test_pardiso.py``), and sooner
+#: (``benchmarks/measure_choices.py --only nd-threads``).
 ORDERING_ONLY = 3
 
 _LIB: tetmorph_core.Mkl | None = None

@@ -244,3 +244,134 @@ def test_the_daily_edits_picture_draws_the_pages_edits_exactly():
         assert actor.mapper.scalar_range == (0.0, largest)
         assert " ".join(_actor(p, 0, k, "title").GetText(7).split()) == title
     p.close()
+
+
+# ------------------------------------------------------------------------ the guide's daily edits, one per edit
+def _signed_volumes(V: np.ndarray, T: np.ndarray) -> np.ndarray:
+    a, b, c, d = (V[T[:, k]] for k in range(4))
+    return np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6.0
+
+
+def _plane_normal(P: np.ndarray) -> np.ndarray:
+    return np.linalg.svd(P - P.mean(axis=0))[2][2]
+
+
+def _check_bracket_radius(V0, bore, small):
+    on = np.flatnonzero(np.isclose(np.hypot(V0[:, 0] - 60, V0[:, 1] - 10), 5.0, atol=1e-6))
+    for V, r in ((bore, 7.5), (small, 3.0)):
+        np.testing.assert_allclose(np.hypot(V[on, 0] - 60, V[on, 1] - 10), r, rtol=1e-12)
+        np.testing.assert_allclose(V[on, 2], V0[on, 2], atol=1e-12)  # heights kept
+
+
+def _skin(V0, F):
+    skin = np.unique(F)
+    return skin[V0[skin, 0] > 0.001]
+
+
+def _check_bracket_twist_bend(V0, F, twist, bend):
+    skin = _skin(V0, F)
+    skin = skin[np.hypot(V0[skin, 1] - 10, V0[skin, 2] - 5) > 0]
+    turn = np.degrees(np.angle(np.exp(1j * (np.arctan2(twist[skin, 2] - 5, twist[skin, 1] - 10)
+                                            - np.arctan2(V0[skin, 2] - 5, V0[skin, 1] - 10)))))
+    np.testing.assert_allclose(turn, 0.6 * V0[skin, 0], atol=1e-9)
+    kappa = math.radians(0.2)  # the axis on an arc of radius 1/kappa, each section rigid and normal to it
+    theta, h = kappa * V0[skin, 0], V0[skin, 2] - 5
+    np.testing.assert_allclose(bend[skin, 0], np.sin(theta) / kappa - h * np.sin(theta), atol=1e-9)
+    np.testing.assert_allclose(bend[skin, 1], V0[skin, 1], atol=1e-9)
+    np.testing.assert_allclose(bend[skin, 2], 5 + (1 - np.cos(theta)) / kappa + h * np.cos(theta), atol=1e-9)
+    assert abs(math.degrees(kappa * 100) - 20) < 1e-12
+
+
+def _check_bracket_map(V0, F, crown):
+    skin = _skin(V0, F)
+    top, bottom = skin[np.abs(V0[skin, 2] - 10) < 1e-6], skin[np.abs(V0[skin, 2]) < 1e-6]
+    np.testing.assert_allclose(np.hypot(crown[top, 1] - 10, crown[top, 2] + 20), 30.0, rtol=1e-12)
+    np.testing.assert_allclose(crown[top, 0], V0[top, 0], atol=1e-12)
+    assert round(10 - crown[top, 2].min(), 1) == 1.5  # "the top's long edges drop by 1.5 mm"
+    assert np.abs(crown[bottom, 2]).max() < 1e-9  # the bottom slides on its plane
+
+
+def _check_bracket_offset(V0, wall):
+    back = np.abs(V0[:, 1] - 20) < 1e-6
+    np.testing.assert_allclose(wall[back, 1], 24.0, rtol=1e-12)
+    assert np.abs(wall[np.abs(V0[:, 1]) < 1e-6, 1]).max() < 1e-9  # the front face slides on its plane
+    on = np.flatnonzero(np.isclose(np.hypot(V0[:, 0] - 60, V0[:, 1] - 10), 5.0, atol=1e-6))
+    np.testing.assert_allclose(np.hypot(wall[on, 0] - 60, wall[on, 1] - 10), 5.0, rtol=1e-12)
+
+
+def _check_bracket_lattice(V0, F, lifted):
+    skin = np.unique(F)
+    inside = skin[V0[skin, 0] >= 70]
+    u = (V0[inside, 0] - 70) / 31  # Bernstein of degree 2 in x, every (j, k) of the last layer raised 8
+    np.testing.assert_allclose(lifted[inside] - V0[inside], np.column_stack([0 * u, 0 * u, 8 * u ** 2]), atol=1e-9)
+    assert round(float(np.abs(lifted - V0).max()), 1) == 7.5  # "the end curls up by 7.5 mm"
+
+
+def _check_l_fillet(V0, big, small):
+    arc = np.flatnonzero(np.isclose(np.hypot(V0[:, 0] - 11, V0[:, 1] - 11), 5.0, atol=1e-6)
+                         & (V0[:, 0] < 11 - 1e-6) & (V0[:, 1] < 11 - 1e-6))
+    assert len(arc) > 10
+    frac0 = np.arctan2(11 - V0[arc, 0], 11 - V0[arc, 1])
+    h = (np.abs(V0[:, 1] - 6) < 1e-9) & (V0[:, 0] > 11 - 1e-9)  # the flange's and the web's inner faces
+    v = (np.abs(V0[:, 0] - 6) < 1e-9) & (V0[:, 1] > 11 - 1e-9)
+    for V, r in ((big, 10.0), (small, 2.5)):
+        c = 6 + r  # the new axis, at r from both inner faces
+        np.testing.assert_allclose(np.hypot(V[arc, 0] - c, V[arc, 1] - c), r, rtol=1e-12)
+        np.testing.assert_allclose(np.arctan2(c - V[arc, 0], c - V[arc, 1]), frac0, atol=1e-9)  # same place on it
+        assert np.abs(V[h, 1] - 6).max() < 1e-9 and np.abs(V[v, 0] - 6).max() < 1e-9  # the faces stay flat
+
+
+def _check_l_distance_angle(V0, moved, turned):
+    bore = np.isclose(np.hypot(V0[:, 1] - 35, V0[:, 2] - 10), 3.0, atol=1e-6) & (V0[:, 0] < 6 + 1e-9)
+    top, end = np.abs(V0[:, 1] - 50) < 1e-9, np.abs(V0[:, 0] - 60) < 1e-9
+    assert abs(np.linalg.norm(V0[bore].mean(0) - V0[top].mean(0)) - 15.0) < 0.1
+    assert np.linalg.norm(moved[bore].mean(0) - moved[top].mean(0)) == pytest.approx(10.0, abs=1e-9)
+    shift = moved[bore] - V0[bore]
+    assert np.abs(shift - shift[0]).max() < 1e-12 and shift[0, 1] > 4.9  # rigidly, toward the top
+    a, b = _plane_normal(turned[top]), _plane_normal(turned[end])
+    a, b = a * np.sign(a[1]), b * np.sign(b[0])  # outward: the top's +y, the end's +x
+    assert math.degrees(math.acos(float(a @ b))) == pytest.approx(105.0, abs=1e-9)
+    assert np.array_equal(turned[end], V0[end])
+    assert turned[top, 0].mean() < V0[top, 0].mean() - 5  # about the fillet's axis: the web leans back
+
+
+GUIDE_CHECKS = {"img/guide-edit-radius.png": ("Radius of a bore", lambda d: _check_bracket_radius(d.V0, *d.V)),
+                "img/guide-edit-twist-bend.png": ("Twist and bend",
+                                                  lambda d: _check_bracket_twist_bend(d.V0, d.F, *d.V)),
+                "img/guide-edit-map.png": ("Map onto", lambda d: _check_bracket_map(d.V0, d.F, *d.V)),
+                "img/guide-edit-offset.png": ("Offset of a face set", lambda d: _check_bracket_offset(d.V0, *d.V)),
+                "img/guide-edit-lattice.png": ("Morph volume", lambda d: _check_bracket_lattice(d.V0, d.F, *d.V)),
+                "img/guide-edit-fillet.png": ("Fillet radius", lambda d: _check_l_fillet(d.V0, *d.V)),
+                "img/guide-edit-distance-angle.png": ("Distance and angle",
+                                                      lambda d: _check_l_distance_angle(d.V0, *d.V))}
+
+
+@pytest.mark.parametrize("uri", list(GUIDE_CHECKS))
+def test_each_daily_edit_of_the_guide_is_pictured_from_its_solved_edit(uri):
+    import daily_edit_pictures
+
+    assert set(GUIDE_CHECKS) == set(daily_edit_pictures.GUIDE_EDITS)
+    heading, check = GUIDE_CHECKS[uri]
+    page = (ROOT / "docs" / "guide" / "constraints.md").read_text()
+    section = re.search(rf"^### {heading}.*?(?=^#)", page, re.S | re.M).group(0)
+    assert f"](../{uri})" in section  # the picture sits in its edit's own subsection
+    assert pictures.PICTURES[uri] is daily_edit_pictures.GUIDE_PNGS[uri]
+    d = daily_edit_pictures.guide_edit(uri)
+    check(d)
+    for V in d.V:  # no element inverted, nor flattened, measured here
+        if d.T10 is None:
+            assert _signed_volumes(V, d.T).min() > 0.05 * _signed_volumes(d.V0, d.T).min()
+        else:
+            assert _node_jacobians(V, d.T10).min() > 0
+        assert np.linalg.norm(V - d.V0, axis=1).max() > 1.0  # large enough to see
+    p = daily_edit_pictures.guide_edit_scene(d)
+    np.testing.assert_allclose(_mesh(p, 0, 0, "rest").points, d.V0, atol=0)
+    largest = max(np.linalg.norm(V - d.V0, axis=1).max() for V in d.V)
+    for k, (V, title) in enumerate(zip(d.V, d.titles, strict=True), start=1):
+        actor = _actor(p, 0, k, "variant")
+        np.testing.assert_allclose(actor.mapper.dataset.points, V, atol=1e-12)
+        np.testing.assert_allclose(actor.mapper.dataset.point_data["displacement"],
+                                   np.linalg.norm(V - d.V0, axis=1), atol=1e-12)
+        assert actor.mapper.scalar_range == (0.0, largest)
+        assert " ".join(_actor(p, 0, k, "title").GetText(7).split()) == title
+    p.close()

@@ -58,8 +58,12 @@ def edit_variants() -> EditVariants:
     return EditVariants(mesh.V, out, mesh.F, [t for t, _, _ in EDIT_MOVES])
 
 
-def edit_scene(d: EditVariants) -> Any:
+def edit_scene(d: EditVariants, view: tuple[float, float, float] = (0.3, -0.8, 0.9), zoom: float = 1.2,
+               up: tuple[float, float, float] = (0.0, 0.0, 1.0)) -> Any:
     """The rest shape (grey) and one panel per edit, coloured by displacement on one scale.
+
+    Every panel looks at the box of all the shapes from ``view`` (parallel projection, ``up`` upward),
+    magnified ``zoom``.
 
     Returns
     -------
@@ -82,14 +86,14 @@ def edit_scene(d: EditVariants) -> Any:
     p.subplot(0, 0)
     p.add_mesh(pictures.surface(d.V0, d.F), color=pictures.GREY, name="rest")
     pictures._title(p, "at rest", 9)
-    pictures._view(p, lo, hi, (0.3, -0.8, 0.9), zoom=1.2)
+    pictures._view(p, lo, hi, view, up, zoom)
     actor = None
     for k, (V, m, title) in enumerate(zip(d.V, moved, d.titles, strict=True), start=1):
         p.subplot(0, k)
         actor = p.add_mesh(pictures.surface(V, d.F, displacement=m), scalars="displacement", cmap="viridis",
                            clim=(0.0, top), name="variant", show_scalar_bar=False)
         pictures._title(p, title, 9)
-        pictures._view(p, lo, hi, (0.3, -0.8, 0.9), zoom=1.2)
+        pictures._view(p, lo, hi, view, up, zoom)
     p.subplot(0, cols)
     p.add_scalar_bar(mapper=actor.mapper, **{**pictures._bar(p, "mm"), "position_x": 0.2, "width": 0.35})
     return p

@@ -19,7 +19,10 @@ Each picture solves the morph its page shows, with the page's own SPEC and MOVE:
   inverted elements the REPORT names drawn in red, beside the same move with the ``clamp``
   inversion policy (:func:`inversion_morphs`);
 * ``edit_pictures.edits_png`` -- the daily-edits tutorial's bracket at rest and with its bore, wall
-  and twist edits (``docs/scripts/edit_pictures.py``).
+  and twist edits (``docs/scripts/edit_pictures.py``);
+* ``daily_edit_pictures.GUIDE_PNGS`` -- one picture per daily edit of the constraints guide (radius,
+  twist and bend, map, offset, lattice, fillet, distance and angle), each the part at rest beside its
+  edits (``docs/scripts/daily_edit_pictures.py``).
 
 Run it alone to write the PNGs: ``python docs/scripts/pictures.py [DOCS_DIR]`` (``DOCS_DIR/img/...``,
 ``docs/`` by default).
@@ -551,6 +554,7 @@ def inversion_png() -> bytes:
 
 
 #: Every picture, by its path under ``docs/``, and the function that solves and draws it.
+from daily_edit_pictures import GUIDE_PNGS  # noqa: E402 - the guide's daily edits, in a module of their own
 from edit_pictures import edits_png  # noqa: E402 - the daily edits' picture lives in a module of its own
 
 PICTURES = {"img/tutorial-bracket-displacement.png": bracket_displacement_png,  # tutorials/morph-a-deck.md
@@ -558,7 +562,8 @@ PICTURES = {"img/tutorial-bracket-displacement.png": bracket_displacement_png,  
             "img/tutorial-doe-variants.png": doe_png,  # tutorials/design-study.md
             "img/tutorial-target-surface.png": target_png,  # tutorials/target-surface.md
             "img/guide-inversion-clamp.png": inversion_png,  # guide/validity.md
-            "img/tutorial-alter-dimensions.png": edits_png}  # tutorials/alter-dimensions.md
+            "img/tutorial-alter-dimensions.png": edits_png,  # tutorials/alter-dimensions.md
+            **GUIDE_PNGS}  # guide/constraints.md, one per daily edit
 
 
 def write(docs: Path) -> list[Path]:

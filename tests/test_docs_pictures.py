@@ -218,6 +218,21 @@ def test_the_target_picture_puts_the_pages_top_face_on_its_scan():
     assert _near(_panel(pixels, p, 0, 0), yellow, 40).sum() == 0
 
 
+def _draws_the_variants(p, d) -> None:
+    """An edit scene ``p`` draws ``d``: the rest shape in panel (0, 0), each variant in its panel with its
+    displacement on one colour range and its title; ``p`` is closed."""
+    np.testing.assert_allclose(_mesh(p, 0, 0, "rest").points, d.V0, atol=0)
+    largest = max(np.linalg.norm(V - d.V0, axis=1).max() for V in d.V)
+    for k, (V, title) in enumerate(zip(d.V, d.titles, strict=True), start=1):
+        actor = _actor(p, 0, k, "variant")
+        np.testing.assert_allclose(actor.mapper.dataset.points, V, atol=1e-12)
+        np.testing.assert_allclose(actor.mapper.dataset.point_data["displacement"],
+                                   np.linalg.norm(V - d.V0, axis=1), atol=1e-12)
+        assert actor.mapper.scalar_range == (0.0, largest)
+        assert " ".join(_actor(p, 0, k, "title").GetText(7).split()) == title
+    p.close()
+
+
 def test_the_daily_edits_picture_draws_the_pages_edits_exactly():
     import edit_pictures
 
@@ -235,15 +250,7 @@ def test_the_daily_edits_picture_draws_the_pages_edits_exactly():
     turn = np.degrees(np.angle(np.exp(1j * (np.arctan2(twist[skin, 2] - 5, twist[skin, 1] - 10)
                                             - np.arctan2(d.V0[skin, 2] - 5, d.V0[skin, 1] - 10)))))
     np.testing.assert_allclose(turn, 0.1 * d.V0[skin, 0], atol=1e-9)
-    p = edit_pictures.edit_scene(d)
-    np.testing.assert_allclose(_mesh(p, 0, 0, "rest").points, d.V0, atol=0)
-    largest = max(np.linalg.norm(V - d.V0, axis=1).max() for V in d.V)
-    for k, (V, title) in enumerate(zip(d.V, d.titles, strict=True), start=1):
-        actor = _actor(p, 0, k, "variant")
-        np.testing.assert_allclose(actor.mapper.dataset.points, V, atol=1e-12)
-        assert actor.mapper.scalar_range == (0.0, largest)
-        assert " ".join(_actor(p, 0, k, "title").GetText(7).split()) == title
-    p.close()
+    _draws_the_variants(edit_pictures.edit_scene(d), d)
 
 
 # ------------------------------------------------------------------------ the guide's daily edits, one per edit
@@ -364,14 +371,4 @@ def test_each_daily_edit_of_the_guide_is_pictured_from_its_solved_edit(uri):
         else:
             assert _node_jacobians(V, d.T10).min() > 0
         assert np.linalg.norm(V - d.V0, axis=1).max() > 1.0  # large enough to see
-    p = daily_edit_pictures.guide_edit_scene(d)
-    np.testing.assert_allclose(_mesh(p, 0, 0, "rest").points, d.V0, atol=0)
-    largest = max(np.linalg.norm(V - d.V0, axis=1).max() for V in d.V)
-    for k, (V, title) in enumerate(zip(d.V, d.titles, strict=True), start=1):
-        actor = _actor(p, 0, k, "variant")
-        np.testing.assert_allclose(actor.mapper.dataset.points, V, atol=1e-12)
-        np.testing.assert_allclose(actor.mapper.dataset.point_data["displacement"],
-                                   np.linalg.norm(V - d.V0, axis=1), atol=1e-12)
-        assert actor.mapper.scalar_range == (0.0, largest)
-        assert " ".join(_actor(p, 0, k, "title").GetText(7).split()) == title
-    p.close()
+    _draws_the_variants(daily_edit_pictures.guide_edit_scene(d), d)

@@ -78,23 +78,33 @@ def sent_spec(pg) -> dict:
     return httpx.get(f"{pg.base}/v1/sessions/{sid}").json()["spec"]
 
 
+def bore_session(pg, policy: str = "warn") -> None:
+    """The bracket with FIXED fixed and a radius edit "bore" on the hole_1 candidate, in a session."""
+    load_bracket(pg)
+    assign_set(pg, "FIXED", 1)
+    open_edits(pg, "radius")
+    pg.wait_for_function("[...document.querySelectorAll('#edit-feature option')].some((o) => "
+                         "o.textContent.startsWith('hole_1 '))")
+    value = pg.evaluate("[...document.querySelectorAll('#edit-feature option')]"
+                        ".find((o) => o.textContent.startsWith('hole_1 ')).value")
+    pg.select_option("#edit-feature", value)
+    pg.fill("#edit-name", "bore")
+    pg.click("#edit-add")
+    create(pg, policy)
+
+
+def bore_spec(h, **extra) -> dict:
+    """The library's SPEC of :func:`bore_session`: the radius edit on candidate ``h`` about its axis."""
+    axis = {"point": h.params["center"].tolist(), "direction": h.params["axis"].tolist()}
+    return {"selections": {"FIXED": {"set": "FIXED"}, "hole": {"ids": h.ids.tolist()}}, "fixed": ["FIXED"],
+            "radius": [{"name": "bore", "selection": "hole", "axis": axis}], **extra}
+
+
 def test_a_hole_radius_typed_and_dragged(page, bracket, tmp_path):
-    load_bracket(page)
-    assign_set(page, "FIXED", 1)
-    open_edits(page, "radius")
-    page.wait_for_function("[...document.querySelectorAll('#edit-feature option')].some((o) => "
-                           "o.textContent.startsWith('hole_1 '))")
-    value = page.evaluate("[...document.querySelectorAll('#edit-feature option')]"
-                          ".find((o) => o.textContent.startsWith('hole_1 ')).value")
-    page.select_option("#edit-feature", value)
-    page.fill("#edit-name", "bore")
-    page.click("#edit-add")
-    create(page)
+    bore_session(page)
     type_value(page, "bore", 6)
     h = hole(bracket)
-    axis = {"point": h.params["center"].tolist(), "direction": h.params["axis"].tolist()}
-    spec = {"selections": {"FIXED": {"set": "FIXED"}, "hole": {"ids": h.ids.tolist()}}, "fixed": ["FIXED"],
-            "radius": [{"name": "bore", "selection": "hole", "axis": axis}]}
+    spec = bore_spec(h)
     want = precompute(bracket, spec).solve({"radius": {"bore": {"radius": 6.0}}}).V
     np.testing.assert_allclose(positions(page), want, rtol=0, atol=SHOWN)
     got = downloaded(page, tmp_path)
@@ -300,17 +310,7 @@ def test_a_lattice_around_a_region_dragged_and_typed(page, bracket, tmp_path):
 
 
 def test_a_clamped_radius_is_kept_as_the_service_applied_it(page, bracket):
-    load_bracket(page)
-    assign_set(page, "FIXED", 1)
-    open_edits(page, "radius")
-    page.wait_for_function("[...document.querySelectorAll('#edit-feature option')].some((o) => "
-                           "o.textContent.startsWith('hole_1 '))")
-    value = page.evaluate("[...document.querySelectorAll('#edit-feature option')]"
-                          ".find((o) => o.textContent.startsWith('hole_1 ')).value")
-    page.select_option("#edit-feature", value)
-    page.fill("#edit-name", "bore")
-    page.click("#edit-add")
-    create(page, "clamp")
+    bore_session(page, "clamp")
     type_value(page, "bore", 40)  # past what the part takes: the service scales it back
     sid = page.evaluate("window.tetmorph.session().id")
     doc = httpx.get(f"{page.base}/v1/sessions/{sid}").json()
@@ -324,10 +324,7 @@ def test_a_clamped_radius_is_kept_as_the_service_applied_it(page, bracket):
     assert last["move"]["radius"]["bore"]["radius"] == pytest.approx(applied, rel=1e-12)
     assert "clamped" in last["label"]
     assert float(page.input_value(f"{row('bore')} input[type=number]")) == pytest.approx(applied, rel=1e-9)
-    h = hole(bracket)
-    axis = {"point": h.params["center"].tolist(), "direction": h.params["axis"].tolist()}
-    spec = {"selections": {"FIXED": {"set": "FIXED"}, "hole": {"ids": h.ids.tolist()}}, "fixed": ["FIXED"],
-            "radius": [{"name": "bore", "selection": "hole", "axis": axis}], "inversion": "clamp"}
+    spec = bore_spec(hole(bracket), inversion="clamp")
     want = precompute(bracket, spec).solve({"radius": {"bore": {"radius": 40.0}}}).V
     np.testing.assert_allclose(positions(page), want, rtol=0, atol=SHOWN)
     # Undo, then Redo: the applied radius goes out again, which the part takes as it is

@@ -18,7 +18,17 @@ import pytest
 from solver import precompute, read_mesh
 from solver.workflows.shapes import combine, parse_shapes
 from tests.browser.conftest import BRACKET, assign_set, create, load_bracket, positions, settle, upload
-from tests.browser.test_editor_edits import choose_region, load_corners, open_edits, pick, row, sent_spec, type_value
+from tests.browser.test_editor_edits import (
+    bore_session,
+    choose_region,
+    hole,
+    load_corners,
+    open_edits,
+    pick,
+    row,
+    sent_spec,
+    type_value,
+)
 from tests.gmsh_parts import filleted_bracket
 
 #: The positions the page shows are float32: within this of the library's on the parts here (≤ 100 mm).
@@ -107,14 +117,19 @@ def test_a_fillet_radius_from_its_fitted_rest_value_typed_and_refused(page, fill
     assert "radius must stay below" in page.inner_text("#error-text")
 
 
+def angle_form(pg, part):
+    """The L bracket uploaded, LOAD the angle edit's moving region and FIXED its reference: its mesh."""
+    upload(pg, part)
+    regions_of(pg, "LOAD", fixed=None)
+    assign_set(pg, "FIXED", 2)
+    open_edits(pg, "angle")
+    choose_region(pg, "#edit-region", "LOAD")
+    choose_region(pg, "#edit-reference", "FIXED")  # the fixed end is the reference
+    return read_mesh(part)
+
+
 def test_an_angle_between_two_faces_from_its_rest_angle(page, filleted):
-    mesh = read_mesh(filleted)
-    upload(page, filleted)
-    regions_of(page, "LOAD", fixed=None)
-    assign_set(page, "FIXED", 2)
-    open_edits(page, "angle")
-    choose_region(page, "#edit-region", "LOAD")
-    choose_region(page, "#edit-reference", "FIXED")  # the fixed end is the reference
+    mesh = angle_form(page, filleted)
     add_edit(page, "tilt")
     create(page)
     spec = {"selections": {"FIXED": {"set": "FIXED"}, "LOAD": {"set": "LOAD"}},
@@ -135,13 +150,7 @@ def test_an_angle_between_two_faces_from_its_rest_angle(page, filleted):
 
 
 def test_an_angle_about_a_typed_axis_and_pivot_with_a_typed_planar_tolerance(page, filleted):
-    mesh = read_mesh(filleted)
-    upload(page, filleted)
-    regions_of(page, "LOAD", fixed=None)
-    assign_set(page, "FIXED", 2)
-    open_edits(page, "angle")
-    choose_region(page, "#edit-region", "LOAD")
-    choose_region(page, "#edit-reference", "FIXED")
+    mesh = angle_form(page, filleted)
     page.fill("#edit-turn-axis", "0 0 1")
     page.fill("#edit-pivot", "3 50")  # two numbers: refused, nothing added
     page.fill("#edit-planar", "2")
@@ -317,17 +326,7 @@ def test_a_map_onto_a_sphere_through_picked_nodes(page, bracket):
 
 
 def test_a_shape_slider_carries_the_edit_value_of_its_preset(page, bracket):
-    from solver.constraints.features import feature_candidates
-
-    load_bracket(page)
-    assign_set(page, "FIXED", 1)
-    open_edits(page, "radius")
-    page.wait_for_function("[...document.querySelectorAll('#edit-feature option')].some((o) => "
-                           "o.textContent.startsWith('hole_1 '))")
-    page.select_option("#edit-feature", page.evaluate("[...document.querySelectorAll('#edit-feature option')]"
-                                                      ".find((o) => o.textContent.startsWith('hole_1 ')).value"))
-    add_edit(page, "bore")
-    create(page)
+    bore_session(page)
     type_value(page, "bore", 6)
     page.fill("#preset-name", "wider")
     page.click("#preset-save")
@@ -345,7 +344,7 @@ def test_a_shape_slider_carries_the_edit_value_of_its_preset(page, bracket):
     settle(page)
     theta = float(page.input_value("#shapes input[data-shape='wider']"))
     assert 0.2 < theta < 0.8
-    h = next(c for c in feature_candidates(bracket, 30, 1e-3) if c.name == "hole_1")
+    h = hole(bracket)
     spec = {"selections": {"FIXED": {"set": "FIXED"}, "hole": {"ids": h.ids.tolist()}}, "fixed": ["FIXED"],
             "radius": [{"name": "bore", "selection": "hole", "axis": sent_spec(page)["radius"][0]["axis"]}]}
     d = precompute(bracket, spec)

@@ -53,3 +53,21 @@ export async function postJson(path, doc) {
   return (await api(path, { method: "POST", headers: { "Content-Type": "application/json" },
     body: JSON.stringify(doc) })).json();
 }
+
+let setupRead = { id: null, promise: null };
+
+/**
+ * A session's document, read once per session: what its set-up measured (`constraints_at_rest`,
+ * `edits_at_rest`) does not change while the session lives, so the panels that show it share one
+ * request. Only the last session asked for is kept.
+ */
+export function sessionSetup(id) {
+  if (setupRead.id !== id) {
+    const promise = getJson(`/v1/sessions/${id}`);
+    setupRead = { id, promise };
+    // kept only once the set-up has ended: a building session's document is asked again next time
+    const forget = () => { if (setupRead.promise === promise) setupRead = { id: null, promise: null }; };
+    promise.then((doc) => { if (doc.status !== "ready") forget(); }, forget);
+  }
+  return setupRead.promise;
+}

@@ -6,7 +6,7 @@
 // The cyclic faces' pairs are drawn too: each node of face A joined to the node of face B nearest
 // to its image, coloured by the gap (blue: none, red: the tolerance or more).
 import * as THREE from "three";
-import { getJson } from "./api.js";
+import { sessionSetup } from "./api.js";
 import { $ } from "./dom.js";
 import { fmt, unitText } from "./panels.js";
 import { on, state } from "./state.js";
@@ -75,7 +75,7 @@ export class Diagnostics {
     this.render();
     if (!id) return;
     let doc;
-    try { doc = await getJson(`/v1/sessions/${id}`); } catch { return; }
+    try { doc = await sessionSetup(id); } catch { return; }
     if (state.sessionId !== id) return;
     const rest = doc.constraints_at_rest || {};
     this.restRows = [...rowsOfEntries(rest.conflicting_constraints, "conflicting"),

@@ -14,7 +14,7 @@
 // handle, one edit, or is fixed. The values (a radius, a distance, a rate, an amount, displacements)
 // are the MOVE's: every MOVE the editor sends carries the current ones (gizmo.js asks `move()`), and
 // the history, Undo and presets keep them with the handles'.
-import { getJson } from "./api.js";
+import { getJson, sessionSetup } from "./api.js";
 import { $ } from "./dom.js";
 import { circleThrough, mapGeometry, mapProjection, twistMode } from "./editgeometry.js";
 import { BETWEEN, betweenControls, betweenEntry, restBetween } from "./featureedits.js";
@@ -104,7 +104,7 @@ export class EditsPanel {
     this.serviceRest = new Map();
     if (!id) return;
     let doc;
-    try { doc = await getJson(`/v1/sessions/${id}`); } catch { return; }
+    try { doc = await sessionSetup(id); } catch { return; }
     if (state.sessionId !== id || !doc.edits_at_rest) return;
     for (const d of doc.edits_at_rest) this.serviceRest.set(`${d.kind}/${d.name}`, d.rest);
     this.render();

@@ -3,7 +3,8 @@
 Sections (all by default, or pick with --only):
 
 ``orderings``  CHOLMOD ordering methods on the split solve's boundary system (plate with 16 holes,
-               bracket at gmsh size 0.95): factor and solve time, fill.
+               bracket at gmsh size 0.95 and 0.44): factor and solve time, fill; ``pardiso-nd`` is
+               tetmorph's (PARDISO's nested dissection given to CHOLMOD; the ordering included).
 ``small-lu``   PARDISO vs SuperLU on interior mean-value systems of several sizes.
 ``penalty``    the penalty weight beta: constraint residual and distance to the exact solution
                (plate.inp, a rigid and a keep_direction hole, a 25° bend).
@@ -99,18 +100,23 @@ def orderings() -> None:
     from sksparse.cholmod import cholesky
 
     from solver import precompute, read_mesh
+    from solver.linalg.ordering import symmetric_ordering
 
     print("| mesh | unknowns | ordering | factor ms | solve ms (3 rhs) | nnz(L) |")
     print("|---|---:|---|---:|---:|---:|")
-    for kind, size in (("plate16", 1.7), ("bracket", 0.95)):
+    for kind, size in (("plate16", 1.7), ("bracket", 0.95), ("bracket", 0.44)):
         mesh = read_mesh(deck(kind, size))
         d = precompute(mesh, end_spec(mesh))
         A = d.data.positions.system.A @ d.data.positions.system.ra.Z
         M = (A.T @ A).tocsc()
         b = np.random.default_rng(0).random((M.shape[0], 3))
-        for om in ("amd", "metis", "nesdis", "default", "best"):
+        for om in ("amd", "metis", "nesdis", "default", "best", "pardiso-nd"):
             t = time.perf_counter()
-            f = cholesky(M, mode="supernodal", ordering_method=om)
+            if om == "pardiso-nd":  # tetmorph's (solver/linalg/ordering.py): the same in every process
+                p = symmetric_ordering(M)
+                f = cholesky(M[p][:, p].tocsc(), mode="supernodal", ordering_method="natural")
+            else:
+                f = cholesky(M, mode="supernodal", ordering_method=om)
             tf = time.perf_counter() - t
             f(b)
             t = time.perf_counter()

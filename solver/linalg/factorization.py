@@ -49,6 +49,7 @@ import scipy.sparse.linalg as spla
 from ..errors import FactorizationError
 from ..options import current as current_options
 from .multifrontal import lu_multifrontal
+from .ordering import symmetric_ordering
 from .pardiso import PardisoFactor, mkl_runtime
 from .supernodal import Unsuitable, cholmod_supernodal
 from .threads import openblas
@@ -205,6 +206,12 @@ def _quiet_system_blas() -> None:
 
 
 class _CholmodFactor:
+    """CHOLMOD's supernodal factor on :func:`~solver.linalg.ordering.symmetric_ordering`'s permutation.
+
+    ``_f`` has scikit-sparse's interface (``L()``, ``P()``, called to solve) for
+    the matrix as given: ``L L^T = M[P][:, P]``.
+    """
+
     name = "cholmod"
 
     def __init__(self, M: sp.csc_matrix, what: str) -> None:
@@ -212,11 +219,13 @@ class _CholmodFactor:
         from sksparse.cholmod import cholesky as chol
 
         _quiet_system_blas()
-
+        perm = symmetric_ordering(M)
         try:
-            # METIS: "best" tries AMD, METIS and NESDIS on every factorization, 3-4x the
-            # cost of METIS alone for ~3% less fill (benchmarks/measure_choices.py)
-            self._f = chol(M, mode="supernodal", ordering_method="metis")
+            if perm is None:
+                self._f: _Ordered | object = chol(M, mode="supernodal", ordering_method="amd")
+            else:  # CHOLMOD keeps the order given, and only post-orders its elimination tree
+                f = chol(sp.csc_matrix(M[perm][:, perm]), mode="supernodal", ordering_method="natural")
+                self._f = _Ordered(f, perm)
         except CholmodNotPositiveDefiniteError as e:
             raise FactorizationError(
                 f"{what}: the {M.shape[0]}x{M.shape[0]} system is singular or not positive "
@@ -224,14 +233,39 @@ class _CholmodFactor:
                 code="singular_system",
             ) from e
         self._lock = threading.Lock()
-        L = self._f.L()
+        L = self._f.L()  # type: ignore[attr-defined]
         self.nbytes = int(L.data.nbytes + L.indices.nbytes + L.indptr.nbytes)
         self.shape = M.shape
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         _count("solves")
         with self._lock:
-            return self._f(b)
+            return self._f(b)  # type: ignore[operator]
+
+
+class _Ordered:
+    """A CHOLMOD factor of ``M[perm][:, perm]``, seen as a factor of ``M`` (scikit-sparse's interface)."""
+
+    __slots__ = ("_f", "_perm")
+
+    def __init__(self, f: object, perm: np.ndarray) -> None:
+        self._f = f
+        self._perm = perm
+
+    def L(self) -> sp.csc_matrix:
+        """The lower factor: ``L L^T = M[P()][:, P()]``."""
+        return self._f.L()  # type: ignore[attr-defined]
+
+    def P(self) -> np.ndarray:
+        """The whole permutation: the ordering, then CHOLMOD's post-order of it."""
+        return self._perm[self._f.P()]  # type: ignore[attr-defined]
+
+    def __call__(self, b: np.ndarray) -> np.ndarray:
+        """``M^{-1} b`` for ``b`` of shape (n,) or (n, k)."""
+        y = self._f(b[self._perm])  # type: ignore[operator]
+        x = np.empty_like(y)
+        x[self._perm] = y
+        return x
 
 
 class _SuperLUFactor:

@@ -61,7 +61,7 @@ elements. Every error has the body
 def _load_kernels() -> None:
     """Load the solver's kernels, saying so on standard error when it takes more than a second."""
     with announced("loading the solver's compiled kernels"):
-        load_kernels()
+        load_kernels(complete=True)  # the edits' models too: no session waits for them
 
 
 def create_app(settings: Settings | None = None, **overrides: Any) -> FastAPI:

@@ -4,7 +4,9 @@ The kernels are compiled when the project is installed (``tetmorph_core``,
 C++ in ``src/core``, built by ``pip install``); nothing compiles at run
 time. What a process still pays once is loading: the extension and MKL's
 library, the solver's modules, and the document models (pydantic builds
-each model's validator on first use). :func:`load_kernels` pays it ahead
+each model's validator when its class is made; the members a first set-up
+does not use, such as the edits, are built when a document first gives
+them, :mod:`solver.documents.deferred`). :func:`load_kernels` pays it ahead
 of the first set-up:
 
 - the service calls it at start, before ``/ready`` answers ready, so no
@@ -68,8 +70,16 @@ def announced(what: str, after_s: float = 1.0, stream: TextIO | None = None) -> 
             print(f"tetmorph: {what}: done in {time.perf_counter() - t0:.1f} s", file=out, flush=True)
 
 
-def load_kernels() -> float:
+def load_kernels(complete: bool = False) -> float:
     """Load the compiled core, MKL's library, the modules of a set-up and the document models.
+
+    Parameters
+    ----------
+    complete : bool
+        Also what only some documents use: the edits' modules and models, and the SPEC's and MOVE's
+        members built on first use (:mod:`solver.documents.deferred`). A server that answers many
+        documents (the service) pays it at start, so that no session does; a process that sets up
+        one SPEC leaves it to that SPEC.
 
     Returns the seconds taken; cheap once a process has run it.
     """
@@ -82,6 +92,8 @@ def load_kernels() -> float:
     if pardiso.mkl_runtime() is not None:
         pardiso._library()  # PARDISO's entry point in MKL's library
     _document_models()
+    if complete:
+        _rarely_used()
     took = time.perf_counter() - t0
     _LOADED.append(took)
     return took
@@ -99,6 +111,17 @@ def _document_models() -> None:
 
     spec = parse_spec({"selections": {"a": {"ids": [0]}, "b": {"ids": [1]}}, "fixed": ["a"], "handles": {"h": "b"}})
     parse_move({"handles": {"h": {"translation": [0, 0, 0]}}}, list(spec.handles), spec.names)
+
+
+
+def _rarely_used() -> None:
+    """The edits' modules, and every member of the SPEC and MOVE that is built on first use."""
+    from .constraints import edit_values, resolve_edits  # noqa: F401 - the edits' entries, values, resolution
+    from .documents.deferred import build
+    from .documents.move import Move
+    from .documents.spec import Spec
+
+    build(Spec, Move)
 
 
 if __name__ == "__main__":

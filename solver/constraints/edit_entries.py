@@ -16,12 +16,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import SpecError
+from .edit_kinds import EDIT_KINDS
 
 __all__ = ["RadiusEntry", "TwistEntry", "MapEntry", "OffsetEntry", "LatticeEntry", "FilletEntry", "DistanceEntry",
            "AngleEntry", "EditEntry", "edit_entries", "EDIT_KINDS"]
-
-#: The SPEC and MOVE keys of the edits, in the order their rows are ranked.
-EDIT_KINDS = ("radius", "twist", "map", "offset", "lattice", "fillet", "distance", "angle")
 
 Vec = tuple[float, float, float]
 

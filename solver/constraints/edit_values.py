@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .edit_kinds import NOMINAL_KINDS
 from .spec import expect
 
 if TYPE_CHECKING:
@@ -122,9 +123,6 @@ class AngleValue:
 
 
 EditValue = RadiusValue | TwistValue | MapValue | OffsetValue | LatticeValue | DistanceValue | AngleValue
-
-#: The kinds whose MOVE gives a value or its change from the edit's nominal rest value.
-NOMINAL_KINDS = ("radius", "fillet", "distance", "angle")
 
 
 def value_dict(values: dict[str, dict[str, EditValue]]) -> dict[str, Any]:

@@ -18,12 +18,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..limits import EXTENT, SCALE_MAX, SCALE_MIN
-from .edit_entries import EDIT_KINDS
-from .edit_values import EditValue, edit_values, scaled_value, value_dict
+from .edit_kinds import EDIT_KINDS
 from .spec import expect
 
 if TYPE_CHECKING:
     from ..documents.move import Rotation as RotationDoc
+    from .edit_values import EditValue
 
 __all__ = ["HandleMove", "ResolvedMove", "MoveBounds", "RestTargets", "parse_move", "scaled_move", "axis_angle_matrix",
            "SCALE_RANGE", "MOVE_RANGE"]
@@ -157,7 +157,10 @@ class ResolvedMove:
             doc["motion"] = {k: {"point": v.tolist()} for k, v in self.motion.items()}
         if self.targets:
             doc["targets"] = {k: {"amount": v} for k, v in self.targets.items()}
-        doc.update(value_dict(self.edits))
+        if any(self.edits.values()):
+            from .edit_values import value_dict
+
+            doc.update(value_dict(self.edits))
         return doc
 
 
@@ -246,8 +249,12 @@ def scaled_move(mv: ResolvedMove, f: float, rest: RestTargets) -> ResolvedMove:
             relative[k] = {"scale": v["scale"] ** f}
     features = {k: v ** f for k, v in mv.features.items()}
     targets = {k: f * v for k, v in mv.targets.items()}
-    edits = {kind: {n: scaled_value(v, f, rest.nominal.get(kind, {}).get(n)) for n, v in named.items()}
-             for kind, named in mv.edits.items()}
+    edits: dict[str, dict[str, EditValue]] = {kind: {} for kind in mv.edits}
+    if any(mv.edits.values()):  # the edits' module loads for a MOVE that gives an edit a value
+        from .edit_values import scaled_value
+
+        edits = {kind: {n: scaled_value(v, f, rest.nominal.get(kind, {}).get(n)) for n, v in named.items()}
+                 for kind, named in mv.edits.items()}
     return ResolvedMove(handles, points, relative, features, motion, targets, edits)
 
 
@@ -357,4 +364,10 @@ def parse_move(doc: Any, handle_names: tuple[str, ...] | list[str], names: dict[
     features = {k: float(v.scale) for k, v in m.features.items()}
     motion = {k: pos(v.point, f"MOVE.motion.{k}.point") for k, v in m.motion.items()}
     targets = {k: float(v.amount) for k, v in m.targets.items()}
-    return ResolvedMove(out, points, relative, features, motion, targets, edit_values(m, bounds))
+    if any(getattr(m, kind) for kind in EDIT_KINDS):
+        from .edit_values import edit_values
+
+        edits = edit_values(m, bounds)
+    else:  # no edit: their modules stay unloaded
+        edits = {kind: {} for kind in EDIT_KINDS}
+    return ResolvedMove(out, points, relative, features, motion, targets, edits)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -37,11 +38,13 @@ from ..ops.boundary_facets import simplex_edges
 from ..ops.rotation import log_to_matrix, rotate_by_log
 from ..ops.unique import unique
 from .correspondence import Correspondences
-from .edit_entries import EDIT_KINDS
-from .edits import Edit
+from .edit_kinds import EDIT_KINDS
 from .matching import Matching
 from .move import ResolvedMove
 from .spec import FeatureEntry, MotionEntry, PointDef, PointEntry, RelativeEntry, ResolvedSpec, SlidingEntry
+
+if TYPE_CHECKING:
+    from .edits import Edit
 
 __all__ = ["Block", "KINDS", "TARGETS", "block_target", "check_ids", "point_weights", "position_blocks",
            "rotation_blocks", "fixed_rows", "handle_rows", "tie_rows", "point_rows", "relative_rows",

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import SpecError
+from .edit_kinds import EDIT_KINDS
 
 if TYPE_CHECKING:
     from .edit_entries import EditEntry
@@ -322,8 +323,6 @@ class ResolvedSpec:
     @property
     def names(self) -> dict[str, tuple[str, ...]]:
         """Names a MOVE may address, per category (``points``, ..., ``targets`` and each edit kind)."""
-        from .edit_entries import EDIT_KINDS
-
         out = {k: tuple(e.name for e in getattr(self, k))
                for k in ("points", "relative", "features", "motion", "targets")}
         out.update({k: tuple(e.name for e in self.edits if e.kind == k) for k in EDIT_KINDS})
@@ -420,9 +419,11 @@ def parse_spec(doc: Any) -> ResolvedSpec:
     used = list(handles.values())
     dup = sorted({s for s in used if used.count(s) > 1})
     expect(not dup, f"selection(s) {dup} drive more than one handle", field="handles", names=dup)
-    from .edit_entries import edit_entries
+    edits: tuple[EditEntry, ...] = ()
+    if any(d.get(kind) for kind in EDIT_KINDS):  # the edits' modules load for a SPEC that names one
+        from .edit_entries import edit_entries
 
-    edits = edit_entries(d, known)
+        edits = edit_entries(d, known)
     expect(len(fixed) + len(handles) + len(edits) > 0, "SPEC needs at least one fixed selection, handle or edit "
            "(radius, twist, map, offset, lattice, fillet, distance, angle)", field="fixed")
     expect(model.domain is None or model.domain in selections,

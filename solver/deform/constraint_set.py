@@ -12,18 +12,15 @@ whose constraints conflict with ``"conflicts": "reject"`` is refused at once.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..constraints.assembly import Assembly, assemble, block_targets, describe
 from ..constraints.correspondence import Correspondences, InteriorMirror, correspondences
-from ..constraints.edit_entries import EDIT_KINDS
-from ..constraints.edit_values import NOMINAL_KINDS
-from ..constraints.edits import Edit
+from ..constraints.edit_kinds import EDIT_KINDS, NOMINAL_KINDS
 from ..constraints.matching import Matching
 from ..constraints.move import MoveBounds, ResolvedMove, RestTargets
-from ..constraints.resolve_edits import resolve_edits
 from ..constraints.rows import (
     REPORT_IDS,
     Block,
@@ -42,6 +39,9 @@ from ..mesh import Mesh
 from ..ops.unique import unique
 from .conflicts import conflict_details
 from .determinacy import free_shells
+
+if TYPE_CHECKING:
+    from ..constraints.edits import Edit
 
 __all__ = ["ConstraintSet", "constraint_set", "entry_text", "edit_owner", "CONFLICT_TOL"]
 
@@ -253,7 +253,11 @@ def constraint_set(mesh: Mesh, spec: ResolvedSpec) -> ConstraintSet:
                             f"({ids.size}); a handle needs at least one corner node", code="empty_selection",
                             handle=name, selection=spec.handles[name])
         pivots[name] = V0[ids].mean(axis=0)
-    edits = resolve_edits(mesh, spec.edits, sel_ids)
+    edits: tuple[Edit, ...] = ()
+    if spec.edits:  # their modules are loaded by a SPEC that names an edit
+        from ..constraints.resolve_edits import resolve_edits
+
+        edits = resolve_edits(mesh, spec.edits, sel_ids)
     for j, e in enumerate(edits):
         clash = e.nodes[owner[e.nodes] != -1]
         if clash.size:

@@ -11,6 +11,9 @@
   :mod:`~solver.documents.geometry` the directions, boxes, axes and analytic geometry they name;
 * :mod:`~solver.documents.report_record` -- the REPORT, as the frozen dataclass every update fills (no
   pydantic); :mod:`~solver.documents.report` builds its pydantic model from it, for the OpenAPI schema;
+* :mod:`~solver.documents.deferred` -- the SPEC's and MOVE's members whose validators are made when a
+  document first gives them (the edits, points, symmetries, targets, ...), so that a plain set-up
+  builds only what it uses;
 * :mod:`~solver.documents.validation` -- a model's validation errors as a :class:`~solver.errors.SpecError`
   naming the field;
 * :mod:`~solver.documents.files` -- SPEC, MOVE and SHAPES files in, REPORTs out, for the command line.

@@ -20,6 +20,9 @@ __all__ = ["Direction3", "Box", "Axis", "Line", "Circle", "PlaneSurface", "Cylin
            "GEOMETRY_KINDS", "PositiveLength"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
+#: The config of the analytic geometry (line, circle, plane, cylinder, sphere): only a SPEC's ``map`` edits
+#: name one, so their models are built when a SPEC first does (:mod:`.deferred`), not with their classes.
+_LATER = ConfigDict(extra="forbid", strict=True, defer_build=True)
 
 
 def _nonzero(v: list[float]) -> list[float]:
@@ -61,7 +64,7 @@ class Axis(BaseModel):
 class Line(BaseModel):
     """A straight line through ``point`` along ``direction``."""
 
-    model_config = _STRICT
+    model_config = _LATER
     point: Vec3
     direction: Direction3
 
@@ -69,7 +72,7 @@ class Line(BaseModel):
 class Circle(BaseModel):
     """A circle (a full turn): its centre, the normal of its plane, its radius."""
 
-    model_config = _STRICT
+    model_config = _LATER
     center: Vec3
     normal: Direction3
     radius: PositiveLength
@@ -78,7 +81,7 @@ class Circle(BaseModel):
 class PlaneSurface(BaseModel):
     """An unbounded plane through ``point`` orthogonal to ``normal``."""
 
-    model_config = _STRICT
+    model_config = _LATER
     point: Vec3
     normal: Direction3
 
@@ -86,7 +89,7 @@ class PlaneSurface(BaseModel):
 class Cylinder(BaseModel):
     """An unbounded circular cylinder: a point on its axis, the axis's direction, its radius."""
 
-    model_config = _STRICT
+    model_config = _LATER
     point: Vec3
     axis: Direction3
     radius: PositiveLength
@@ -95,7 +98,7 @@ class Cylinder(BaseModel):
 class Ball(BaseModel):
     """A sphere: its centre and its radius."""
 
-    model_config = _STRICT
+    model_config = _LATER
     center: Vec3
     radius: PositiveLength
 
@@ -110,7 +113,7 @@ class Geometry(BaseModel):
     The schema says so (``oneOf`` of the five), and so does the model's own check.
     """
 
-    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
+    model_config = ConfigDict(extra="forbid", strict=True, defer_build=True, json_schema_extra={
         "oneOf": [{"required": [k]} for k in GEOMETRY_KINDS],
         "examples": [{"cylinder": {"point": [0, 0, 0], "axis": [0, 0, 1], "radius": 5.0}},
                      {"plane": {"point": [0, 0, 10], "normal": [0, 0, 1]}}]})

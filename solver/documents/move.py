@@ -9,20 +9,59 @@ mesh, a non-zero axis) is checked by :func:`~solver.constraints.move.parse_move`
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from importlib import import_module
+from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
 from ..limits import EXTENT, TARGET_AMOUNT_MAX
-from .edit_moves import AngleMove, DistanceMove, LatticeMove, MapMove, OffsetMove, RadiusMove, TwistAngle, TwistMove
+from .deferred import OnFirstUse
 from .numbers import Angle, Quat, Scale, Vec3
+
+if TYPE_CHECKING:
+    from .edit_moves import AngleMove, DistanceMove, LatticeMove, MapMove, OffsetMove, RadiusMove, TwistAngle, TwistMove
 
 __all__ = ["Move", "HandleMove", "Rotation", "RelativeMove", "FeatureMove", "MotionMove", "TargetMove",
            "TargetAmount", "RadiusMove", "TwistMove", "TwistAngle", "MapMove", "OffsetMove", "LatticeMove",
            "DistanceMove", "AngleMove"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
+#: The config of a model that only a member built on first use holds (:class:`.deferred.OnFirstUse`).
+_LATER = ConfigDict(extra="forbid", strict=True, defer_build=True)
+
+#: The edits' MOVE models, which :mod:`.edit_moves` defines; this module gives them when asked.
+_EDIT_MODELS = ("RadiusMove", "TwistMove", "TwistAngle", "MapMove", "OffsetMove", "LatticeMove", "DistanceMove",
+                "AngleMove")
+
+
+def __getattr__(name: str) -> Any:
+    """The edits' models (:data:`_EDIT_MODELS`), imported from :mod:`.edit_moves` when first asked for."""
+    if name in _EDIT_MODELS:
+        return getattr(import_module(".edit_moves", __package__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _edit(model: str) -> Any:
+    """A function giving :mod:`.edit_moves`' ``model``, which imports that module when first called."""
+    return lambda: getattr(import_module(".edit_moves", __package__), model)
+
+
+if TYPE_CHECKING:
+    Radii = dict[str, RadiusMove]
+    Fillets = dict[str, RadiusMove]
+    Twists = dict[str, TwistMove]
+    Mappings = dict[str, MapMove]
+    Offsets = dict[str, OffsetMove]
+    Lattices = dict[str, LatticeMove]
+    Distances = dict[str, DistanceMove]
+    Angles = dict[str, AngleMove]
+else:  # a MOVE's values of one edit kind by name; their models are built when a MOVE first has one
+    Radii, Fillets, Twists, Mappings, Offsets, Lattices, Distances, Angles = (
+        Annotated[dict[str, Any], OnFirstUse(most, _edit(model))] for model, most in (
+            ("RadiusMove", 10_000), ("RadiusMove", 10_000), ("TwistMove", 10_000), ("MapMove", 10_000),
+            ("OffsetMove", 10_000), ("LatticeMove", 1000), ("DistanceMove", 10_000), ("AngleMove", 10_000)))
+
 
 #: How far a target's nodes go: 0 at rest, 1 on the target surface.
 TargetAmount = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-TARGET_AMOUNT_MAX,
@@ -69,7 +108,7 @@ class RelativeMove(BaseModel):
     OpenAPI schema admits is one the parser takes.
     """
 
-    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra={
+    model_config = ConfigDict(extra="forbid", strict=True, defer_build=True, json_schema_extra={
         "oneOf": [{"required": ["offset"]}, {"required": ["scale"]}],
         "examples": [{"offset": [0.0, 0.0, 1.0]}, {"scale": 1.5}]})
     offset: Vec3 | SkipJsonSchema[None] = None
@@ -85,21 +124,21 @@ class RelativeMove(BaseModel):
 class FeatureMove(BaseModel):
     """The scale of a SPEC feature."""
 
-    model_config = _STRICT
+    model_config = _LATER
     scale: Scale = 1.0
 
 
 class MotionMove(BaseModel):
     """The point a SPEC ``motion`` plane or line passes through."""
 
-    model_config = _STRICT
+    model_config = _LATER
     point: Vec3
 
 
 class TargetMove(BaseModel):
     """How far the nodes of a SPEC ``targets`` entry go: 0 rest, 1 on the target surface."""
 
-    model_config = _STRICT
+    model_config = _LATER
     amount: TargetAmount = 1.0
 
 
@@ -115,18 +154,18 @@ class Move(BaseModel):
 
     handles: dict[str, HandleMove] = Field(default_factory=dict, max_length=10_000)
     points: dict[str, Vec3] = Field(default_factory=dict, max_length=100_000)
-    relative: dict[str, RelativeMove] = Field(default_factory=dict, max_length=100_000)
-    features: dict[str, FeatureMove] = Field(default_factory=dict, max_length=10_000)
-    motion: dict[str, MotionMove] = Field(default_factory=dict, max_length=10_000)
-    targets: dict[str, TargetMove] = Field(default_factory=dict, max_length=1000)
-    radius: dict[str, RadiusMove] = Field(default_factory=dict, max_length=10_000)
-    twist: dict[str, TwistMove] = Field(default_factory=dict, max_length=10_000)
-    map: dict[str, MapMove] = Field(default_factory=dict, max_length=10_000)
-    offset: dict[str, OffsetMove] = Field(default_factory=dict, max_length=10_000)
-    lattice: dict[str, LatticeMove] = Field(default_factory=dict, max_length=1000)
-    fillet: dict[str, RadiusMove] = Field(default_factory=dict, max_length=10_000)
-    distance: dict[str, DistanceMove] = Field(default_factory=dict, max_length=10_000)
-    angle: dict[str, AngleMove] = Field(default_factory=dict, max_length=10_000)
+    relative: Annotated[dict[str, RelativeMove], OnFirstUse(100_000)] = Field(default_factory=dict)
+    features: Annotated[dict[str, FeatureMove], OnFirstUse(10_000)] = Field(default_factory=dict)
+    motion: Annotated[dict[str, MotionMove], OnFirstUse(10_000)] = Field(default_factory=dict)
+    targets: Annotated[dict[str, TargetMove], OnFirstUse(1000)] = Field(default_factory=dict)
+    radius: Radii = Field(default_factory=dict)
+    twist: Twists = Field(default_factory=dict)
+    map: Mappings = Field(default_factory=dict)
+    offset: Offsets = Field(default_factory=dict)
+    lattice: Lattices = Field(default_factory=dict)
+    fillet: Fillets = Field(default_factory=dict)
+    distance: Distances = Field(default_factory=dict)
+    angle: Angles = Field(default_factory=dict)
 
     def dump(self) -> dict[str, Any]:
         """The document as given (fields not set are left out)."""

@@ -13,7 +13,8 @@ callers and the command line); the service never reads a path a client names.
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal
+from importlib import import_module
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import (
     AfterValidator,
@@ -30,9 +31,12 @@ from pydantic_core import PydanticCustomError
 
 from ..limits import THREADS_MAX
 from .choices import BACKENDS, PRECISIONS
-from .edits import AngleBetween, DistanceBetween, Fillet, Lattice, Mapping, Offset, Radius, Twist
+from .deferred import OnFirstUse
 from .geometry import Axis, Box, Direction3
 from .numbers import INTEGRAL, Angle, Fraction, NonNegLength, PenaltyWeight, Vec3, VertexId, WallWeight, Weight
+
+if TYPE_CHECKING:
+    from .edits import AngleBetween, DistanceBetween, Fillet, Lattice, Mapping, Offset, Radius, Twist
 
 __all__ = ["Spec", "SolveSettings", "Selection", "Target", "SELECTION_KINDS", "Box", "Sphere", "Plane",
            "Constraints", "Point", "Motion", "Relative", "RelativePoint", "Symmetry", "Cyclic", "Feature",
@@ -40,6 +44,39 @@ __all__ = ["Spec", "SolveSettings", "Selection", "Target", "SELECTION_KINDS", "B
            "Lattice", "Fillet", "DistanceBetween", "AngleBetween", "Axis", "Direction3"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
+#: The config of a model that only a member built on first use holds (:class:`.deferred.OnFirstUse`).
+_LATER = ConfigDict(extra="forbid", strict=True, defer_build=True)
+
+#: The edits' models, which :mod:`.edits` defines; this module gives them when asked (``spec.Radius``).
+_EDIT_MODELS = ("Radius", "Twist", "Mapping", "Offset", "Lattice", "Fillet", "DistanceBetween", "AngleBetween")
+
+
+def __getattr__(name: str) -> Any:
+    """The edits' models (:data:`_EDIT_MODELS`), imported from :mod:`.edits` when first asked for."""
+    if name in _EDIT_MODELS:
+        return getattr(import_module(".edits", __package__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _edit(model: str) -> Any:
+    """A function giving :mod:`.edits`' ``model``, which imports that module when first called."""
+    return lambda: getattr(import_module(".edits", __package__), model)
+
+
+if TYPE_CHECKING:
+    Radii = list[Radius]
+    Twists = list[Twist]
+    Mappings = list[Mapping]
+    Offsets = list[Offset]
+    Lattices = list[Lattice]
+    Fillets = list[Fillet]
+    Distances = list[DistanceBetween]
+    Angles = list[AngleBetween]
+else:  # a SPEC's edits of one kind; their models are built when a SPEC first has such an edit (most have none)
+    Radii, Twists, Mappings, Offsets, Lattices, Fillets, Distances, Angles = (
+        Annotated[list[Any], OnFirstUse(most, _edit(model))] for model, most in (
+            ("Radius", 10_000), ("Twist", 10_000), ("Mapping", 10_000), ("Offset", 10_000), ("Lattice", 1000),
+            ("Fillet", 10_000), ("DistanceBetween", 10_000), ("AngleBetween", 10_000)))
 
 
 def _distinct(ids: list[int]) -> list[int]:
@@ -124,7 +161,7 @@ class RelativePoint(BaseModel):
     One of the two POINTs of a relative constraint has no name; the other points have one.
     """
 
-    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra=_point_schema)
+    model_config = ConfigDict(extra="forbid", strict=True, defer_build=True, json_schema_extra=_point_schema)
     vertices: Annotated[DistinctIds, Field(min_length=1, max_length=100_000)] | SkipJsonSchema[None] = None
     weights: Annotated[list[Weight], Field(max_length=100_000)] | SkipJsonSchema[None] = None
     edge: Annotated[DistinctIds, Field(min_length=2, max_length=2)] | SkipJsonSchema[None] = None
@@ -175,14 +212,14 @@ class Point(PointBase):
 class Normal(BaseModel):
     """A plane through the MOVE's point."""
 
-    model_config = _STRICT
+    model_config = _LATER
     normal: Direction3
 
 
 class Direction(BaseModel):
     """A line through the MOVE's point."""
 
-    model_config = _STRICT
+    model_config = _LATER
     direction: Direction3
 
 
@@ -195,7 +232,7 @@ def _motion_schema(schema: dict[str, Any]) -> None:
 class Motion(PointBase):
     """A point that moves on a plane or along a line."""
 
-    model_config = ConfigDict(extra="forbid", strict=True, json_schema_extra=_motion_schema)
+    model_config = ConfigDict(extra="forbid", strict=True, defer_build=True, json_schema_extra=_motion_schema)
     plane: Normal | SkipJsonSchema[None] = None
     line: Direction | SkipJsonSchema[None] = None
 
@@ -209,7 +246,7 @@ class Motion(PointBase):
 class Relative(BaseModel):
     """The offset of two vertices or two POINTs (a hole's centre to another's), turned or not."""
 
-    model_config = ConfigDict(extra="forbid", strict=True,
+    model_config = ConfigDict(extra="forbid", strict=True, defer_build=True,
                               json_schema_extra={"oneOf": [{"required": ["vertices"]}, {"required": ["points"]}]})
     name: StrictStr = Field(max_length=200)
     vertices: Annotated[DistinctIds, Field(min_length=2, max_length=2)] | SkipJsonSchema[None] = None
@@ -226,7 +263,7 @@ class Relative(BaseModel):
 class MirrorPlane(BaseModel):
     """A plane of symmetry."""
 
-    model_config = _STRICT
+    model_config = _LATER
     point: Vec3
     normal: Direction3
 
@@ -234,7 +271,7 @@ class MirrorPlane(BaseModel):
 class Symmetry(BaseModel):
     """Mirror symmetry: boundary nodes on one side are the mirror images of the other side's."""
 
-    model_config = _STRICT
+    model_config = _LATER
     name: StrictStr = Field(max_length=200)
     plane: MirrorPlane
     tolerance: NonNegLength | None = None
@@ -243,7 +280,7 @@ class Symmetry(BaseModel):
 class Cyclic(BaseModel):
     """Cyclic symmetry of a sector: face B is face A turned by ``angle_deg`` about the axis."""
 
-    model_config = _STRICT
+    model_config = _LATER
     name: StrictStr = Field(max_length=200)
     axis: Axis
     angle_deg: Angle
@@ -260,7 +297,7 @@ class Cyclic(BaseModel):
 class Feature(BaseModel):
     """A form feature kept rigid or at its direction."""
 
-    model_config = _STRICT
+    model_config = _LATER
     selection: StrictStr = Field(max_length=200)
     mode: Literal["rigid", "keep_direction"] = "rigid"
     name: StrictStr | None = Field(None, max_length=200)
@@ -269,7 +306,7 @@ class Feature(BaseModel):
 class Sliding(BaseModel):
     """Vertices of a selection that keep their coordinate along ``normal``."""
 
-    model_config = _STRICT
+    model_config = _LATER
     selection: StrictStr = Field(max_length=200)
     normal: Direction3
 
@@ -305,14 +342,14 @@ class Ties(BaseModel):
 class StoredSurface(BaseModel):
     """A triangle surface uploaded through ``POST /v1/meshes`` (STL, OBJ, PLY, OFF), by its id."""
 
-    model_config = _STRICT
+    model_config = _LATER
     mesh_id: StrictStr = Field(max_length=64, description="id of an uploaded triangle surface")
 
 
 class InlineSurface(BaseModel):
     """A triangle surface given in the SPEC."""
 
-    model_config = _STRICT
+    model_config = _LATER
     vertices: list[Vec3] = Field(min_length=3, max_length=10_000_000)
     triangles: list[Annotated[list[VertexId], Field(min_length=3, max_length=3)]] = Field(
         min_length=1, max_length=20_000_000)
@@ -321,7 +358,7 @@ class InlineSurface(BaseModel):
 class Target(BaseModel):
     """A selection whose boundary nodes land on a target surface (MOVE ``targets.NAME.amount``)."""
 
-    model_config = _STRICT
+    model_config = _LATER
     name: StrictStr = Field(max_length=200)
     selection: StrictStr = Field(max_length=200)
     surface: StoredSurface | InlineSurface | SkipJsonSchema[StrictStr] = Field(
@@ -384,27 +421,27 @@ class Spec(BaseModel):
     solve: Literal["auto", "split", "joint"] = "auto"
     rotation: Literal["harmonic", "least_squares"] = "harmonic"
     inversion: Literal["warn", "reject", "clamp"] = "warn"
-    points: list[Point] = Field(default_factory=list, max_length=100_000)
-    relative: list[Relative] = Field(default_factory=list, max_length=100_000)
-    features: list[Feature] = Field(default_factory=list, max_length=10_000)
-    motion: list[Motion] = Field(default_factory=list, max_length=10_000)
-    sliding: list[Sliding] = Field(default_factory=list, max_length=10_000)
+    points: Annotated[list[Point], OnFirstUse(100_000)] = Field(default_factory=list)
+    relative: Annotated[list[Relative], OnFirstUse(100_000)] = Field(default_factory=list)
+    features: Annotated[list[Feature], OnFirstUse(10_000)] = Field(default_factory=list)
+    motion: Annotated[list[Motion], OnFirstUse(10_000)] = Field(default_factory=list)
+    sliding: Annotated[list[Sliding], OnFirstUse(10_000)] = Field(default_factory=list)
     conflicts: Literal["report", "reject"] = "report"
     repair: StrictBool = False
     thin_walls: StrictBool | ThinWalls = True
     ties: Literal["auto", False] | Ties | list[Annotated[DistinctIds, Field(min_length=2, max_length=2)]] = "auto"
     voids: Literal["volume", "refuse"] = "volume"
-    targets: list[Target] = Field(default_factory=list, max_length=1000)
-    symmetry: list[Symmetry] = Field(default_factory=list, max_length=100)
-    cyclic: list[Cyclic] = Field(default_factory=list, max_length=100)
-    radius: list[Radius] = Field(default_factory=list, max_length=10_000)
-    twist: list[Twist] = Field(default_factory=list, max_length=10_000)
-    map: list[Mapping] = Field(default_factory=list, max_length=10_000)
-    offset: list[Offset] = Field(default_factory=list, max_length=10_000)
-    lattice: list[Lattice] = Field(default_factory=list, max_length=1000)
-    fillet: list[Fillet] = Field(default_factory=list, max_length=10_000)
-    distance: list[DistanceBetween] = Field(default_factory=list, max_length=10_000)
-    angle: list[AngleBetween] = Field(default_factory=list, max_length=10_000)
+    targets: Annotated[list[Target], OnFirstUse(1000)] = Field(default_factory=list)
+    symmetry: Annotated[list[Symmetry], OnFirstUse(100)] = Field(default_factory=list)
+    cyclic: Annotated[list[Cyclic], OnFirstUse(100)] = Field(default_factory=list)
+    radius: Radii = Field(default_factory=list)
+    twist: Twists = Field(default_factory=list)
+    map: Mappings = Field(default_factory=list)
+    offset: Offsets = Field(default_factory=list)
+    lattice: Lattices = Field(default_factory=list)
+    fillet: Fillets = Field(default_factory=list)
+    distance: Distances = Field(default_factory=list)
+    angle: Angles = Field(default_factory=list)
     precision: Literal[PRECISIONS] = Field(  # type: ignore[valid-type]
         "mixed", description="shorthand for solve_options.precision")
     solve_options: SolveSettings | None = None

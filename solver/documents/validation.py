@@ -53,9 +53,9 @@ def _is_tag(part: Any) -> bool:
 
 
 def _model_names() -> set[str]:
-    from . import move, spec  # the documents whose members can be union members
+    from . import move, spec  # the documents whose members can be union members (their edits' models too)
 
-    return {n for mod in (move, spec) for n in dir(mod) if isinstance(getattr(mod, n), type)
+    return {n for mod in (move, spec) for n in (*dir(mod), *mod._EDIT_MODELS) if isinstance(getattr(mod, n), type)
             and issubclass(getattr(mod, n), BaseModel)}
 
 

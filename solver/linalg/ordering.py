@@ -8,12 +8,17 @@ is then ordered differently from run to run, and the factor rounds
 differently. A deck morphed on a Ray actor differed from the single-process
 deck in the last bit of most coordinates this way.
 
-The ordering here is PARDISO's nested dissection (its own METIS, phase 11
-only, :func:`~solver.linalg.pardiso.nested_dissection`): the same permutation
-whatever other threads do, no more fill than CHOLMOD's METIS on the boundary
-systems (``benchmarks/measure_choices.py --only orderings``), and the GIL
-released while it runs. Where MKL is missing, CHOLMOD's AMD, which draws no
-random numbers, orders the system instead.
+Both orderings here draw no random numbers from it:
+
+* below :data:`AMD_BELOW` unknowns, CHOLMOD's AMD: it factors faster than
+  METIS there, for a little more fill and the same solve time;
+* above, PARDISO's nested dissection (its own METIS, phase 11 only,
+  :func:`~solver.linalg.pardiso.nested_dissection`), given to CHOLMOD: no more
+  fill than CHOLMOD's METIS, in about its time on large systems, where AMD's
+  fill grows. Its fixed cost makes it the slower one on small systems.
+  Where MKL is missing, AMD orders every size.
+
+``benchmarks/measure_choices.py --only orderings`` measures all of them.
 """
 
 from __future__ import annotations
@@ -24,11 +29,14 @@ import scipy.sparse as sp
 from ..errors import FactorizationError
 from .pardiso import nested_dissection
 
-__all__ = ["symmetric_ordering"]
+__all__ = ["AMD_BELOW", "symmetric_ordering"]
+
+#: Unknowns below which CHOLMOD's AMD orders a system (no PARDISO ordering).
+AMD_BELOW = 20_000
 
 
 def symmetric_ordering(M: sp.spmatrix) -> np.ndarray | None:
-    """A nested-dissection permutation of ``M``, the same in every process; None where MKL is missing.
+    """A nested-dissection permutation of ``M``, the same in every process; None: order with AMD.
 
     Parameters
     ----------
@@ -38,8 +46,11 @@ def symmetric_ordering(M: sp.spmatrix) -> np.ndarray | None:
     Returns
     -------
     perm : (n,) int64 array or None
-        Row ``i`` of the ordered matrix is row ``perm[i]`` of ``M``.
+        Row ``i`` of the ordered matrix is row ``perm[i]`` of ``M``; None below
+        :data:`AMD_BELOW` unknowns or where MKL is missing.
     """
+    if M.shape[0] < AMD_BELOW:
+        return None
     try:
         return nested_dissection(M)
     except FactorizationError as e:

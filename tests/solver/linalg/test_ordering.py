@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from solver.linalg import ordering
 from solver.linalg.factorization import backend, cholesky
 from solver.linalg.ordering import symmetric_ordering
 from solver.linalg.pardiso import mkl_runtime
@@ -59,7 +60,11 @@ def _digest(f, b: np.ndarray) -> str:
     return hashlib.sha256(f._f.P().tobytes() + np.ascontiguousarray(f.solve(b)).tobytes()).hexdigest()
 
 
-def test_the_factor_is_the_same_while_another_thread_draws_random_numbers(tmp_path):
+@pytest.mark.parametrize("amd_below", [ordering.AMD_BELOW, 0], ids=["amd", "nested-dissection"])
+def test_the_factor_is_the_same_while_another_thread_draws_random_numbers(tmp_path, monkeypatch, amd_below):
+    if amd_below == 0 and mkl_runtime() is None:
+        pytest.skip("MKL is an optional library")
+    monkeypatch.setattr(ordering, "AMD_BELOW", amd_below)
     A, b = grid_system(14, symmetric=True)
     quiet = _digest(cholesky(A, "grid"), b)
     with drawing_random_numbers(tmp_path):
@@ -67,7 +72,11 @@ def test_the_factor_is_the_same_while_another_thread_draws_random_numbers(tmp_pa
     assert busy == {quiet}
 
 
-def test_the_ordered_factor_solves_the_system_as_given():
+@pytest.mark.parametrize("amd_below", [ordering.AMD_BELOW, 0], ids=["amd", "nested-dissection"])
+def test_the_ordered_factor_solves_the_system_as_given(monkeypatch, amd_below):
+    if amd_below == 0 and mkl_runtime() is None:
+        pytest.skip("MKL is an optional library")
+    monkeypatch.setattr(ordering, "AMD_BELOW", amd_below)
     A, b = grid_system(10, symmetric=True)
     f = cholesky(A, "grid")
     x = f.solve(b)
@@ -81,8 +90,10 @@ def test_the_ordered_factor_solves_the_system_as_given():
 
 
 @pytest.mark.skipif(mkl_runtime() is None, reason="MKL is an optional library")
-def test_the_ordering_is_a_permutation_that_reduces_fill():
+def test_the_ordering_is_a_permutation_that_reduces_fill(monkeypatch):
     A, _ = grid_system(12, symmetric=True)
+    assert A.shape[0] < ordering.AMD_BELOW and symmetric_ordering(A) is None  # a small system: AMD
+    monkeypatch.setattr(ordering, "AMD_BELOW", 0)
     p = symmetric_ordering(A)
     assert p is not None and np.array_equal(np.sort(p), np.arange(A.shape[0]))
     from sksparse.cholmod import cholesky as chol

@@ -11,6 +11,8 @@ tools existed.
 
 from __future__ import annotations
 
+import re
+
 import httpx
 import numpy as np
 import pytest
@@ -200,6 +202,62 @@ def test_a_distance_between_two_features_typed_and_dragged(page, filleted):
     assert last["label"].startswith("distance pitch") and dragged > d0
     np.testing.assert_allclose(positions(page), d.solve({"distance": {"pitch": {"distance": dragged}}}).V, rtol=0,
                                atol=SHOWN)
+
+
+
+def test_a_slider_pressed_before_the_service_rest_values_come_stays_under_the_pointer(page, filleted):
+    """The rest values the service measured at set-up come after the session is ready (its document,
+    GET /v1/sessions/{id}); the row they change is brought up to date in place, so a slider a person
+    is dragging when they come keeps being dragged, and its release is the history's entry."""
+    mesh = read_mesh(filleted)
+    upload(page, filleted)
+    regions_of(page, "BORE", "LOAD")
+    open_edits(page, "distance")
+    choose_region(page, "#edit-region", "BORE")
+    choose_region(page, "#edit-reference", "LOAD")
+    add_edit(page, "pitch")
+    held = []
+
+    def hold_ready(route):  # the ready session's document waits until the slider is pressed
+        doc = route.fetch()
+        if route.request.method == "GET" and doc.json().get("status") == "ready":
+            held.append((route, doc))
+        else:
+            route.fulfill(response=doc)
+
+    page.route(re.compile(r".*/v1/sessions/s_[0-9a-f]+$"), hold_ready)
+    create(page)
+    slider = page.locator(f"{row('pitch')} input[type=range]")
+    slider.scroll_into_view_if_needed()
+    box = slider.bounding_box()
+    y = box["y"] + box["height"] / 2
+    page.mouse.move(box["x"] + box["width"] / 2, y)
+    page.mouse.down()
+    page.mouse.move(box["x"] + 0.6 * box["width"], y, steps=4)
+    pressed = float(slider.input_value())
+    for _ in range(200):  # the tab asks for the document when the session opens
+        if held:
+            break
+        page.wait_for_timeout(50)
+    assert held and "by the service" not in page.get_attribute(f"{row('pitch')} [data-rest]", "title")
+    for route, doc in held:
+        route.fulfill(response=doc)
+    page.unroute_all()
+    page.wait_for_function("(s) => document.querySelector(s).title.includes('by the service')",
+                           arg=f"{row('pitch')} [data-rest]")
+    page.mouse.move(box["x"] + 0.9 * box["width"], y, steps=4)
+    page.mouse.up()
+    settle(page)
+    dragged = float(slider.input_value())
+    span = float(slider.get_attribute("max")) - float(slider.get_attribute("min"))
+    assert dragged - pressed > 0.2 * span  # the drag went on, by about 0.3 of the slider, after the rest values came
+    last = page.evaluate("window.tetmorph.history()")["entries"][-1]
+    assert last["label"].startswith("distance pitch")
+    assert last["move"]["distance"]["pitch"]["distance"] == pytest.approx(dragged, rel=1e-9)
+    spec = {"selections": {n: {"set": n} for n in ("FIXED", "BORE", "LOAD")}, "fixed": ["FIXED"],
+            "distance": [{"name": "pitch", "selection": "BORE", "reference": "LOAD"}]}
+    want = precompute(mesh, spec).solve({"distance": {"pitch": {"distance": dragged}}}).V
+    np.testing.assert_allclose(positions(page), want, rtol=0, atol=SHOWN)
 
 
 def table_point(pg, name: str, k: int, at: float, deg: float) -> None:

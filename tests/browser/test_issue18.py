@@ -6,6 +6,7 @@ Every test here failed on the editor before its fix (run against that build once
 from __future__ import annotations
 
 import math
+import re
 import time
 
 import httpx
@@ -274,23 +275,49 @@ def test_sessions_do_not_leak_and_the_session_limit_has_a_way_out(pages, tight_s
 
 # 12 ---------------------------------------------------------------------------------------
 def test_closing_the_tab_mid_build_deletes_the_session(pages, tight_server):
-    pg = pages(tight_server)  # this server answers 202 at once: the tab polls the build
+    pg = pages(tight_server)  # this server answers 202 without waiting for the build: the tab polls it
     load_bracket(pg)
     assign_set(pg, "FIXED", 1)
     assign_set(pg, "LOAD", 2)
-    pg.click("#create")
+    # The bracket builds in a fraction of a second: on a loaded machine its build can end before the
+    # service answers (201, ready: the tab has nothing to poll; Create again replaces that unmoved
+    # session), or between this test seeing the tab building and closing it. So the POST is tried until
+    # it is answered 202, and the tab's polls of the build are then held here, unanswered: the tab is
+    # building until it closes, as it is while a larger part builds. Its other requests (the DELETE it
+    # sends as it closes) go out as they are.
+    polls = []
+    pg.route(re.compile(r".*/v1/sessions/s_[0-9a-f]+$"),
+             lambda route: polls.append(route) if route.request.method == "GET" else route.continue_())
+    for _ in range(5):
+        before = pg.evaluate("window.tetmorph.session().id")
+        with pg.expect_response(lambda r: r.request.method == "POST" and r.url.endswith("/v1/sessions")) as answer:
+            pg.click("#create")
+        if answer.value.status == 202:
+            break
+        pg.wait_for_function("(b) => { const s = window.tetmorph.session(); return s.id !== null && s.id !== b "
+                             "&& s.stream && (s.stream.open || s.stream.readyState === 1); }", arg=before)
+    assert answer.value.status == 202
     pg.wait_for_function("window.tetmorph.building() !== null", timeout=30000)
     sid = pg.evaluate("window.tetmorph.building()")
     assert any(s["id"] == sid for s in sessions_on(tight_server))
-    # a session still building when the tab closes is deleted; one whose build ended is kept, unmoved or not
-    # (a reload must find the session its address names). The bracket builds in a fraction of a second, so
-    # which of the two this close meets depends on the machine: the page says which, just before it closes
-    building = pg.evaluate("window.tetmorph.building()") is not None
+    for _ in range(600):  # the tab polls the build
+        if any(r.request.url.endswith(sid) for r in polls):
+            break
+        pg.wait_for_timeout(50)
+    assert any(r.request.url.endswith(sid) for r in polls) and pg.evaluate("window.tetmorph.building()") == sid
     pg.close()
     deadline = time.monotonic() + 10
-    while any(s["id"] == sid for s in sessions_on(tight_server)) and time.monotonic() < deadline and building:
+    while any(s["id"] == sid for s in sessions_on(tight_server)) and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert any(s["id"] == sid for s in sessions_on(tight_server)) is not building
+    assert not any(s["id"] == sid for s in sessions_on(tight_server))
+    # one whose build ended is kept, unmoved or not: a reload must find the session its address names
+    pg = pages(tight_server)
+    bracket_session(pg)
+    assert pg.evaluate("window.tetmorph.building()") is None
+    sid = pg.evaluate("window.tetmorph.session().id")
+    pg.close()
+    time.sleep(1.0)
+    assert any(s["id"] == sid for s in sessions_on(tight_server))
     # a moved session stays, and the tab says so before it is closed
     pg = pages(tight_server)
     bracket_session(pg)

@@ -19,6 +19,7 @@ import { $ } from "./dom.js";
 import { circleThrough, mapGeometry, mapProjection, twistMode } from "./editgeometry.js";
 import { BETWEEN, betweenControls, betweenEntry, restBetween } from "./featureedits.js";
 import { controlKeys, controlPoint, LatticeView } from "./lattice.js";
+import { updateRows } from "./inplace.js";
 import { fmt } from "./panels.js";
 import { on, state } from "./state.js";
 import { editTable, readTable, showLaw, syncTwist, twistControls } from "./twisttable.js";
@@ -375,7 +376,8 @@ export class EditsPanel {
           <button data-act="remove" title="take the edit out of the SPEC">×</button></li>`);
       }
     }
-    $("edit-list").innerHTML = rows.join("");
+    // in place: a row being used (a slider under the pointer) stays when the list is shown again
+    updateRows($("edit-list"), rows.join(""), (li) => `${li.dataset.kind}/${li.dataset.name}`);
     if (this.lattice && !this.list("lattice").some((e) => e.name === this.lattice.name)) this.lattice = null;
     this.sync();
     this.note();

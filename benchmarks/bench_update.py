@@ -79,13 +79,33 @@ def bandwidth_gbs() -> float:
     return best
 
 
+class CholmodMetis:
+    """The peer's factor: CHOLMOD as its users call it (supernodal, its own METIS ordering).
+
+    The same as tetmorph's CHOLMOD factor before that took its ordering from
+    ``solver/linalg/ordering.py``, so that the peer's figures stay comparable.
+    """
+
+    def __init__(self, M) -> None:
+        from sksparse.cholmod import cholesky
+
+        from solver.linalg import factorization as fz
+
+        fz._quiet_system_blas()  # one thread for the system OpenBLAS, as for tetmorph's CHOLMOD factors
+        self._f = cholesky(M, mode="supernodal", ordering_method="metis")
+        L = self._f.L()
+        self.nbytes = int(L.data.nbytes + L.indices.nbytes + L.indptr.nbytes)
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        return self._f(b)
+
+
 class Harmonic:
     """The peer: one CHOLMOD factor of the harmonic system, three right-hand sides per update."""
 
     def __init__(self, deck: Path) -> None:
         from solver import read_mesh
         from solver.constraints.move import parse_move
-        from solver.linalg import factorization as fz
 
         t0 = time.perf_counter()
         import igl  # its compiled library: the peer's per-process load (numpy and scipy already loaded)
@@ -105,7 +125,7 @@ class Harmonic:
         self.u = np.flatnonzero(~known & mesh.referenced)
         Quu = Q[self.u][:, self.u].tocsc()
         self.Qub = Q[self.u][:, self.b].tocsr()
-        self.f = fz.cholesky(Quu, "harmonic")
+        self.f = CholmodMetis(Quu)
         self.setup_s = time.perf_counter() - t0
         self.V, self.top = V, top
         self.c = V[top].mean(axis=0)

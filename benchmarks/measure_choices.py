@@ -101,6 +101,7 @@ def orderings() -> None:
 
     from solver import precompute, read_mesh
     from solver.linalg import pardiso as pm
+    from solver.linalg.multifrontal import postordered
     from solver.linalg.ordering import AMD_BELOW
 
     def factor(M, om: str):
@@ -108,7 +109,7 @@ def orderings() -> None:
             keep = pm.ORDERING_ONLY
             pm.ORDERING_ONLY = 2 if om.endswith("1t") else keep
             try:
-                p = pm.nested_dissection(M)
+                p = postordered(M, pm.nested_dissection(M))
             finally:
                 pm.ORDERING_ONLY = keep
             return cholesky(M[p][:, p].tocsc(), mode="supernodal", ordering_method="natural")

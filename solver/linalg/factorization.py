@@ -223,7 +223,7 @@ class _CholmodFactor:
         try:
             if perm is None:
                 self._f: _Ordered | object = chol(M, mode="supernodal", ordering_method="amd")
-            else:  # CHOLMOD keeps the order given, and only post-orders its elimination tree
+            else:  # CHOLMOD's natural ordering keeps the order given
                 f = chol(sp.csc_matrix(M[perm][:, perm]), mode="supernodal", ordering_method="natural")
                 self._f = _Ordered(f, perm)
         except CholmodNotPositiveDefiniteError as e:

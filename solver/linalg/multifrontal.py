@@ -53,7 +53,7 @@ import tetmorph_core
 from ..errors import FactorizationError
 from .supernodal import SupernodalFactor, Unsuitable, supernode_starts, tree_split
 
-__all__ = ["lu_multifrontal", "symbolic", "PANEL", "RELAX", "SINGLE_PROBE_TOL"]
+__all__ = ["lu_multifrontal", "symbolic", "postordered", "PANEL", "RELAX", "SINGLE_PROBE_TOL"]
 
 #: Pivot columns per blocked step of a front's partial LU.
 PANEL = 64
@@ -178,6 +178,27 @@ def _pattern(A: sp.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
     return S.indptr.astype(np.int64), S.indices.astype(np.int64)
 
 
+def postordered(A: sp.spmatrix, perm: np.ndarray) -> np.ndarray:
+    """``perm`` followed by a postorder of the elimination tree of ``A[perm][:, perm]``.
+
+    The fill is the same; each subtree's columns become contiguous, so that
+    supernodes are found whole.
+
+    Parameters
+    ----------
+    A : (n, n) sparse matrix
+        Its pattern symmetrized (``|A| + |A|^T``).
+    perm : (n,) int array
+
+    Returns
+    -------
+    (n,) int64 array
+    """
+    perm = np.asarray(perm, np.int64)
+    Sp, Si = _pattern(sp.csc_matrix(A[perm][:, perm]))
+    return perm[_postorder(_etree(Sp, Si))]
+
+
 def _super_parents(starts: np.ndarray, parent: np.ndarray) -> np.ndarray:
     """Parent supernode of every supernode (-1 for a root): the one holding its last column's parent."""
     ns = starts.size - 1
@@ -214,10 +235,7 @@ def symbolic(A: sp.spmatrix, perm: np.ndarray | None = None, relax: bool = True)
     n = A.shape[0]
     if perm is None:
         perm = nested_dissection(A)
-    perm = np.asarray(perm, np.int64)
-    Sp, Si = _pattern(sp.csc_matrix(A[perm][:, perm]))
-    post = _postorder(_etree(Sp, Si))
-    perm = perm[post]
+    perm = postordered(A, perm)
     Sp, Si = _pattern(sp.csc_matrix(A[perm][:, perm]))
     parent = _etree(Sp, Si)
     count = _column_counts(Sp, Si, parent)

@@ -8,15 +8,15 @@ is then ordered differently from run to run, and the factor rounds
 differently. A deck morphed on a Ray actor differed from the single-process
 deck in the last bit of most coordinates this way.
 
-Both orderings here draw no random numbers from it:
-
-* below :data:`AMD_BELOW` unknowns, CHOLMOD's AMD: it factors faster than
-  METIS there, for a little more fill and the same solve time;
-* above, PARDISO's nested dissection (its own METIS, phase 11 only,
-  :func:`~solver.linalg.pardiso.nested_dissection`), given to CHOLMOD: no more
-  fill than CHOLMOD's METIS, in about its time on large systems, where AMD's
-  fill grows. Its fixed cost makes it the slower one on small systems.
-  Where MKL is missing, AMD orders every size.
+The ordering here draws no random numbers from it: PARDISO's nested
+dissection (its own METIS, phase 11 only,
+:func:`~solver.linalg.pardiso.nested_dissection`) with its elimination tree
+post-ordered (CHOLMOD keeps a given order as it is, and without the post-order
+its supernodes break up), given to CHOLMOD. It factors and solves the boundary
+systems of the bracket, from 107k to 1M tets, as fast as CHOLMOD's METIS or
+faster, for about the same fill. Below :data:`AMD_BELOW` unknowns, and where
+MKL is missing, CHOLMOD's AMD orders instead (no random numbers either); on
+such small systems the fill matters little.
 
 ``benchmarks/measure_choices.py --only orderings`` measures all of them.
 """
@@ -27,12 +27,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FactorizationError
+from .multifrontal import postordered
 from .pardiso import nested_dissection
 
 __all__ = ["AMD_BELOW", "symmetric_ordering"]
 
 #: Unknowns below which CHOLMOD's AMD orders a system (no PARDISO ordering).
-AMD_BELOW = 20_000
+AMD_BELOW = 2_000
 
 
 def symmetric_ordering(M: sp.spmatrix) -> np.ndarray | None:
@@ -52,8 +53,10 @@ def symmetric_ordering(M: sp.spmatrix) -> np.ndarray | None:
     if M.shape[0] < AMD_BELOW:
         return None
     try:
-        return nested_dissection(M)
+        perm = nested_dissection(M)
     except FactorizationError as e:
         if e.code == "unknown_backend":  # MKL not installed: the caller orders with AMD
             return None
         raise
+    # CHOLMOD keeps a natural order as it is, not post-ordered: without it, supernodes break up
+    return postordered(M, perm)

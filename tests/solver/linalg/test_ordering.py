@@ -60,7 +60,7 @@ def _digest(f, b: np.ndarray) -> str:
     return hashlib.sha256(f._f.P().tobytes() + np.ascontiguousarray(f.solve(b)).tobytes()).hexdigest()
 
 
-@pytest.mark.parametrize("amd_below", [ordering.AMD_BELOW, 0], ids=["amd", "nested-dissection"])
+@pytest.mark.parametrize("amd_below", [10**9, 0], ids=["amd", "nested-dissection"])
 def test_the_factor_is_the_same_while_another_thread_draws_random_numbers(tmp_path, monkeypatch, amd_below):
     if amd_below == 0 and mkl_runtime() is None:
         pytest.skip("MKL is an optional library")
@@ -72,7 +72,7 @@ def test_the_factor_is_the_same_while_another_thread_draws_random_numbers(tmp_pa
     assert busy == {quiet}
 
 
-@pytest.mark.parametrize("amd_below", [ordering.AMD_BELOW, 0], ids=["amd", "nested-dissection"])
+@pytest.mark.parametrize("amd_below", [10**9, 0], ids=["amd", "nested-dissection"])
 def test_the_ordered_factor_solves_the_system_as_given(monkeypatch, amd_below):
     if amd_below == 0 and mkl_runtime() is None:
         pytest.skip("MKL is an optional library")
